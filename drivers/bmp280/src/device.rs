@@ -174,6 +174,11 @@ where
     /// Polls a forced measurement: `WouldBlock` while `measuring` is set, else the compensated
     /// sample. Fails with [`Error::NotCalibrated`] before reading anything if the calibration is
     /// unknown.
+    ///
+    /// The bit is set from the `ctrl_meas` write until the results are in the data registers,
+    /// so any poll after [`Bmp280::start_forced`] returned is valid; polling only after
+    /// [`Config::measurement_time_typ_us`] saves bus traffic. Without a started measurement the
+    /// bit is clear and the previous sample is returned.
     pub fn poll_forced(&mut self) -> nb::Result<Measurement, Error<E>> {
         let calibration = self.calibration.ok_or(Error::NotCalibrated)?;
         let raw = self.poll_forced_raw()?;
