@@ -6,19 +6,31 @@
 /// them, so the type converts both ways between the 24 register bytes and the words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[allow(missing_docs)] // the fields are the datasheet's names; their meaning is the formulas
 pub struct Calibration {
+    /// `dig_T1`, registers 0x88/0x89 (temperature, unsigned).
     pub dig_t1: u16,
+    /// `dig_T2`, registers 0x8A/0x8B (temperature).
     pub dig_t2: i16,
+    /// `dig_T3`, registers 0x8C/0x8D (temperature).
     pub dig_t3: i16,
+    /// `dig_P1`, registers 0x8E/0x8F (pressure, unsigned). 0 would make the pressure formulas
+    /// divide by zero, so `init` rejects it.
     pub dig_p1: u16,
+    /// `dig_P2`, registers 0x90/0x91 (pressure).
     pub dig_p2: i16,
+    /// `dig_P3`, registers 0x92/0x93 (pressure).
     pub dig_p3: i16,
+    /// `dig_P4`, registers 0x94/0x95 (pressure).
     pub dig_p4: i16,
+    /// `dig_P5`, registers 0x96/0x97 (pressure).
     pub dig_p5: i16,
+    /// `dig_P6`, registers 0x98/0x99 (pressure).
     pub dig_p6: i16,
+    /// `dig_P7`, registers 0x9A/0x9B (pressure).
     pub dig_p7: i16,
+    /// `dig_P8`, registers 0x9C/0x9D (pressure).
     pub dig_p8: i16,
+    /// `dig_P9`, registers 0x9E/0x9F (pressure).
     pub dig_p9: i16,
 }
 

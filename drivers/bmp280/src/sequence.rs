@@ -1,5 +1,6 @@
 //! The bring-up and measurement sequences as plain data and functions, shared by the blocking
-//! and async drivers so both issue the same register accesses with the same timing.
+//! and async drivers so both issue the same register accesses with the same timing. Firmware
+//! that drives the bus itself (DMA, interrupts) can follow the same steps with these values.
 
 use crate::config::{Config, PowerMode};
 use crate::register::{self, Status};
