@@ -46,7 +46,6 @@ pub mod opcode {
 ///
 /// Set Multiple Targets has a variable length: this gives its fixed head (count and first
 /// channel); the targets follow.
-#[allow(dead_code)]
 pub(crate) const fn data_len(command: u8) -> Option<usize> {
     match command {
         opcode::SET_TARGET | opcode::SET_SPEED | opcode::SET_ACCELERATION => Some(3),

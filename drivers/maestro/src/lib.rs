@@ -22,6 +22,8 @@
 //!   [`get_position`](Maestro::get_position), [`get_errors`](Maestro::get_errors),
 //!   [`get_moving_state`](Maestro::get_moving_state),
 //!   [`get_script_status`](Maestro::get_script_status).
+//! - A device-side streaming [`CommandDecoder`] (sans-IO, resynchronising, CRC-checking,
+//!   counting what it drops) for simulating a Maestro.
 //! - Per-channel [`Limits`]: an out-of-range target is an error ([`Error::OutOfRange`]) and
 //!   nothing is sent; clamping is a separate, explicit call ([`Limits::clamp`]).
 //! - Replies are read against a caller-given [`Deadline`] ([`PollBudget`], [`DelayDeadline`] or a
@@ -76,6 +78,7 @@
 mod codec;
 pub mod command;
 mod crc7;
+mod decoder;
 mod device;
 mod error;
 mod interface;
@@ -91,6 +94,7 @@ pub use codec::{
 };
 pub use command::{Command, MultiTargets};
 pub use crc7::{crc7, MAESTRO_CRC7};
+pub use decoder::{CommandDecoder, Decoded, DecoderConfig, DecoderStats};
 pub use device::Maestro;
 pub use error::{Error, InvalidInput};
 #[cfg(feature = "embedded-io")]
