@@ -2,7 +2,7 @@
 
 use core::marker::PhantomData;
 
-use crate::codec::{encode, encode_set_target, encode_set_targets, Framing, TargetFrame};
+use crate::codec::{encode, encode_set_target, encode_set_targets, Framing, Packet, TargetFrame};
 use crate::command::{Command, MultiTargets};
 use crate::error::Error;
 use crate::interface::{Deadline, NbSerial, ReadInterface, WriteInterface};
@@ -237,19 +237,31 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
 }
 
 impl<I: WriteInterface, M: MiniModel> Maestro<I, M> {
-    /// Set Multiple Targets (Mini Maestro only): targets for consecutive channels in one
-    /// packet, each checked against the model and the limits first.
-    pub fn set_multiple_targets(
-        &mut self,
+    /// Encode Set Multiple Targets for consecutive channels from `first` without sending it,
+    /// after checking every channel and limit (Mini Maestro only): the shortest per-cycle frame
+    /// (2 bytes per channel plus 3), for an application that writes it with its own deadline.
+    pub fn encode_multiple_targets(
+        &self,
         first: Channel,
         targets: &[QuarterMicros],
-    ) -> Result<(), Error<I::Error>> {
+    ) -> Result<Packet, Error<I::Error>> {
         let multi = MultiTargets::new(first, targets)?;
         for (index, target) in multi.iter() {
             let channel = Channel::any_model(index)?;
             self.check_target(channel, target)?;
         }
-        self.send(&Command::SetMultipleTargets(multi))
+        Ok(encode(&Command::SetMultipleTargets(multi), self.framing))
+    }
+
+    /// Set Multiple Targets (Mini Maestro only): targets for consecutive channels in one
+    /// packet and one write, each checked against the model and the limits first.
+    pub fn set_multiple_targets(
+        &mut self,
+        first: Channel,
+        targets: &[QuarterMicros],
+    ) -> Result<(), Error<I::Error>> {
+        let packet = self.encode_multiple_targets(first, targets)?;
+        self.iface.write_all(&packet)
     }
 
     /// Set the PWM output (Mini Maestro only).

@@ -14,7 +14,8 @@
 //!   channels, one write), [`encode_targets`](Maestro::encode_targets) (the same bytes, checked,
 //!   without I/O), [`stop_pulses`](Maestro::stop_pulses), [`set_neutral`](Maestro::set_neutral),
 //!   [`set_speed`](Maestro::set_speed), [`set_acceleration`](Maestro::set_acceleration),
-//!   [`set_multiple_targets`](Maestro::set_multiple_targets), [`set_pwm`](Maestro::set_pwm),
+//!   [`set_multiple_targets`](Maestro::set_multiple_targets) and
+//!   [`encode_multiple_targets`](Maestro::encode_multiple_targets) (Mini Maestros), [`set_pwm`](Maestro::set_pwm),
 //!   [`go_home`](Maestro::go_home), [`stop_script`](Maestro::stop_script),
 //!   [`restart_script`](Maestro::restart_script),
 //!   [`restart_script_with_parameter`](Maestro::restart_script_with_parameter),
@@ -110,3 +111,8 @@ pub use types::{
     Acceleration, Channel, DeviceNumber, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros,
     ScriptParameter, ScriptStatus, Speed, Subroutine, MAX_14_BIT, MAX_CHANNELS,
 };
+
+/// The README's examples, compiled as doctests so they keep matching the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
