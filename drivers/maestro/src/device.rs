@@ -92,6 +92,12 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         self.stale_bytes
     }
 
+    /// Wait until the transport has sent everything written so far (bounded like writes).
+    /// Not needed between commands; useful before closing the port or cutting power.
+    pub fn flush(&mut self) -> Result<(), Error<I::Error>> {
+        self.iface.flush()
+    }
+
     /// The transport.
     pub fn interface(&mut self) -> &mut I {
         &mut self.iface
@@ -275,7 +281,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
     ///
     /// Bytes waiting before the command is sent are discarded first (counted in
     /// [`stale_bytes`](Self::stale_bytes)), so a late answer to an earlier query is never
-    /// taken for this one.
+    /// taken for this one; if more than 64 are waiting, [`Error::UnexpectedData`].
     fn query(
         &mut self,
         command: &Command,
@@ -311,7 +317,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
                 Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
             }
         }
-        Ok(())
+        Err(Error::UnexpectedData)
     }
 
     /// Get Position: the pulse width `channel` outputs now, in quarter-microseconds (for an

@@ -13,6 +13,12 @@ pub trait WriteInterface {
 
     /// Write all of `bytes`, in order. Implementations bound every wait (see [`NbSerial`]).
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), Error<Self::Error>>;
+
+    /// Wait until everything written has left the transport, within a bounded wait.
+    /// The default does nothing (for transports without a transmit buffer).
+    fn flush(&mut self) -> Result<(), Error<Self::Error>> {
+        Ok(())
+    }
 }
 
 /// Reading reply bytes without blocking.
@@ -150,6 +156,22 @@ impl<S: embedded_hal_nb::serial::Write<u8>> WriteInterface for NbSerial<S> {
         }
         Ok(())
     }
+
+    fn flush(&mut self) -> Result<(), Error<S::Error>> {
+        let mut polls = self.write_polls_per_byte;
+        loop {
+            match self.serial.flush() {
+                Ok(()) => return Ok(()),
+                Err(nb::Error::WouldBlock) => {
+                    polls = polls.saturating_sub(1);
+                    if polls == 0 {
+                        return Err(Error::Timeout);
+                    }
+                }
+                Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
+            }
+        }
+    }
 }
 
 impl<S> ReadInterface for NbSerial<S>
@@ -216,6 +238,10 @@ mod io {
                 }
             }
             Ok(())
+        }
+
+        fn flush(&mut self) -> Result<(), Error<T::Error>> {
+            self.io.flush().map_err(Error::Comm)
         }
     }
 

@@ -335,3 +335,26 @@ fn encode_multiple_targets_is_checked_and_sans_io() {
     ));
     s.done();
 }
+
+#[test]
+fn endless_unasked_data_fails_the_query() {
+    let (mut m, mut s) = micro(&[Tx::read_many([0x55; 64])]);
+    assert_eq!(
+        m.get_errors(&mut PollBudget(10)),
+        Err(Error::UnexpectedData)
+    );
+    assert_eq!(m.stale_bytes(), 64);
+    s.done();
+}
+
+#[test]
+fn flush_is_passed_through() {
+    let (mut m, mut s) = micro(&[
+        Tx::write_many([0xA2]),
+        Tx::flush_error(nb::Error::WouldBlock),
+        Tx::flush(),
+    ]);
+    m.go_home().unwrap();
+    m.flush().unwrap();
+    s.done();
+}
