@@ -65,6 +65,7 @@ pub(crate) const fn data_len(command: u8) -> Option<usize> {
 /// Targets for consecutive channels, for Set Multiple Targets: between 1 and 24 targets, the
 /// last channel below 24.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MultiTargets {
     first: Channel,
     targets: Vec<QuarterMicros, { MAX_CHANNELS as usize }>,
@@ -105,6 +106,7 @@ impl MultiTargets {
 /// Encode it with [`encode`](crate::encode); the device-side
 /// [`CommandDecoder`](crate::CommandDecoder) produces the same values.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Command {
     /// Set Target: pulse width of a servo channel (0 stops pulses).
     SetTarget {
