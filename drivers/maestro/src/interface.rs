@@ -42,7 +42,8 @@ impl<F: FnMut() -> bool> Deadline for F {
     }
 }
 
-/// A deadline counted in polls: expires after `n` empty polls of the transport.
+/// A deadline counted in polls: tolerates `n` empty polls of the transport; the next one ends
+/// the wait.
 ///
 /// Without a clock this is the only honest bound; pick `n` from the poll cost of your
 /// transport (or use [`DelayDeadline`]).
@@ -101,8 +102,8 @@ pub const DEFAULT_WRITE_POLLS_PER_BYTE: u32 = 1_000_000;
 
 /// Transport over embedded-hal-nb 1.0 serial.
 ///
-/// A byte the transmitter refuses (`WouldBlock`) is retried at most `write_polls_per_byte`
-/// times, so a wedged UART ends in [`Error::Timeout`] instead of a hang.
+/// A byte the transmitter refuses (`WouldBlock`) `write_polls_per_byte` times in a row ends
+/// the write with [`Error::Timeout`], so a wedged UART cannot hang the caller.
 #[derive(Debug)]
 pub struct NbSerial<S> {
     serial: S,

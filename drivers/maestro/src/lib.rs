@@ -25,6 +25,8 @@
 //!   [`get_script_status`](Maestro::get_script_status).
 //! - A device-side streaming [`CommandDecoder`] (sans-IO, resynchronising, CRC-checking,
 //!   counting what it drops) for simulating a Maestro.
+//! - A sans-IO [`TargetEncoder`]: the checked per-cycle target bytes without a driver, for an
+//!   application that writes them itself with its own deadline.
 //! - Per-channel [`Limits`]: an out-of-range target is an error ([`Error::OutOfRange`]) and
 //!   nothing is sent; clamping is a separate, explicit call ([`Limits::clamp`]).
 //! - Replies are read against a caller-given [`Deadline`] ([`PollBudget`], [`DelayDeadline`] or a
@@ -87,6 +89,7 @@ mod limits;
 mod model;
 pub mod reply;
 mod status;
+mod targets;
 mod types;
 
 pub use codec::{
@@ -107,6 +110,7 @@ pub use interface::{
 pub use limits::{ChannelLimits, LimitViolation, Limits};
 pub use model::{Micro6, Mini12, Mini18, Mini24, MiniModel, Model};
 pub use status::DeviceErrors;
+pub use targets::{TargetEncoder, TargetError};
 pub use types::{
     Acceleration, Channel, DeviceNumber, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros,
     ScriptParameter, ScriptStatus, Speed, Subroutine, MAX_14_BIT, MAX_CHANNELS,
