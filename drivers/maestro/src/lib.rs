@@ -15,11 +15,11 @@
 //!   without I/O), [`stop_pulses`](Maestro::stop_pulses), [`set_neutral`](Maestro::set_neutral),
 //!   [`set_speed`](Maestro::set_speed), [`set_acceleration`](Maestro::set_acceleration),
 //!   [`set_multiple_targets`](Maestro::set_multiple_targets) and
-//!   [`encode_multiple_targets`](Maestro::encode_multiple_targets) (Mini Maestros), [`set_pwm`](Maestro::set_pwm),
-//!   [`go_home`](Maestro::go_home), [`stop_script`](Maestro::stop_script),
+//!   [`encode_multiple_targets`](Maestro::encode_multiple_targets) (Mini Maestros),
+//!   [`set_pwm`](Maestro::set_pwm) (Mini Maestros), [`go_home`](Maestro::go_home), [`stop_script`](Maestro::stop_script),
 //!   [`restart_script`](Maestro::restart_script),
 //!   [`restart_script_with_parameter`](Maestro::restart_script_with_parameter),
-//!   [`mini_ssc_set`](Maestro::mini_ssc_set), and the queries
+//!   [`mini_ssc_set`](Maestro::mini_ssc_set), [`flush`](Maestro::flush), and the queries
 //!   [`get_position`](Maestro::get_position), [`get_errors`](Maestro::get_errors),
 //!   [`get_moving_state`](Maestro::get_moving_state),
 //!   [`get_script_status`](Maestro::get_script_status).
