@@ -97,3 +97,50 @@ fn mini_multiple_targets() {
         Err(TargetError::InvalidInput)
     );
 }
+
+mod properties {
+    use super::*;
+    use pololu_maestro::{Command, CommandDecoder, DecoderConfig, MAX_14_BIT};
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Whatever the limits and targets, the encoder either refuses or produces bytes that
+        /// a Maestro decodes to exactly the requested, in-range targets.
+        #[test]
+        fn never_encodes_an_out_of_range_target(
+            bounds in prop::collection::vec((0u16..=MAX_14_BIT, 0u16..=MAX_14_BIT), 6),
+            requests in prop::collection::vec((0u8..6, 0u16..=MAX_14_BIT), 0..12),
+            crc: bool,
+        ) {
+            let ch = |n| Channel::new::<Micro6>(n).unwrap();
+            let q = |v| QuarterMicros::new(v).unwrap();
+            let mut limits = Limits::new();
+            for (i, &(a, b)) in bounds.iter().enumerate() {
+                let (lo, hi) = (a.min(b), a.max(b));
+                limits.set(ch(i as u8), ChannelLimits::new(q(lo), q(hi), q(lo)));
+            }
+            let framing = Framing::COMPACT.with_crc(crc);
+            let encoder = TargetEncoder::new(Micro6, framing).with_limits(limits);
+            let targets: Vec<_> = requests.iter().map(|&(c, t)| (ch(c), q(t))).collect();
+            let in_range = targets
+                .iter()
+                .all(|&(c, t)| limits.get(c).unwrap().contains(t));
+            match encoder.encode_targets(&targets) {
+                Ok(frame) => {
+                    prop_assert!(in_range);
+                    let mut maestro = CommandDecoder::new(DecoderConfig { crc, ..Default::default() });
+                    let decoded: Vec<_> = maestro
+                        .decode(&frame)
+                        .map(|c| match c {
+                            Command::SetTarget { channel, target } => (channel, target),
+                            other => panic!("unexpected {other:?}"),
+                        })
+                        .collect();
+                    prop_assert_eq!(decoded, targets);
+                }
+                Err(TargetError::OutOfRange { .. }) => prop_assert!(!in_range),
+                Err(other) => prop_assert!(false, "unexpected {:?}", other),
+            }
+        }
+    }
+}
