@@ -4,6 +4,8 @@
 #![deny(missing_docs)]
 
 pub mod accel;
+#[cfg(feature = "async")]
+pub mod asynch;
 mod error;
 pub mod gyro;
 pub mod interface;
@@ -12,6 +14,8 @@ mod maths;
 mod types;
 
 pub use accel::Accelerometer;
+#[cfg(feature = "async")]
+pub use asynch::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer};
 pub use error::Error;
 pub use gyro::Gyroscope;
 pub use mag::Magnetometer;

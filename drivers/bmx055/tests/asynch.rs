@@ -1,0 +1,103 @@
+//! The async twins produce the same bus transactions as the blocking drivers.
+#![cfg(feature = "async")]
+
+use bosch_bmx055::accel::AccelConfig;
+use bosch_bmx055::gyro::GyroConfig;
+use bosch_bmx055::mag::MagConfig;
+use bosch_bmx055::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer, Xyz};
+use embedded_hal_mock::eh1::delay::NoopDelay;
+use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use std::future::Future;
+use std::sync::Arc;
+use std::task::{Context, Poll, Wake, Waker};
+
+/// Minimal executor: the mocks complete immediately, so polling in a loop terminates.
+fn block_on<F: Future>(fut: F) -> F::Output {
+    struct Noop;
+    impl Wake for Noop {
+        fn wake(self: Arc<Self>) {}
+    }
+    let waker = Waker::from(Arc::new(Noop));
+    let mut cx = Context::from_waker(&waker);
+    let mut fut = std::pin::pin!(fut);
+    for _ in 0..1_000_000 {
+        if let Poll::Ready(v) = fut.as_mut().poll(&mut cx) {
+            return v;
+        }
+    }
+    panic!("future did not complete");
+}
+
+fn write(reg: u8, value: u8) -> Vec<T<u8>> {
+    vec![
+        T::transaction_start(),
+        T::write_vec(vec![reg, value]),
+        T::transaction_end(),
+    ]
+}
+
+fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
+    vec![
+        T::transaction_start(),
+        T::write_vec(vec![reg | 0x80]),
+        T::read_vec(response.to_vec()),
+        T::transaction_end(),
+    ]
+}
+
+fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
+    parts.into_iter().flatten().collect()
+}
+
+#[test]
+fn async_dima_configuration_and_reads() {
+    let mut acc_spi = SpiMock::new(&script(vec![
+        write(0x14, 0xB6),
+        read(0x00, &[0xFA]),
+        write(0x0F, 0x03),
+        write(0x10, 0x0F),
+        write(0x11, 0x00),
+        read(0x02, &[0x01, 0x40, 0x00, 0x00, 0x00, 0x00]),
+    ]));
+    let mut gyro_spi = SpiMock::new(&script(vec![
+        write(0x14, 0xB6),
+        read(0x00, &[0x0F]),
+        write(0x0F, 0x00),
+        write(0x10, 0x81),
+        write(0x11, 0x00),
+    ]));
+    let mut mag_spi = SpiMock::new(&script(vec![
+        write(0x4B, 0x01),
+        write(0x4B, 0x83),
+        read(0x40, &[0x32]),
+        read(0x5D, &[0x00, 0x00]),
+        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
+        read(
+            0x68,
+            &[0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D],
+        ),
+        write(0x51, 0x01),
+        write(0x52, 0x02),
+        write(0x4C, 0x02),
+        write(0x4C, 0x02),
+        read(0x42, &[0, 0, 0, 0, 0, 0, 0x34, 0x6E]),
+        // Shared vector row 2 (Bosch SensorAPI): 120, -90, -1538 µT.
+        read(0x42, &[0x68, 0x0A, 0x30, 0xF8, 0x45, 0xDC, 0x35, 0x6E]),
+    ]));
+    let mut acc = AsyncAccelerometer::new_spi(acc_spi.clone());
+    let mut gyro = AsyncGyroscope::new_spi(gyro_spi.clone());
+    let mut mag = AsyncMagnetometer::new_spi(mag_spi.clone());
+    block_on(async {
+        acc.init(&mut NoopDelay, &AccelConfig::DIMA).await.unwrap();
+        assert_eq!(acc.read_raw().await.unwrap().counts().x, 1024);
+        gyro.init(&mut NoopDelay, &GyroConfig::DIMA).await.unwrap();
+        mag.init(&mut NoopDelay, &MagConfig::DIMA).await.unwrap();
+        assert_eq!(
+            mag.read_forced_ut(&mut NoopDelay).await.unwrap(),
+            Xyz::new(120, -90, -1538)
+        );
+    });
+    acc_spi.done();
+    gyro_spi.done();
+    mag_spi.done();
+}
