@@ -5,8 +5,9 @@
 //! value of each axis (X: `raw · k + c`, Z: `(raw − z4) · k − c`), so it is monotonic and
 //! bisection finds the raw value whose compensation is closest to the target in at most
 //! [`MAX_BISECTION_STEPS`] steps. Limits:
-//! - the result is quantised: one raw step is about 0.3 µT on X/Y and 0.15 µT on Z with
-//!   typical trim;
+//! - the result is quantised: one raw step is about 0.35 µT on every axis with typical
+//!   trim (0.36 µT on X and 0.34 µT on Z with the trim of Bosch's example), so the best match
+//!   can be off by half a step;
 //! - a target outside what the axis can express gives the end of the raw range (±4095 on X/Y,
 //!   ±16383 on Z; the overflow codes -4096 / -16384 are never produced);
 //! - `None` when the compensation cannot be inverted: `rhall` is 0, required trim is 0, the
