@@ -6,9 +6,9 @@
 pub const BGW_CHIPID: u8 = 0x00;
 /// Expected accelerometer chip id.
 pub const CHIP_ID_VALUE: u8 = 0xFA;
-/// X LSB: bits 7:4 data[3:0], bit 0 `new_data_x`.
+/// X LSB: bits 7:4 data bits 3:0, bit 0 `new_data_x`.
 pub const ACCD_X_LSB: u8 = 0x02;
-/// X MSB: data[11:4].
+/// X MSB: data bits 11:4.
 pub const ACCD_X_MSB: u8 = 0x03;
 /// Y LSB.
 pub const ACCD_Y_LSB: u8 = 0x04;

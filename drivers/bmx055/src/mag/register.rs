@@ -4,21 +4,21 @@
 pub const CHIP_ID: u8 = 0x40;
 /// Expected magnetometer chip id.
 pub const CHIP_ID_VALUE: u8 = 0x32;
-/// X LSB: bits 7:3 data[4:0], bit 0 self-test result.
+/// X LSB: bits 7:3 data bits 4:0, bit 0 self-test result.
 pub const DATA_X_LSB: u8 = 0x42;
-/// X MSB: data[12:5].
+/// X MSB: data bits 12:5.
 pub const DATA_X_MSB: u8 = 0x43;
-/// Y LSB: bits 7:3 data[4:0].
+/// Y LSB: bits 7:3 data bits 4:0.
 pub const DATA_Y_LSB: u8 = 0x44;
 /// Y MSB.
 pub const DATA_Y_MSB: u8 = 0x45;
-/// Z LSB: bits 7:1 data[6:0], bit 0 self-test result.
+/// Z LSB: bits 7:1 data bits 6:0, bit 0 self-test result.
 pub const DATA_Z_LSB: u8 = 0x46;
-/// Z MSB: data[14:7].
+/// Z MSB: data bits 14:7.
 pub const DATA_Z_MSB: u8 = 0x47;
-/// RHALL LSB: bits 7:2 data[5:0], bit 0 data ready.
+/// RHALL LSB: bits 7:2 data bits 5:0, bit 0 data ready.
 pub const RHALL_LSB: u8 = 0x48;
-/// RHALL MSB: data[13:6].
+/// RHALL MSB: data bits 13:6.
 pub const RHALL_MSB: u8 = 0x49;
 /// Interrupt status.
 pub const INT_STATUS: u8 = 0x4A;
