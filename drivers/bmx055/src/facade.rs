@@ -135,4 +135,25 @@ where
             mag_fresh,
         })
     }
+
+    /// Run the three self-tests (accel deflection, gyro BIST, magnetometer normal
+    /// self-test), then re-apply `config` (the accelerometer test ends with a soft reset and
+    /// the magnetometer test leaves sleep mode). `Error::SelfTestFailed` if any die failed;
+    /// the dies are reconfigured either way.
+    pub fn self_test(
+        &mut self,
+        delay: &mut impl DelayNs,
+        config: &Bmx055Config,
+    ) -> Result<(), Error<E>> {
+        let accel_ok = self.accel.self_test(delay)?.passed();
+        self.accel.configure(&config.accel)?;
+        let gyro_ok = self.gyro.self_test(delay)?.passed();
+        let mag = self.mag.self_test(delay)?;
+        self.mag.configure(&config.mag)?;
+        if accel_ok && gyro_ok && mag.x && mag.y && mag.z {
+            Ok(())
+        } else {
+            Err(Error::SelfTestFailed)
+        }
+    }
 }

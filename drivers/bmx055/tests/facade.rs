@@ -130,3 +130,54 @@ proptest! {
         prop_assert!((ut.z - mz).abs() <= 0.2, "z {} vs {}", ut.z, mz);
     }
 }
+
+#[test]
+fn self_test_reports_a_failing_die_and_reconfigures() {
+    // Accel deflections of 1000 mg on every axis (512 counts at ±4 g) pass.
+    let deflect = |axis: usize, counts: i16| {
+        let mut b = [0u8; 6];
+        let w = (counts << 4).to_le_bytes();
+        b[2 * axis] = w[0];
+        b[2 * axis + 1] = w[1];
+        b
+    };
+    let mut acc_script = vec![write(0x0F, 0x05)];
+    for axis in 0..3u8 {
+        acc_script.push(write(0x32, (axis + 1) | 0x04));
+        acc_script.push(read(0x02, &deflect(axis.into(), 256)));
+        acc_script.push(write(0x32, axis + 1));
+        acc_script.push(read(0x02, &deflect(axis.into(), -256)));
+    }
+    acc_script.extend([
+        write(0x32, 0x00),
+        write(0x14, 0xB6),
+        write(0x0F, 0x03),
+        write(0x10, 0x0F),
+        write(0x11, 0x00),
+    ]);
+    let mut acc = SpiMock::new(&script(acc_script));
+    // Gyro BIST passes.
+    let mut gyro = SpiMock::new(&script(vec![
+        read(0x3C, &[0x10]),
+        write(0x3C, 0x01),
+        read(0x3C, &[0x12]),
+    ]));
+    // Magnetometer self-test: Z axis fails.
+    let mut mag = SpiMock::new(&script(vec![
+        write(0x4C, 0x06),
+        write(0x4C, 0x07),
+        read(0x4C, &[0x06]),
+        read(0x42, &[0x01, 0x00, 0x01, 0x00, 0x00, 0x00]),
+        write(0x51, 0x01),
+        write(0x52, 0x02),
+        write(0x4C, 0x02),
+    ]));
+    let mut imu = Bmx055::new_spi(acc.clone(), gyro.clone(), mag.clone());
+    assert_eq!(
+        imu.self_test(&mut NoopDelay, &Bmx055Config::DIMA),
+        Err(bosch_bmx055::Error::SelfTestFailed)
+    );
+    acc.done();
+    gyro.done();
+    mag.done();
+}
