@@ -279,3 +279,36 @@ fn magnetometer_bits_and_fields() {
     // Low power: nXY = 3, nZ = 3 -> 145*3 + 500*3 + 980 µs.
     assert_eq!(measurement_time_us(0x01, 0x02), 2915);
 }
+
+#[test]
+fn i2c_strap_addresses() {
+    use bosch_bmx055::accel::AccelAddress;
+    use bosch_bmx055::gyro::GyroAddress;
+    use bosch_bmx055::mag::MagAddress;
+    assert_eq!(AccelAddress::Sdo1Low as u8, 0x18);
+    assert_eq!(AccelAddress::Sdo1High as u8, 0x19);
+    assert_eq!(GyroAddress::Sdo2Low as u8, 0x68);
+    assert_eq!(GyroAddress::Sdo2High as u8, 0x69);
+    assert_eq!(MagAddress::Csb3LowSdo3Low as u8, 0x10);
+    assert_eq!(MagAddress::Csb3LowSdo3High as u8, 0x11);
+    assert_eq!(MagAddress::Csb3HighSdo3Low as u8, 0x12);
+    assert_eq!(MagAddress::Csb3HighSdo3High as u8, 0x13);
+    assert_eq!(bosch_bmx055::interface::SPI_READ, 0x80);
+}
+
+#[test]
+fn fifo_fields() {
+    use bosch_bmx055::{FifoData, FifoMode, FifoStatus};
+    assert_eq!(FifoMode::Bypass as u8, 0);
+    assert_eq!(FifoMode::Fifo as u8, 1);
+    assert_eq!(FifoMode::Stream as u8, 2);
+    assert_eq!(FifoData::Xyz as u8, 0);
+    assert_eq!(FifoData::Z as u8, 3);
+    assert_eq!(
+        FifoStatus::from_register(0x85),
+        FifoStatus {
+            frames: 5,
+            overrun: true
+        }
+    );
+}
