@@ -101,3 +101,35 @@ fn async_dima_configuration_and_reads() {
     gyro_spi.done();
     mag_spi.done();
 }
+
+#[test]
+fn async_i2c_gyro_and_forced_timeout() {
+    use bosch_bmx055::gyro::{GyroAddress, GyroRange};
+    use bosch_bmx055::mag::{MagAddress, FORCED_POLL_ATTEMPTS};
+    use bosch_bmx055::Error;
+    use embedded_hal_mock::eh1::i2c::{Mock as I2cMock, Transaction as I};
+
+    let mut i2c = I2cMock::new(&[
+        I::write(0x69, vec![0x0F, 0x04]),
+        I::write_read(0x69, vec![0x02], vec![0x06, 0x01, 0x00, 0x00, 0xFA, 0xFE]),
+    ]);
+    let mut gyro = AsyncGyroscope::new_i2c(i2c.clone(), GyroAddress::Sdo2High);
+    block_on(async {
+        gyro.set_range(GyroRange::Dps125).await.unwrap();
+        // 262 counts = 0.9985 °/s at ±125 °/s (262.4 LSB per °/s).
+        let dps = gyro.read_dps().await.unwrap();
+        assert!((dps.x - 262.0 / 262.4).abs() < 1e-4);
+        assert!((dps.z + 262.0 / 262.4).abs() < 1e-4);
+    });
+    i2c.done();
+
+    let mut script = vec![I::write(0x10, vec![0x4C, 0x02])];
+    for _ in 0..FORCED_POLL_ATTEMPTS {
+        script.push(I::write_read(0x10, vec![0x42], vec![0; 8]));
+    }
+    let mut i2c = I2cMock::new(&script);
+    let mut mag = AsyncMagnetometer::new_i2c(i2c.clone(), MagAddress::Csb3LowSdo3Low);
+    let result = block_on(mag.read_forced(&mut NoopDelay));
+    assert_eq!(result.map(|r| r.x), Err(Error::Timeout));
+    i2c.done();
+}

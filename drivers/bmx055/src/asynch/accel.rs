@@ -2,9 +2,9 @@
 
 use crate::accel::{
     accel_temperature_celsius, decode_accel_fifo_frame, offset_setting, register as reg,
-    AccelAddress, AccelConfig, AccelFifoConfig, AccelInterruptConfig, AccelInterruptStatus,
-    AccelRange, AccelRaw, AccelSelfTest, OffsetTarget, FOC_POLL_ATTEMPTS, SELF_TEST_SETTLE_MS,
-    SOFT_RESET_WAIT_US,
+    AccelAddress, AccelBandwidth, AccelConfig, AccelFifoConfig, AccelInterruptConfig,
+    AccelInterruptStatus, AccelPowerMode, AccelRange, AccelRaw, AccelSelfTest, OffsetTarget,
+    FOC_POLL_ATTEMPTS, SELF_TEST_SETTLE_MS, SOFT_RESET_WAIT_US,
 };
 use crate::interface::{AsyncRegisterInterface, I2cInterface, SpiInterface};
 use crate::types::{FifoData, FifoStatus, Xyz};
@@ -258,5 +258,46 @@ impl<IFACE: AsyncRegisterInterface> AsyncAccelerometer<IFACE> {
         Ok(AccelSelfTest {
             difference_mg: Xyz::new(diff[0], diff[1], diff[2]),
         })
+    }
+
+    /// Change the filter bandwidth only.
+    pub async fn set_bandwidth(&mut self, bw: AccelBandwidth) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::PMU_BW, bw.bits()).await
+    }
+
+    /// Change the power mode only.
+    pub async fn set_power_mode(
+        &mut self,
+        mode: AccelPowerMode,
+    ) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::PMU_LPW, mode.bits()).await
+    }
+
+    /// Clear latched interrupts, keeping the latch mode given by `latched`.
+    pub async fn clear_latched_interrupts(
+        &mut self,
+        latched: bool,
+    ) -> Result<(), Error<IFACE::Error>> {
+        let mode = if latched { 0x0F } else { 0x00 };
+        self.write(reg::INT_RST_LATCH, reg::RESET_INT | mode).await
+    }
+
+    /// Current offsets (7.8125 mg/LSB).
+    pub async fn offsets(&mut self) -> Result<Xyz<i8>, Error<IFACE::Error>> {
+        let mut b = [0u8; 3];
+        self.read_into(reg::OFC_OFFSET_X, &mut b).await?;
+        Ok(Xyz::new(b[0] as i8, b[1] as i8, b[2] as i8))
+    }
+
+    /// Write offsets (7.8125 mg/LSB).
+    pub async fn set_offsets(&mut self, offsets: Xyz<i8>) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::OFC_OFFSET_X, offsets.x as u8).await?;
+        self.write(reg::OFC_OFFSET_Y, offsets.y as u8).await?;
+        self.write(reg::OFC_OFFSET_Z, offsets.z as u8).await
+    }
+
+    /// Set all offsets to zero.
+    pub async fn reset_offsets(&mut self) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::OFC_CTRL, reg::OFFSET_RESET).await
     }
 }

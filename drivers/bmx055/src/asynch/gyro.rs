@@ -2,9 +2,9 @@
 
 use crate::accel::accel_temperature_celsius;
 use crate::gyro::{
-    decode_gyro_fifo_frame, register as reg, GyroAddress, GyroConfig, GyroFifoConfig,
-    GyroInterruptConfig, GyroInterruptStatus, GyroRange, GyroRaw, GyroSelfTest, BIST_POLL_ATTEMPTS,
-    SOFT_RESET_WAIT_MS,
+    decode_gyro_fifo_frame, register as reg, GyroAddress, GyroBandwidth, GyroConfig,
+    GyroFifoConfig, GyroInterruptConfig, GyroInterruptStatus, GyroPowerMode, GyroRange, GyroRaw,
+    GyroSelfTest, BIST_POLL_ATTEMPTS, SOFT_RESET_WAIT_MS,
 };
 use crate::interface::{AsyncRegisterInterface, I2cInterface, SpiInterface};
 use crate::types::{FifoData, FifoStatus, Xyz};
@@ -220,5 +220,31 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
             }
         }
         Err(Error::Timeout)
+    }
+
+    /// Change the range only.
+    pub async fn set_range(&mut self, range: GyroRange) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::RANGE, range.bits()).await?;
+        self.range = range;
+        Ok(())
+    }
+
+    /// Change the data rate / filter only.
+    pub async fn set_bandwidth(&mut self, bw: GyroBandwidth) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::BW, bw.bits()).await
+    }
+
+    /// Change the power mode only.
+    pub async fn set_power_mode(&mut self, mode: GyroPowerMode) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::LPM1, mode.bits()).await
+    }
+
+    /// Clear latched interrupts, keeping the latch mode given by `latched`.
+    pub async fn clear_latched_interrupts(
+        &mut self,
+        latched: bool,
+    ) -> Result<(), Error<IFACE::Error>> {
+        let mode = if latched { 0x0F } else { 0x00 };
+        self.write(reg::INT_RST_LATCH, reg::RESET_INT | mode).await
     }
 }
