@@ -37,7 +37,8 @@
 //! - The DIMA sensor-packet words ([`ImuPacketWords`]): left-justified, status bits masked,
 //!   in both directions, plus the simulator direction (physical values to raw words,
 //!   including a best-effort inverse of the magnetometer compensation, [`mag::inverse`]).
-//! - `async` feature: `AsyncAccelerometer`, `AsyncGyroscope`, `AsyncMagnetometer` over
+//! - `async` feature: `AsyncAccelerometer`, `AsyncGyroscope`, `AsyncMagnetometer` and
+//!   `AsyncBmx055` over
 //!   embedded-hal-async, next to the blocking API. `defmt` feature: `defmt::Format` on the
 //!   public types.
 //!
@@ -96,7 +97,7 @@ mod types;
 
 pub use accel::Accelerometer;
 #[cfg(feature = "async")]
-pub use asynch::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer};
+pub use asynch::{AsyncAccelerometer, AsyncBmx055, AsyncGyroscope, AsyncMagnetometer};
 pub use error::Error;
 pub use facade::{Bmx055, Bmx055Config, ImuSample};
 pub use gyro::Gyroscope;

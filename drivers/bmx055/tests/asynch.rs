@@ -133,3 +133,51 @@ fn async_i2c_gyro_and_forced_timeout() {
     assert_eq!(result.map(|r| r.x), Err(Error::Timeout));
     i2c.done();
 }
+
+#[test]
+fn async_facade_samples_without_waiting() {
+    use bosch_bmx055::{AsyncBmx055, Bmx055Config};
+    let mut acc = SpiMock::new(&script(vec![
+        write(0x14, 0xB6),
+        read(0x00, &[0xFA]),
+        write(0x0F, 0x03),
+        write(0x10, 0x0F),
+        write(0x11, 0x00),
+        read(0x02, &[0x01, 0x40, 0x00, 0x00, 0x00, 0x00]),
+    ]));
+    let mut gyro = SpiMock::new(&script(vec![
+        write(0x14, 0xB6),
+        read(0x00, &[0x0F]),
+        write(0x0F, 0x00),
+        write(0x10, 0x81),
+        write(0x11, 0x00),
+        read(0x02, &[0; 6]),
+    ]));
+    let mut mag = SpiMock::new(&script(vec![
+        write(0x4B, 0x01),
+        write(0x4B, 0x83),
+        read(0x40, &[0x32]),
+        read(0x5D, &[0x00, 0x00]),
+        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
+        read(
+            0x68,
+            &[0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D],
+        ),
+        write(0x51, 0x01),
+        write(0x52, 0x02),
+        write(0x4C, 0x02),
+        read(0x42, &[0x80, 0x02, 0x20, 0xFE, 0xF4, 0xFE, 0x61, 0x6D]),
+        write(0x4C, 0x02),
+    ]));
+    let mut imu = AsyncBmx055::new_spi(acc.clone(), gyro.clone(), mag.clone());
+    let sample = block_on(async {
+        imu.init(&mut NoopDelay, &Bmx055Config::DIMA).await.unwrap();
+        imu.sample().await.unwrap()
+    });
+    assert!(sample.mag_fresh);
+    assert_eq!(sample.accel.counts().x, 1024);
+    assert_eq!(sample.mag.xyz.x, 0x0280);
+    acc.done();
+    gyro.done();
+    mag.done();
+}

@@ -55,6 +55,10 @@ impl<IFACE> AsyncMagnetometer<IFACE> {
     pub fn set_trim(&mut self, trim: MagTrim) {
         self.trim = trim;
     }
+    /// The configuration last applied.
+    pub fn config(&self) -> &MagConfig {
+        &self.config
+    }
     /// Longest time one measurement of the current preset takes, in µs.
     pub fn measurement_time_us(&self) -> u32 {
         measurement_time_us(self.config.preset.rep_xy(), self.config.preset.rep_z())

@@ -5,9 +5,11 @@
 //! only the I/O awaits. Separate types keep the blocking API intact when both are in use.
 
 mod accel;
+mod facade;
 mod gyro;
 mod mag;
 
 pub use accel::AsyncAccelerometer;
+pub use facade::AsyncBmx055;
 pub use gyro::AsyncGyroscope;
 pub use mag::AsyncMagnetometer;
