@@ -40,13 +40,22 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod commands;
+pub mod config;
+pub mod configure;
+pub mod error;
 pub mod frame;
 pub mod nav_pvt;
 pub mod stream;
 pub mod timing;
+pub mod version;
 
+pub use config::{Config, NavDynamicModel, TimeMode, TimePulse};
+pub use configure::{Configurator, Progress};
+pub use error::Error;
 pub use frame::{Frame, FramerStats, UbxFramer};
 pub use nav_pvt::{FixType, NavPvt, NavPvtFrame};
 pub use stream::{GnssStream, Message};
 pub use timing::{TimTm2, TimTp};
 pub use ublox;
+pub use version::{ProtocolVersion, ReceiverVersion};
