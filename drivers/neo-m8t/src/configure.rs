@@ -9,9 +9,10 @@ use crate::commands::{self, Command, CLASS_MON, ID_MON_VER};
 use crate::config::Config;
 use crate::error::Error;
 use crate::frame::{Frame, UbxFramer};
+use crate::interface::{read_byte, Received};
 use crate::version::ReceiverVersion;
 use embedded_hal::delay::DelayNs;
-use embedded_hal_nb::serial::{Error as _, ErrorKind, Read, Write};
+use embedded_hal_nb::serial::{Read, Write};
 use ublox::proto23::PacketRef;
 
 /// Default wait for an ACK or answer, ms. The receiver answers within a few ms at 10 Hz.
@@ -302,7 +303,9 @@ impl<const N: usize> Configurator<N> {
     }
 
     /// Runs [`poll`](Self::poll) to completion, sleeping 1 ms between polls and counting
-    /// those sleeps as the clock. `set_baud_rate` must switch the host UART.
+    /// those sleeps as the clock. `set_baud_rate` must switch the host UART; if it cannot,
+    /// the check at the new rate fails and the switch is retried, then reported as
+    /// [`Error::BaudSwitchFailed`].
     ///
     /// Elapsed time is under-estimated by the time the polls themselves take, so real
     /// timeouts are at least the configured ones; the total is still bounded.
@@ -310,7 +313,7 @@ impl<const N: usize> Configurator<N> {
         &mut self,
         serial: &mut S,
         delay: &mut D,
-        mut set_baud_rate: impl FnMut(&mut S, u32) -> Result<(), S::Error>,
+        mut set_baud_rate: impl FnMut(&mut S, u32),
     ) -> Result<(), Error<S::Error>>
     where
         S: Read<u8> + Write<u8>,
@@ -320,7 +323,7 @@ impl<const N: usize> Configurator<N> {
         loop {
             match self.poll(serial, now_ms)? {
                 Progress::Done => return Ok(()),
-                Progress::SetBaudRate(baud) => set_baud_rate(serial, baud)?,
+                Progress::SetBaudRate(baud) => set_baud_rate(serial, baud),
                 Progress::Pending => {
                     delay.delay_ms(1);
                     now_ms = now_ms.wrapping_add(1);
@@ -395,20 +398,14 @@ impl<const N: usize> Configurator<N> {
         S: Read<u8>,
     {
         for _ in 0..MAX_READ_PER_POLL {
-            let byte = match serial.read() {
-                Ok(byte) => byte,
-                Err(nb::Error::WouldBlock) => break,
-                Err(nb::Error::Other(e)) => match e.kind() {
-                    ErrorKind::Overrun
-                    | ErrorKind::FrameFormat
-                    | ErrorKind::Parity
-                    | ErrorKind::Noise => {
-                        self.line_errors = self.line_errors.wrapping_add(1);
-                        self.framer.clear();
-                        continue;
-                    }
-                    _ => return Err(Error::Comm(e)),
-                },
+            let byte = match read_byte(serial).map_err(Error::Comm)? {
+                Received::Byte(byte) => byte,
+                Received::Idle => break,
+                Received::LineError => {
+                    self.line_errors = self.line_errors.wrapping_add(1);
+                    self.framer.clear();
+                    continue;
+                }
             };
             let mut frame = self.framer.push(byte);
             while let Some(f) = frame {

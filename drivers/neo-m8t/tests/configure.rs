@@ -441,11 +441,8 @@ fn run_blocking_applies_the_configuration() {
     let mut serial = Mock::new(&script);
     let mut cfg = Configurator::<512>::new(config, 115_200);
     let mut bauds = Vec::new();
-    cfg.run_blocking(&mut serial, &mut NoopDelay::new(), |_, b| {
-        bauds.push(b);
-        Ok(())
-    })
-    .unwrap();
+    cfg.run_blocking(&mut serial, &mut NoopDelay::new(), |_, b| bauds.push(b))
+        .unwrap();
     assert_eq!(bauds, vec![230_400]);
     serial.done();
 }
