@@ -446,3 +446,58 @@ fn run_blocking_applies_the_configuration() {
     assert_eq!(bauds, vec![230_400]);
     serial.done();
 }
+
+mod chunked {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Splits `bytes` at the given cut lengths (cycled), with an idle read between pieces.
+    /// (The last piece completes a frame that settles the step, so no read follows it.)
+    fn chopped(bytes: &[u8], cuts: &[usize], script: &mut Vec<T>) {
+        let mut rest = bytes;
+        let mut cut = cuts.iter().cycle();
+        while !rest.is_empty() {
+            let n = (*cut.next().unwrap()).clamp(1, rest.len());
+            let (piece, tail) = rest.split_at(n);
+            script.push(reply(piece));
+            if !tail.is_empty() {
+                script.push(idle());
+            }
+            rest = tail;
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// Answers split into random pieces, with NAV-PVT frames streaming in between,
+        /// configure the receiver all the same.
+        #[test]
+        fn answers_in_random_pieces_with_nav_pvt_in_between(
+            cuts in prop::collection::vec(1usize..40, 1..10),
+            pvt_before in prop::collection::vec(any::<bool>(), 13),
+        ) {
+            let config = Config::default();
+            let pvt = neo_m8t::NavPvt { itow_ms: 7, ..neo_m8t::NavPvt::default() }.to_frame();
+            let mut script = vec![write(&MON_VER_POLL)];
+            chopped(&mon_ver_reply(), &cuts, &mut script);
+            let prt = commands::cfg_prt_uart1(config.baud_rate);
+            let mut cmds = vec![prt];
+            cmds.extend(cfg_commands(&config));
+            for (cmd, pvt_first) in cmds.iter().zip(&pvt_before) {
+                script.push(write(cmd.as_bytes()));
+                let mut answer = Vec::new();
+                if *pvt_first {
+                    answer.extend_from_slice(pvt.as_bytes());
+                }
+                answer.extend_from_slice(&ack(cmd.as_bytes()));
+                chopped(&answer, &cuts, &mut script);
+            }
+            let mut serial = Mock::new(&script);
+            let mut cfg = Configurator::<512>::new(config, 115_200);
+            prop_assert_eq!(drive(&mut cfg, &mut serial), Ok(vec![]));
+            prop_assert_eq!(cfg.retries(), 0);
+            serial.done();
+        }
+    }
+}

@@ -212,6 +212,39 @@ fn stream_keeps_timing_messages() {
     );
 }
 
+#[test]
+fn stream_keeps_tim_tm2() {
+    // TIM-TM2: ch 0, flags 0x6D, count 3, wnR 2393, wnF 2393, towMsR 1000, towSubMsR 250 ns,
+    // towMsF 1100, towSubMsF 500 ns, accEst 20 ns.
+    let mut payload = vec![0x00, 0x6D];
+    payload.extend_from_slice(&3u16.to_le_bytes());
+    payload.extend_from_slice(&2393u16.to_le_bytes());
+    payload.extend_from_slice(&2393u16.to_le_bytes());
+    for v in [1000u32, 250, 1100, 500, 20] {
+        payload.extend_from_slice(&v.to_le_bytes());
+    }
+    let mut frame = [0u8; 36];
+    encode_frame(0x0D, 0x03, &payload, &mut frame).unwrap();
+    let mut stream = GnssStream::<100>::new();
+    stream.push_slice(&frame);
+    let tm = stream.latest_tim_tm2().expect("TIM-TM2");
+    assert_eq!(
+        (
+            tm.channel,
+            tm.flags,
+            tm.count,
+            tm.wn_r,
+            tm.tow_ms_r,
+            tm.tow_sub_ms_r_ns
+        ),
+        (0, 0x6D, 3, 2393, 1000, 250)
+    );
+    assert_eq!(
+        (tm.tow_ms_f, tm.tow_sub_ms_f_ns, tm.acc_est_ns),
+        (1100, 500, 20)
+    );
+}
+
 /// Noise without the first sync character, so it cannot start a false frame.
 fn noise() -> impl Strategy<Value = Vec<u8>> {
     prop::collection::vec(any::<u8>().prop_filter("no sync", |b| *b != 0xB5), 0..40)
