@@ -19,6 +19,8 @@ use ublox::proto23::PacketRef;
 pub const DEFAULT_TIMEOUT_MS: u32 = 500;
 /// Default number of resends after the first attempt.
 pub const DEFAULT_RETRIES: u8 = 3;
+/// Default wait after switching the host UART before polling at the new rate, ms.
+pub const DEFAULT_SWITCH_SETTLE_MS: u32 = 100;
 /// Most bytes one [`Configurator::poll`] reads, so one call stays short.
 pub const MAX_READ_PER_POLL: usize = 256;
 
@@ -58,6 +60,8 @@ enum Phase {
     Flushing,
     /// Waiting for ACK / answer until `deadline_ms`.
     Awaiting,
+    /// At the new baud rate: letting the receiver switch (any valid frame confirms it).
+    Settling,
     /// At the new baud rate: writing the CFG-PRT poll.
     SwitchedSending,
     /// At the new baud rate: waiting for any valid frame.
@@ -99,10 +103,11 @@ fn expired(now_ms: u32, deadline_ms: u32) -> bool {
 /// class and id; ACK-NAK is an error; silence is retried, then an error.
 ///
 /// **Baud-rate switch.** When the rate changes, the configurator waits until the CFG-PRT
-/// frame has left the host UART (`flush`), returns [`Progress::SetBaudRate`] so the caller
-/// switches its UART, sends a CFG-PRT poll at the new rate and accepts any valid frame (the
-/// ACK if the receiver answers at the new rate, else the poll's answer). Without one before
-/// the timeout it asks to go back to the old rate and sends CFG-PRT again.
+/// frame has left the host UART (`flush`) and returns [`Progress::SetBaudRate`] so the
+/// caller switches its UART. Any valid frame at the new rate then confirms the switch: the
+/// ACK, if the receiver sends it at the new rate, or else the answer to a CFG-PRT poll sent
+/// after `settle_ms` (the ACK sent at the old rate is lost). Without one before the timeout
+/// it asks to go back to the old rate and sends CFG-PRT again.
 ///
 /// `N` is the receive buffer; MON-VER needs about 280 bytes on an M8T.
 ///
@@ -133,6 +138,7 @@ pub struct Configurator<const N: usize = 512> {
     framer: UbxFramer<N>,
     config: Config,
     timeout_ms: u32,
+    settle_ms: u32,
     max_retries: u8,
     step: Step,
     phase: Phase,
@@ -155,6 +161,7 @@ impl<const N: usize> Configurator<N> {
             framer: UbxFramer::new(),
             config,
             timeout_ms: DEFAULT_TIMEOUT_MS,
+            settle_ms: DEFAULT_SWITCH_SETTLE_MS,
             max_retries: DEFAULT_RETRIES,
             step: Step::MonVer,
             phase: Phase::Start,
@@ -173,6 +180,13 @@ impl<const N: usize> Configurator<N> {
     /// Sets the wait for each ACK or answer, ms.
     pub fn with_timeout_ms(mut self, timeout_ms: u32) -> Self {
         self.timeout_ms = timeout_ms;
+        self
+    }
+
+    /// Sets the wait after a baud-rate switch before the receiver is polled at the new rate,
+    /// ms (an answer that arrives earlier is accepted at once).
+    pub fn with_switch_settle_ms(mut self, settle_ms: u32) -> Self {
+        self.settle_ms = settle_ms;
         self
     }
 
@@ -257,8 +271,19 @@ impl<const N: usize> Configurator<N> {
                     self.framer.clear();
                     self.tx = commands::poll_cfg_prt_uart1();
                     self.tx_pos = 0;
-                    self.phase = Phase::SwitchedSending;
+                    self.deadline_ms = now_ms.wrapping_add(self.settle_ms);
+                    self.phase = Phase::Settling;
                     return Ok(Progress::SetBaudRate(self.baud_rate));
+                }
+                Phase::Settling => {
+                    if let Outcome::Advance = self.receive(serial)? {
+                        self.advance();
+                        continue;
+                    }
+                    if !expired(now_ms, self.deadline_ms) {
+                        return Ok(Progress::Pending);
+                    }
+                    self.phase = Phase::SwitchedSending;
                 }
                 Phase::Awaiting | Phase::SwitchedAwaiting => {
                     match self.receive(serial)? {
@@ -434,7 +459,7 @@ enum Judgement {
 
 /// Decides what a received frame means for the step in progress.
 fn judge(step: Step, phase: Phase, sent: &Command, frame: &Frame<'_>) -> Judgement {
-    if phase == Phase::SwitchedAwaiting {
+    if matches!(phase, Phase::Settling | Phase::SwitchedAwaiting) {
         // Any valid frame at the new rate proves the switch.
         return Judgement::Advance;
     }

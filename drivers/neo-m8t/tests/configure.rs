@@ -317,21 +317,21 @@ fn baud_switch_with_ack_at_the_new_rate() {
         .with_baud_rate(460_800)
         .with_time_pulse(None);
     let prt = commands::cfg_prt_uart1(460_800);
-    let poll = commands::poll_cfg_prt_uart1();
     let mut script = vec![
         write(&MON_VER_POLL),
         reply(&mon_ver_reply()),
         write(prt.as_bytes()),
         T::flush(),
-        // Now at 460800: the poll goes out, the ACK for CFG-PRT comes back.
-        write(poll.as_bytes()),
+        // Now at 460800, while settling: the ACK for CFG-PRT arrives at the new rate, so no
+        // poll is needed.
+        idle(),
         reply(&ack(prt.as_bytes())),
     ];
     let cmds = cfg_commands(&config);
     for (i, cmd) in cmds.iter().enumerate() {
         script.push(write(cmd.as_bytes()));
         if i == 0 {
-            // The poll's own answer and ACK arrive late; they must not confuse CFG-MSG.
+            // A CFG-PRT frame and a repeated ACK for CFG-PRT must not confuse CFG-MSG.
             script.push(reply(&frame(0x06, 0x00, &CFG_PRT_UART1_115200[6..26])));
             script.push(reply(&ack(prt.as_bytes())));
         }
@@ -356,11 +356,14 @@ fn baud_switch_when_the_ack_was_lost_is_confirmed_by_the_poll_answer() {
         reply(&mon_ver_reply()),
         write(prt.as_bytes()),
         T::flush(),
-        write(poll.as_bytes()),
-        // Garbage (the old-rate ACK seen at the new rate), a line error, then the answer.
+        // Settling (3 ms): garbage (the old-rate ACK seen at the new rate), a line error.
         reply(&[0xFE, 0x00, 0xB5, 0x80]),
         T::read_error(nb::Error::Other(ErrorKind::FrameFormat)),
         idle(),
+        idle(),
+        idle(),
+        // Then the poll, and its answer confirms the new rate.
+        write(poll.as_bytes()),
         reply(&frame(0x06, 0x00, &prt.as_bytes()[6..26])),
     ];
     for cmd in cfg_commands(&config) {
@@ -368,7 +371,7 @@ fn baud_switch_when_the_ack_was_lost_is_confirmed_by_the_poll_answer() {
         script.push(reply(&ack(cmd.as_bytes())));
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 9_600);
+    let mut cfg = Configurator::<512>::new(config, 9_600).with_switch_settle_ms(3);
     assert_eq!(drive(&mut cfg, &mut serial), Ok(vec![460_800]));
     assert_eq!(cfg.line_errors(), 1);
     serial.done();
@@ -383,6 +386,8 @@ fn baud_switch_without_answer_goes_back_and_finally_fails() {
     for _ in 0..2 {
         script.push(write(prt.as_bytes()));
         script.push(T::flush());
+        // 2 ms settling, the poll, 5 ms of silence.
+        script.extend([idle(), idle()]);
         script.push(write(poll.as_bytes()));
         for _ in 0..6 {
             script.push(idle());
@@ -391,6 +396,7 @@ fn baud_switch_without_answer_goes_back_and_finally_fails() {
     let mut serial = Mock::new(&script);
     let mut cfg = Configurator::<512>::new(config, 9_600)
         .with_timeout_ms(5)
+        .with_switch_settle_ms(2)
         .with_retries(1);
     let mut switches = Vec::new();
     let mut result = Ok(());
@@ -431,7 +437,6 @@ fn run_blocking_applies_the_configuration() {
         reply(&mon_ver_reply()),
         write(prt.as_bytes()),
         T::flush(),
-        write(commands::poll_cfg_prt_uart1().as_bytes()),
         reply(&ack(prt.as_bytes())),
     ];
     for cmd in cfg_commands(&config) {
