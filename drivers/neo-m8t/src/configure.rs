@@ -229,6 +229,9 @@ impl<const N: usize> Configurator<N> {
 
     /// Advances the configuration: writes what can be written, reads what has arrived,
     /// checks deadlines against `now_ms` (any monotonic millisecond clock; wrapping is fine).
+    ///
+    /// Every phase has a deadline, including writing (a transmitter that never drains ends
+    /// in [`Error::Timeout`]). After an error, start again with a new `Configurator`.
     pub fn poll<S>(&mut self, serial: &mut S, now_ms: u32) -> Result<Progress, Error<S::Error>>
     where
         S: Read<u8> + Write<u8>,
@@ -245,11 +248,17 @@ impl<const N: usize> Configurator<N> {
                         }
                     }
                     self.tx_pos = 0;
+                    self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
                     self.phase = Phase::Sending;
                 }
                 Phase::Sending | Phase::SwitchedSending => {
                     if !self.write_pending(serial)? {
-                        return Ok(Progress::Pending);
+                        // A transmitter that never drains is a timeout too.
+                        return if expired(now_ms, self.deadline_ms) {
+                            Err(self.timeout_error())
+                        } else {
+                            Ok(Progress::Pending)
+                        };
                     }
                     self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
                     self.phase = if self.phase == Phase::SwitchedSending {
@@ -263,6 +272,9 @@ impl<const N: usize> Configurator<N> {
                 Phase::Flushing => {
                     match serial.flush() {
                         Ok(()) => {}
+                        Err(nb::Error::WouldBlock) if expired(now_ms, self.deadline_ms) => {
+                            return Err(self.timeout_error())
+                        }
                         Err(nb::Error::WouldBlock) => return Ok(Progress::Pending),
                         Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
                     }
@@ -283,6 +295,7 @@ impl<const N: usize> Configurator<N> {
                     if !expired(now_ms, self.deadline_ms) {
                         return Ok(Progress::Pending);
                     }
+                    self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
                     self.phase = Phase::SwitchedSending;
                 }
                 Phase::Awaiting | Phase::SwitchedAwaiting => {
@@ -305,10 +318,7 @@ impl<const N: usize> Configurator<N> {
                                 baud_rate: self.config.baud_rate,
                             }
                         } else {
-                            Error::Timeout {
-                                class: self.tx.class(),
-                                id: self.tx.id(),
-                            }
+                            self.timeout_error()
                         });
                     }
                     self.retries = self.retries.wrapping_add(1);
@@ -354,6 +364,13 @@ impl<const N: usize> Configurator<N> {
                     now_ms = now_ms.wrapping_add(1);
                 }
             }
+        }
+    }
+
+    fn timeout_error<E>(&self) -> Error<E> {
+        Error::Timeout {
+            class: self.tx.class(),
+            id: self.tx.id(),
         }
     }
 

@@ -506,3 +506,21 @@ mod chunked {
         }
     }
 }
+
+#[test]
+fn a_transmitter_that_never_drains_times_out() {
+    // The first byte of MON-VER never leaves: 0 ms .. 10 ms of WouldBlock.
+    let script: Vec<T> = (0..11)
+        .map(|_| T::write_error(0xB5, nb::Error::WouldBlock))
+        .collect();
+    let mut serial = Mock::new(&script);
+    let mut cfg = Configurator::<512>::new(Config::default(), 115_200).with_timeout_ms(10);
+    assert_eq!(
+        drive(&mut cfg, &mut serial),
+        Err(Error::Timeout {
+            class: 0x0A,
+            id: 0x04
+        })
+    );
+    serial.done();
+}
