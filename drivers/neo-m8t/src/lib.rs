@@ -110,7 +110,7 @@
 //!
 //! # Features
 //!
-//! - `embedded-io`: `IoSerial`, an adapter for embedded-io 0.7 `Read + ReadReady + Write +
+//! - `embedded-io` (default): `IoSerial`, an adapter for embedded-io 0.7 `Read + ReadReady + Write +
 //!   WriteReady` ports.
 //! - `defmt`: `defmt::Format` for the data and error types.
 #![no_std]
