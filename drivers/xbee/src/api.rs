@@ -50,6 +50,12 @@ impl<S, const N: usize> XBeeApi<S, N> {
         self.serial
     }
 
+    /// The serial port, for port settings such as its baud rate. Bytes written through it
+    /// bypass the frame encoder.
+    pub fn serial_mut(&mut self) -> &mut S {
+        &mut self.serial
+    }
+
     /// The next frame id for a request that wants a response (never 0).
     pub fn next_frame_id(&mut self) -> u8 {
         self.frame_ids.next_id()

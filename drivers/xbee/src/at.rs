@@ -276,6 +276,39 @@ mod tests {
     }
 
     #[test]
+    fn command_names_are_pinned() {
+        let pinned: [(AtCommand, &[u8; 2]); 24] = [
+            (AtCommand::ID, b"ID"),
+            (AtCommand::CH, b"CH"),
+            (AtCommand::SC, b"SC"),
+            (AtCommand::NI, b"NI"),
+            (AtCommand::BD, b"BD"),
+            (AtCommand::AP, b"AP"),
+            (AtCommand::PL, b"PL"),
+            (AtCommand::EE, b"EE"),
+            (AtCommand::KY, b"KY"),
+            (AtCommand::CE, b"CE"),
+            (AtCommand::SM, b"SM"),
+            (AtCommand::VR, b"VR"),
+            (AtCommand::HV, b"HV"),
+            (AtCommand::SH, b"SH"),
+            (AtCommand::SL, b"SL"),
+            (AtCommand::DH, b"DH"),
+            (AtCommand::DL, b"DL"),
+            (AtCommand::MY, b"MY"),
+            (AtCommand::GT, b"GT"),
+            (AtCommand::CT, b"CT"),
+            (AtCommand::CC, b"CC"),
+            (AtCommand::CN, b"CN"),
+            (AtCommand::WR, b"WR"),
+            (AtCommand::AC, b"AC"),
+        ];
+        for (command, name) in pinned {
+            assert_eq!(&command.0, name);
+        }
+    }
+
+    #[test]
     fn hex_replies() {
         assert_eq!(parse_hex(b"7FFF"), Some(0x7FFF));
         assert_eq!(parse_hex(b"c"), Some(0xC));

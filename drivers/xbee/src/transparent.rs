@@ -167,6 +167,12 @@ impl<S> Transparent<S> {
         self.serial
     }
 
+    /// The serial port, for port settings such as its baud rate after a `BD` change. Bytes
+    /// written through it bypass the command-mode guard.
+    pub fn serial_mut(&mut self) -> &mut S {
+        &mut self.serial
+    }
+
     /// The command-mode timing in use.
     pub fn timing(&self) -> CommandTiming {
         self.timing
