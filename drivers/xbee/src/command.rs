@@ -13,6 +13,9 @@ use crate::at::{format_line, is_error, is_ok, AtCommand, AtRequest};
 use crate::transparent::{State, Transparent};
 use crate::types::Error;
 
+/// `None`: the state changed, evaluate the new one in the same poll. `Some`: the poll's result.
+type Step<E> = Option<nb::Result<CommandOutcome, Error<E>>>;
+
 /// What a completed [`Transparent::poll`] reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -104,155 +107,192 @@ where
         loop {
             let since = *self.state_since.get_or_insert(now_ms);
             let elapsed = now_ms.wrapping_sub(since);
-            let reply_timeout = self.timing.reply_timeout_ms;
-            match self.state {
-                State::Transparent => return Ok(CommandOutcome::Idle),
-                State::Ready => {
-                    if self.surely_left(now_ms) {
-                        self.go(State::Transparent);
-                        return Ok(CommandOutcome::AutoExited);
-                    }
-                    return Ok(CommandOutcome::Idle);
+            let step = match self.state {
+                State::Transparent => Some(Ok(CommandOutcome::Idle)),
+                State::Ready => Some(self.step_ready(now_ms)),
+                State::Leaving => Some(self.step_leaving(now_ms)),
+                State::EnterWaitExit => self.step_wait_exit(now_ms),
+                State::EnterFlush => self.step_flush(elapsed),
+                State::EnterGuard => self.step_guard(elapsed),
+                State::EnterPlus { sent } => self.step_plus(sent, now_ms, elapsed),
+                State::EnterAwaitOk => Some(self.step_await_ok(elapsed)),
+                State::Sending { pos, exit } => self.step_sending(pos, exit, now_ms, elapsed),
+                State::AwaitReply { exit } => Some(self.step_await_reply(exit, elapsed)),
+            };
+            if let Some(result) = step {
+                return result;
+            }
+        }
+    }
+
+    // Each step returns `None` after a state change to be evaluated in the same poll, or the
+    // poll's result.
+
+    fn step_ready(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        if self.surely_left(now_ms) {
+            self.go(State::Transparent);
+            return Ok(CommandOutcome::AutoExited);
+        }
+        Ok(CommandOutcome::Idle)
+    }
+
+    fn step_leaving(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        if self.surely_left(now_ms) {
+            self.go(State::Transparent);
+            return Ok(CommandOutcome::Exited);
+        }
+        Err(nb::Error::WouldBlock)
+    }
+
+    fn step_wait_exit(&mut self, now_ms: u32) -> Step<E> {
+        if self.fresh(now_ms) {
+            self.go(State::Ready);
+            return Some(Ok(CommandOutcome::Entered));
+        }
+        if !self.surely_left(now_ms) {
+            return Some(Err(nb::Error::WouldBlock));
+        }
+        self.go(State::EnterFlush);
+        None
+    }
+
+    fn step_flush(&mut self, elapsed: u32) -> Step<E> {
+        match self.serial.flush() {
+            Ok(()) => {
+                self.go(State::EnterGuard);
+                None
+            }
+            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+                Some(Err(nb::Error::WouldBlock))
+            }
+            // Nothing of the command sequence went out: still transparent.
+            Err(nb::Error::WouldBlock) => Some(self.fail(State::Transparent, Error::Timeout)),
+            Err(nb::Error::Other(e)) => Some(self.fail(State::Transparent, Error::Comm(e))),
+        }
+    }
+
+    fn step_guard(&mut self, elapsed: u32) -> Step<E> {
+        if elapsed < self.timing.guard_time_ms {
+            return Some(Err(nb::Error::WouldBlock));
+        }
+        self.go(State::EnterPlus { sent: 0 });
+        None
+    }
+
+    fn step_plus(&mut self, sent: u8, now_ms: u32, elapsed: u32) -> Step<E> {
+        if sent >= 3 {
+            self.input_ms = now_ms;
+            self.confirmed_ms = None;
+            self.clear_line();
+            self.go(State::EnterAwaitOk);
+            return None;
+        }
+        let error = match self.serial.write(self.timing.command_character) {
+            Ok(()) => {
+                // Same state, same deadline: the three characters must go out together.
+                self.state = State::EnterPlus { sent: sent + 1 };
+                return None;
+            }
+            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+                return Some(Err(nb::Error::WouldBlock))
+            }
+            Err(nb::Error::WouldBlock) => Error::Timeout,
+            Err(nb::Error::Other(e)) => Error::Comm(e),
+        };
+        // Part of `+++` may be out: stay cautious until `CT` has passed.
+        self.input_ms = now_ms;
+        self.confirmed_ms = None;
+        Some(self.fail(State::Ready, error))
+    }
+
+    fn step_await_ok(&mut self, elapsed: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        loop {
+            match self.read_line() {
+                Ok(Some(())) if is_ok(self.reply()) && !self.line_overflow => {
+                    self.confirmed_ms = Some(self.input_ms);
+                    self.go(State::Ready);
+                    return Ok(CommandOutcome::Entered);
                 }
-                State::Leaving => {
-                    if self.surely_left(now_ms) {
-                        self.go(State::Transparent);
-                        return Ok(CommandOutcome::Exited);
-                    }
-                    return Err(nb::Error::WouldBlock);
+                Ok(Some(())) => {
+                    // Radio data that arrived before the switch.
+                    self.count_discarded(self.line_len + 1);
+                    self.clear_line();
                 }
-                State::EnterWaitExit => {
-                    if self.fresh(now_ms) {
-                        self.go(State::Ready);
-                        return Ok(CommandOutcome::Entered);
-                    }
-                    if !self.surely_left(now_ms) {
-                        return Err(nb::Error::WouldBlock);
-                    }
-                    self.go(State::EnterFlush);
+                Ok(None) => break,
+                Err(e) => return self.fail(State::Ready, Error::Comm(e)),
+            }
+        }
+        let deadline = self
+            .timing
+            .guard_time_ms
+            .saturating_add(self.timing.reply_timeout_ms);
+        if elapsed >= deadline {
+            self.count_discarded(self.line_len);
+            self.clear_line();
+            // The module may have switched without us hearing the `OK`.
+            return self.fail(State::Ready, Error::Timeout);
+        }
+        Err(nb::Error::WouldBlock)
+    }
+
+    fn step_sending(&mut self, pos: usize, exit: bool, now_ms: u32, elapsed: u32) -> Step<E> {
+        if pos == 0 {
+            if !self.fresh(now_ms) {
+                self.clear_line();
+                if exit {
+                    self.go(State::Leaving);
+                    return None;
                 }
-                State::EnterFlush => match self.serial.flush() {
-                    Ok(()) => self.go(State::EnterGuard),
-                    Err(nb::Error::WouldBlock) if elapsed < reply_timeout => {
-                        return Err(nb::Error::WouldBlock)
-                    }
-                    Err(nb::Error::WouldBlock) => {
-                        return self.fail(State::Transparent, Error::Timeout)
-                    }
-                    Err(nb::Error::Other(e)) => {
-                        return self.fail(State::Transparent, Error::Comm(e))
-                    }
-                },
-                State::EnterGuard => {
-                    if elapsed < self.timing.guard_time_ms {
-                        return Err(nb::Error::WouldBlock);
-                    }
-                    self.go(State::EnterPlus { sent: 0 });
-                }
-                State::EnterPlus { sent } => {
-                    if sent >= 3 {
-                        self.input_ms = now_ms;
-                        self.confirmed_ms = None;
-                        self.clear_line();
-                        self.go(State::EnterAwaitOk);
-                        continue;
-                    }
-                    match self.serial.write(self.timing.command_character) {
-                        // Same state, same deadline: the three characters must go out together.
-                        Ok(()) => self.state = State::EnterPlus { sent: sent + 1 },
-                        Err(nb::Error::WouldBlock) if elapsed < reply_timeout => {
-                            return Err(nb::Error::WouldBlock)
-                        }
-                        Err(e) => {
-                            let error = match e {
-                                nb::Error::Other(e) => Error::Comm(e),
-                                nb::Error::WouldBlock => Error::Timeout,
-                            };
-                            // Part of `+++` may be out: stay cautious until `CT` has passed.
-                            self.input_ms = now_ms;
-                            self.confirmed_ms = None;
-                            return self.fail(State::Ready, error);
-                        }
-                    }
-                }
-                State::EnterAwaitOk => {
-                    match self.read_line() {
-                        Ok(Some(())) => {
-                            if is_ok(self.reply()) && !self.line_overflow {
-                                self.confirmed_ms = Some(self.input_ms);
-                                self.go(State::Ready);
-                                return Ok(CommandOutcome::Entered);
-                            }
-                            // Radio data that arrived before the switch.
-                            self.count_discarded(self.line_len + 1);
-                            self.clear_line();
-                            continue;
-                        }
-                        Ok(None) => {}
-                        Err(e) => return self.fail(State::Ready, Error::Comm(e)),
-                    }
-                    if elapsed >= self.timing.guard_time_ms.saturating_add(reply_timeout) {
-                        self.count_discarded(self.line_len);
-                        self.clear_line();
-                        // The module may have switched without us hearing the `OK`.
-                        return self.fail(State::Ready, Error::Timeout);
-                    }
-                    return Err(nb::Error::WouldBlock);
-                }
-                State::Sending { pos, exit } => {
-                    if pos == 0 && !self.fresh(now_ms) {
-                        self.clear_line();
-                        if exit {
-                            self.go(State::Leaving);
-                            continue;
-                        }
-                        return self.fail(State::Ready, Error::NotInCommandMode);
-                    }
-                    if pos == 0 && self.stale_input {
-                        if let Err(e) = self.drain() {
-                            self.clear_line();
-                            return self.fail(State::Ready, Error::Comm(e));
-                        }
-                    }
-                    let Some(&byte) = self.line.get(pos).filter(|_| pos < self.line_len) else {
-                        self.input_ms = now_ms;
-                        self.clear_line();
-                        self.go(State::AwaitReply { exit });
-                        continue;
-                    };
-                    match self.serial.write(byte) {
-                        Ok(()) => self.state = State::Sending { pos: pos + 1, exit },
-                        Err(nb::Error::WouldBlock) if elapsed < reply_timeout => {
-                            return Err(nb::Error::WouldBlock)
-                        }
-                        Err(e) => {
-                            let error = match e {
-                                nb::Error::Other(e) => Error::Comm(e),
-                                nb::Error::WouldBlock => Error::Timeout,
-                            };
-                            if pos > 0 {
-                                self.input_ms = now_ms;
-                            }
-                            self.clear_line();
-                            return self.fail(State::Ready, error);
-                        }
-                    }
-                }
-                State::AwaitReply { exit } => {
-                    match self.read_line() {
-                        Ok(Some(())) => return self.finish_reply(exit),
-                        Ok(None) => {}
-                        Err(e) => return self.fail(State::Ready, Error::Comm(e)),
-                    }
-                    if elapsed >= reply_timeout {
-                        // A late answer must not be taken for the next command's reply.
-                        self.stale_input = true;
-                        return self.fail(State::Ready, Error::Timeout);
-                    }
-                    return Err(nb::Error::WouldBlock);
+                return Some(self.fail(State::Ready, Error::NotInCommandMode));
+            }
+            if self.stale_input {
+                if let Err(e) = self.drain() {
+                    self.clear_line();
+                    return Some(self.fail(State::Ready, Error::Comm(e)));
                 }
             }
         }
+        let Some(&byte) = self.line.get(..self.line_len).and_then(|l| l.get(pos)) else {
+            self.input_ms = now_ms;
+            self.clear_line();
+            self.go(State::AwaitReply { exit });
+            return None;
+        };
+        let error = match self.serial.write(byte) {
+            Ok(()) => {
+                self.state = State::Sending { pos: pos + 1, exit };
+                return None;
+            }
+            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+                return Some(Err(nb::Error::WouldBlock))
+            }
+            Err(nb::Error::WouldBlock) => Error::Timeout,
+            Err(nb::Error::Other(e)) => Error::Comm(e),
+        };
+        if pos > 0 {
+            // Part of the line is out: the module's `CT` timer may have restarted.
+            self.input_ms = now_ms;
+        }
+        self.clear_line();
+        Some(self.fail(State::Ready, error))
+    }
+
+    fn step_await_reply(
+        &mut self,
+        exit: bool,
+        elapsed: u32,
+    ) -> nb::Result<CommandOutcome, Error<E>> {
+        match self.read_line() {
+            Ok(Some(())) => return self.finish_reply(exit),
+            Ok(None) => {}
+            Err(e) => return self.fail(State::Ready, Error::Comm(e)),
+        }
+        if elapsed >= self.timing.reply_timeout_ms {
+            // A late answer must not be taken for the next command's reply.
+            self.stale_input = true;
+            return self.fail(State::Ready, Error::Timeout);
+        }
+        Err(nb::Error::WouldBlock)
     }
 
     fn finish_reply(&mut self, exit: bool) -> nb::Result<CommandOutcome, Error<E>> {
