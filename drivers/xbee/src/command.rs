@@ -104,6 +104,17 @@ where
     /// milliseconds while an operation is in progress (each call reads what has arrived), and
     /// now and then while in command mode so that a `CT` expiry is noticed.
     pub fn poll(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        self.delay_clock = false;
+        self.advance(now_ms)
+    }
+
+    /// [`poll`](Self::poll) on the blocking API's clock, which is counted from delays.
+    pub(crate) fn poll_delay_clock(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        self.delay_clock = true;
+        self.advance(now_ms)
+    }
+
+    fn advance(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
         loop {
             let since = *self.state_since.get_or_insert(now_ms);
             let elapsed = now_ms.wrapping_sub(since);
@@ -375,11 +386,18 @@ impl<S> Transparent<S> {
     }
 
     /// The module accepted a command recently enough that another one arrives before `CT`.
+    ///
+    /// On the blocking API's clock the window is halved: a `DelayNs` sleeps at least as long as
+    /// asked, often longer, so that clock runs slow, and here that errs on the unsafe side.
+    /// Halving allows the delays to take up to twice their nominal time.
     fn fresh(&self, now_ms: u32) -> bool {
-        let limit = self
+        let mut limit = self
             .timing
             .command_timeout_ms
             .saturating_sub(self.timing.reply_timeout_ms);
+        if self.delay_clock {
+            limit /= 2;
+        }
         self.confirmed_ms
             .is_some_and(|t| now_ms.wrapping_sub(t) < limit)
     }

@@ -23,9 +23,12 @@ where
 {
     /// Enters command mode, blocking for about two guard times (2 s by default).
     ///
-    /// Calls on the returned session must follow each other without long pauses: the `CT`
-    /// timeout is counted on the delays only. Leave with [`CommandSession::exit`]; dropping the
-    /// session leaves too, ignoring errors.
+    /// Calls on the returned session must follow each other without long pauses: time is
+    /// counted from the delays only, and a command is refused with
+    /// [`Error::NotInCommandMode`] once half of `CT` minus the reply timeout (4.5 s by default)
+    /// has passed on that clock since the last accepted command, rather than risk it arriving
+    /// after the module has left. Leave with [`CommandSession::exit`]; dropping the session
+    /// leaves too, ignoring errors.
     pub fn command_mode<'a, D: DelayNs>(
         &'a mut self,
         delay: &'a mut D,
@@ -45,7 +48,7 @@ where
     pub(crate) fn run<D: DelayNs>(&mut self, delay: &mut D) -> Result<CommandOutcome, Error<E>> {
         loop {
             let now_ms = (self.clock_us / 1000) as u32;
-            match self.poll(now_ms) {
+            match self.poll_delay_clock(now_ms) {
                 Ok(outcome) => return Ok(outcome),
                 Err(nb::Error::Other(e)) => return Err(e),
                 Err(nb::Error::WouldBlock) => {

@@ -135,6 +135,8 @@ pub struct Transparent<S> {
     pub(crate) discarded: u32,
     /// A reply timed out: drain the input before the next command.
     pub(crate) stale_input: bool,
+    /// The last poll came from the blocking API (its clock is counted from delays).
+    pub(crate) delay_clock: bool,
 }
 
 impl<S> Transparent<S> {
@@ -159,6 +161,7 @@ impl<S> Transparent<S> {
             clock_us: 0,
             discarded: 0,
             stale_input: false,
+            delay_clock: false,
         }
     }
 

@@ -382,3 +382,35 @@ fn blocking_command_never_answered_times_out() {
     core::mem::forget(s);
     r.release().done();
 }
+
+#[test]
+fn blocking_session_refuses_commands_after_half_the_ct_window() {
+    // Short timing to keep the transaction list small: GT 10 ms, CT 100 ms, replies 10 ms.
+    // On the delay-counted clock a command is only sent within (100 - 10) / 2 = 45 ms of the
+    // last accepted one (the OK of +++ at 10 ms). Each unanswered command costs 10 ms:
+    // 40 steps of 250 us, 41 reads.
+    let timing = CommandTiming::default()
+        .with_guard_time_ms(10)
+        .with_command_timeout_ms(100)
+        .with_reply_timeout_ms(10);
+    let mut expected = enter_ok();
+    for i in 0..5 {
+        if i > 0 {
+            expected.push(would_block()); // drain a late reply to the previous command
+        }
+        expected.push(Transaction::write_many(b"ATVR\r"));
+        expected.extend(std::iter::repeat_with(would_block).take(41));
+    }
+    let mut r = Transparent::with_timing(SerialMock::new(&expected), timing);
+    let mut delay = NoopDelay::new();
+    {
+        let mut s = r.command_mode(&mut delay).unwrap();
+        for _ in 0..5 {
+            assert_eq!(s.firmware_version(), Err(Error::Timeout)); // sent at 10, 20, ..., 50 ms
+        }
+        // At 60 ms, 50 ms after the last accepted command: refused, nothing sent.
+        assert_eq!(s.firmware_version(), Err(Error::NotInCommandMode));
+    } // dropped: too late for ATCN, waits until CT has surely passed instead
+    assert!(r.is_transparent());
+    r.release().done();
+}
