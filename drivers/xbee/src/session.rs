@@ -29,6 +29,9 @@ where
     /// has passed on that clock since the last accepted command, rather than risk it arriving
     /// after the module has left. Leave with [`CommandSession::exit`]; dropping the session
     /// leaves too, ignoring errors.
+    ///
+    /// If entering fails, the module may still have switched: data stays refused until
+    /// [`wait_until_transparent`](Self::wait_until_transparent) returns.
     pub fn command_mode<'a, D: DelayNs>(
         &'a mut self,
         delay: &'a mut D,
@@ -44,6 +47,29 @@ where
         }
     }
 
+    /// Blocks until data may flow again: finishes the command-mode operation in progress and,
+    /// if the module may still be in command mode (after a failed entry or a failed `ATCN`),
+    /// waits until `CT` has surely run out. At most `CT` plus the reply timeout (11 s by
+    /// default) after the last command-mode input.
+    pub fn wait_until_transparent<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
+        while !self.is_transparent() {
+            let now_ms = (self.clock_us / 1000) as u32;
+            match self.poll_delay_clock(now_ms) {
+                Ok(_) | Err(nb::Error::WouldBlock) => {}
+                Err(nb::Error::Other(e)) => return Err(e),
+            }
+            if !self.is_transparent() {
+                self.sleep_step(delay);
+            }
+        }
+        Ok(())
+    }
+
+    fn sleep_step<D: DelayNs>(&mut self, delay: &mut D) {
+        delay.delay_us(POLL_STEP_US);
+        self.clock_us = self.clock_us.wrapping_add(u64::from(POLL_STEP_US));
+    }
+
     /// Polls until the operation in progress ends, on the blocking API's own clock.
     pub(crate) fn run<D: DelayNs>(&mut self, delay: &mut D) -> Result<CommandOutcome, Error<E>> {
         loop {
@@ -51,10 +77,7 @@ where
             match self.poll_delay_clock(now_ms) {
                 Ok(outcome) => return Ok(outcome),
                 Err(nb::Error::Other(e)) => return Err(e),
-                Err(nb::Error::WouldBlock) => {
-                    delay.delay_us(POLL_STEP_US);
-                    self.clock_us = self.clock_us.wrapping_add(u64::from(POLL_STEP_US));
-                }
+                Err(nb::Error::WouldBlock) => self.sleep_step(delay),
             }
         }
     }

@@ -339,6 +339,7 @@ fn blocking_entry_against_a_silent_module_times_out() {
     let reads = (3000 - 1000) * 4 + 1;
     let mut expected = vec![Transaction::flush(), Transaction::write_many(b"+++")];
     expected.extend(std::iter::repeat_with(would_block).take(reads));
+    expected.push(Transaction::write(b'x'));
     let mut r = radio(&expected);
     let mut delay = NoopDelay::new();
     assert!(matches!(r.command_mode(&mut delay), Err(Error::Timeout)));
@@ -346,6 +347,9 @@ fn blocking_entry_against_a_silent_module_times_out() {
         r.write(b'x'),
         Err(nb::Error::Other(Error::CommandModeActive))
     );
+    // Waits out CT without touching the port, then data flows.
+    r.wait_until_transparent(&mut delay).unwrap();
+    r.write(b'x').unwrap();
     r.release().done();
 }
 
