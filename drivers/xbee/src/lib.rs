@@ -25,7 +25,11 @@
 //!   ([`CommandSession::set_power_level`]), encryption ([`CommandSession::set_encryption`],
 //!   [`CommandSession::set_encryption_key`], write-only), role ([`CommandSession::set_role`]),
 //!   versions ([`CommandSession::firmware_version`]), [`CommandSession::write_settings`]
-//!   (`WR`), [`CommandSession::apply_changes`] (`AC`) and [`CommandSession::exit`] (`CN`).
+//!   (`WR`), [`CommandSession::apply_changes`] (`AC`) and [`CommandSession::exit`] (`CN`);
+//!   [`Transparent::wait_until_transparent`] waits out `CT` after a failed entry.
+//!
+//! [`Transparent::mode`] tells where the driver believes the module is;
+//! [`Transparent::release`] gives the port back.
 //!
 //! # API mode (frames)
 //!
@@ -33,8 +37,9 @@
 //! escaping), and [`FrameDecoder`], a push-byte decoder that resynchronises on 0x7E, checks
 //! length and checksum, bounds the frame size and counts what it drops. [`Frame`] types the
 //! frames 0x08, 0x09, 0x10, 0x11, 0x17, 0x88, 0x8A, 0x8B, 0x90, 0x91 and 0x97, with
-//! [`Frame::Unknown`] for the rest. [`XBeeApi`] puts them on a serial port, with a
-//! [`FrameIdAllocator`].
+//! [`Frame::Unknown`] for the rest. [`XBeeApi`] puts them on a serial port
+//! ([`XBeeApi::send`], [`XBeeApi::send_at_command`], [`XBeeApi::transmit`],
+//! [`XBeeApi::poll_frame`]), with a [`FrameIdAllocator`].
 //!
 //! # Example: the DIMA byte pipe, and a setting changed in between
 //!
