@@ -159,3 +159,29 @@ fn unknown_frame_types_are_kept() {
         })
     );
 }
+
+#[test]
+fn frame_longer_than_the_length_field_is_refused() {
+    let data = vec![0u8; 65_535];
+    let frame = Frame::Unknown {
+        frame_type: 0xA1,
+        data: &data,
+    };
+    let mut out = vec![0u8; 70_000];
+    assert_eq!(
+        xbee_driver::encode(&frame, ApiEscaping::Unescaped, &mut out),
+        Err(FrameError::TooLong)
+    );
+    let fits = Frame::Unknown {
+        frame_type: 0xA1,
+        data: &data[1..],
+    };
+    assert_eq!(
+        xbee_driver::encode(&fits, ApiEscaping::Unescaped, &mut out),
+        Ok(65_535 + 4)
+    );
+    assert_eq!(
+        xbee_driver::encode(&fits, ApiEscaping::Unescaped, &mut out[..100]),
+        Err(FrameError::BufferTooSmall)
+    );
+}
