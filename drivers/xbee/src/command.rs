@@ -55,15 +55,23 @@ where
     /// Starts an AT command; then [`poll`](Self::poll) until it returns
     /// [`CommandOutcome::Reply`] or an error.
     ///
-    /// Commands whose reply spans several lines (`ND`, `AS`) are not supported.
+    /// Commands whose reply spans several lines (`ND`, `AS`) are not supported. A plain `CN`
+    /// is the same as [`start_exit`](Self::start_exit) (its poll ends with
+    /// [`CommandOutcome::Exited`]).
     pub fn start_command(&mut self, request: &AtRequest<'_>) -> Result<(), Error<E>> {
+        if *request == AtRequest::query(AtCommand::CN) {
+            return self.start_exit();
+        }
         match self.state {
             State::Ready => {}
             State::Transparent => return Err(Error::NotInCommandMode),
             _ => return Err(Error::Busy),
         }
         self.clear_line();
-        let n = format_line(request, &mut self.line).ok_or(Error::InvalidInput)?;
+        let Some(n) = format_line(request, &mut self.line) else {
+            self.clear_line();
+            return Err(Error::InvalidInput);
+        };
         self.line_len = n;
         self.go(State::Sending {
             pos: 0,

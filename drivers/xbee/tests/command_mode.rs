@@ -183,8 +183,10 @@ fn error_reply_is_an_error_and_command_mode_stays_open() {
     assert_eq!(r.poll(1100), Err(nb::Error::Other(Error::AtError)));
     assert_eq!(r.reply(), b"ERROR");
     assert_eq!(r.mode(), Mode::Command);
-    r.start_exit().unwrap();
+    // A hand-made CN is an exit too.
+    r.start_command(&AtRequest::query(AtCommand::CN)).unwrap();
     assert_eq!(r.poll(1200), Ok(CommandOutcome::Exited));
+    assert!(r.is_transparent());
     r.release().done();
 }
 
