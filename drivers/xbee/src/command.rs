@@ -1,6 +1,6 @@
 //! AT command mode as a state machine driven by the caller's clock.
 //!
-//! Entering: flush, `GT` of silence, `+++` (the `CC` character three times), `GT` of silence
+//! Entering: flush, `GT` (plus a small margin) of silence, `+++` (the `CC` character three times), `GT` of silence
 //! on the module's side, then `OK\r`. Each command is `AT<cmd><param>\r`, answered by one
 //! line: a value, `OK` or `ERROR`. `ATCN` leaves; the module also leaves by itself `CT` after
 //! the last valid command, and the driver tracks that deadline on both sides: it never sends
@@ -191,7 +191,11 @@ where
     }
 
     fn step_guard(&mut self, elapsed: u32) -> Step<E> {
-        if elapsed < self.timing.guard_time_ms {
+        let silence = self
+            .timing
+            .guard_time_ms
+            .saturating_add(self.timing.guard_margin_ms);
+        if elapsed < silence {
             return Some(Err(nb::Error::WouldBlock));
         }
         self.go(State::EnterPlus { sent: 0 });

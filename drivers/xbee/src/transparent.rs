@@ -17,6 +17,10 @@ use crate::types::Error;
 pub struct CommandTiming {
     /// `GT`: silence required before and after the command sequence, in ms (default 1000).
     pub guard_time_ms: u32,
+    /// Extra silence kept before `+++`, in ms (default 50): bytes can still be leaving a USB
+    /// serial adapter's FIFO after the host's flush returns, and a millisecond clock may be
+    /// up to 1 ms short. Waiting longer than `GT` is harmless.
+    pub guard_margin_ms: u32,
     /// `CT` × 100: the module leaves command mode after this long without a valid command,
     /// in ms (default 10 000).
     pub command_timeout_ms: u32,
@@ -32,6 +36,11 @@ impl CommandTiming {
     /// Sets the guard time (`GT`), in ms.
     pub const fn with_guard_time_ms(mut self, ms: u32) -> Self {
         self.guard_time_ms = ms;
+        self
+    }
+    /// Sets the extra silence kept before `+++`, in ms.
+    pub const fn with_guard_margin_ms(mut self, ms: u32) -> Self {
+        self.guard_margin_ms = ms;
         self
     }
     /// Sets the command-mode timeout (`CT` × 100), in ms.
@@ -55,6 +64,7 @@ impl Default for CommandTiming {
     fn default() -> Self {
         Self {
             guard_time_ms: 1000,
+            guard_margin_ms: 50,
             command_timeout_ms: 10_000,
             reply_timeout_ms: 1000,
             command_character: b'+',

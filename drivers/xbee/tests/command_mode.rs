@@ -16,8 +16,11 @@ fn would_block() -> Transaction<u8> {
     Transaction::read_error(nb::Error::WouldBlock)
 }
 
+/// Factory timing without the extra guard margin, so that the times in these tests are round
+/// numbers (`default_timing_keeps_a_guard_margin` covers the margin).
 fn radio(expected: &[Transaction<u8>]) -> Radio {
-    Transparent::new(SerialMock::new(expected))
+    let timing = CommandTiming::default().with_guard_margin_ms(0);
+    Transparent::with_timing(SerialMock::new(expected), timing)
 }
 
 /// The transactions of a successful entry: flush, `+++`, `OK\r`.
@@ -58,6 +61,26 @@ fn bytes_pass_through_in_transparent_mode() {
         r.read(),
         Err(nb::Error::Other(Error::Comm(ErrorKind::Overrun)))
     );
+    r.release().done();
+}
+
+#[test]
+fn default_timing_keeps_a_guard_margin() {
+    // Factory GT is 1 s; the driver keeps 50 ms more silence before +++.
+    let timing = CommandTiming::default();
+    assert_eq!(
+        (
+            timing.guard_time_ms,
+            timing.guard_margin_ms,
+            timing.command_character
+        ),
+        (1000, 50, b'+')
+    );
+    let mut r = Transparent::new(SerialMock::new(&enter_ok()));
+    r.start_command_mode().unwrap();
+    assert_eq!(r.poll(7), Err(nb::Error::WouldBlock));
+    assert_eq!(r.poll(1056), Err(nb::Error::WouldBlock));
+    assert_eq!(r.poll(1057), Ok(CommandOutcome::Entered));
     r.release().done();
 }
 
@@ -398,7 +421,8 @@ fn blocking_session_refuses_commands_after_half_the_ct_window() {
     let timing = CommandTiming::default()
         .with_guard_time_ms(10)
         .with_command_timeout_ms(100)
-        .with_reply_timeout_ms(10);
+        .with_reply_timeout_ms(10)
+        .with_guard_margin_ms(0);
     let mut expected = enter_ok();
     for i in 0..5 {
         if i > 0 {
