@@ -211,6 +211,27 @@ pub struct AtResponse<'a> {
     pub data: &'a [u8],
 }
 
+impl AtResponse<'_> {
+    /// The value of a numeric query, read big-endian (1 to 8 bytes); `None` otherwise.
+    pub fn number(&self) -> Option<u64> {
+        be_number(self.data)
+    }
+}
+
+impl RemoteAtResponse<'_> {
+    /// The value of a numeric query, read big-endian (1 to 8 bytes); `None` otherwise.
+    pub fn number(&self) -> Option<u64> {
+        be_number(self.data)
+    }
+}
+
+fn be_number(bytes: &[u8]) -> Option<u64> {
+    if bytes.is_empty() || bytes.len() > 8 {
+        return None;
+    }
+    Some(bytes.iter().fold(0u64, |acc, &b| (acc << 8) | u64::from(b)))
+}
+
 /// Transmit status (0x8B).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -647,6 +668,20 @@ mod tests {
             );
         }
         assert_eq!(Frame::parse(&[]), Err(FrameError::Empty));
+    }
+
+    #[test]
+    fn numeric_responses() {
+        let response = |data| AtResponse {
+            frame_id: 1,
+            command: AtCommand::ID,
+            status: CommandStatus::Ok,
+            data,
+        };
+        assert_eq!(response(&[0x7F, 0xFF]).number(), Some(0x7FFF));
+        assert_eq!(response(&[]).number(), None);
+        assert_eq!(response(&[1; 9]).number(), None);
+        assert_eq!(response(&[0xFF; 8]).number(), Some(u64::MAX));
     }
 
     #[test]
