@@ -254,7 +254,10 @@ where
         self.set(&AtRequest::set(command, parameter))
     }
 
-    /// Leaves command mode (`ATCN`); data passes again afterwards.
+    /// Leaves command mode (`ATCN`); data passes again afterwards. If `CT` is too close for
+    /// `ATCN`, it waits until the module has surely left instead. On an error the module may
+    /// still be in command mode: data stays refused until
+    /// [`Transparent::wait_until_transparent`] returns.
     pub fn exit(mut self) -> Result<(), Error<E>> {
         self.open = false;
         self.leave()
