@@ -35,7 +35,7 @@ fn command_mode_refuses_instead_of_blocking() {
     let mut radio = Transparent::new(serial);
     radio.start_command_mode().unwrap();
     assert!(radio.poll(0).is_err());
-    assert!(radio.poll(1000).is_err()); // +++ out, waiting for OK
+    assert!(radio.poll(1050).is_err()); // GT + margin: +++ out, waiting for OK
     let mut buf = [0u8; 4];
     assert_eq!(
         embedded_io::Read::read(&mut radio, &mut buf),
