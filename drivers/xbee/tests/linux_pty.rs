@@ -72,7 +72,7 @@ fn simulated_module(mut port: TTYPort, stop: Arc<AtomicBool>) -> Seen {
                             mode = Mode::AfterPlus(now);
                         }
                     } else {
-                        seen.radio.extend(std::iter::repeat(b'+').take(pluses));
+                        seen.radio.extend(std::iter::repeat_n(b'+', pluses));
                         pluses = 0;
                         seen.radio.push(b);
                     }
