@@ -81,6 +81,8 @@ enum Step {
 pub struct StreamDecoder {
     buf: [u8; BUFFER_LEN],
     len: usize,
+    /// Candidates after the front that end at or before this length were already checked.
+    nested_checked: usize,
     stats: DecoderStats,
 }
 
@@ -100,6 +102,7 @@ impl StreamDecoder {
         Self {
             buf: [0; BUFFER_LEN],
             len: 0,
+            nested_checked: 0,
             stats: DecoderStats {
                 packets: 0,
                 info_frames: 0,
@@ -133,22 +136,17 @@ impl StreamDecoder {
     pub fn feed(&mut self, input: &mut &[u8]) -> Option<Frame> {
         loop {
             match self.examine() {
-                Step::Frame(frame, len) => {
-                    self.drain(len);
-                    match frame {
-                        Frame::Packet(_) => self.stats.packets = self.stats.packets.wrapping_add(1),
-                        Frame::Info(_) => {
-                            self.stats.info_frames = self.stats.info_frames.wrapping_add(1);
-                        }
-                    }
-                    return Some(frame);
-                }
+                Step::Frame(frame, len) => return Some(self.take_frame(frame, len)),
                 Step::Reject(count) => self.skip(count),
                 Step::CrcError => {
                     self.stats.crc_errors = self.stats.crc_errors.wrapping_add(1);
                     self.skip(1);
                 }
                 Step::NeedMore(count) => {
+                    if let Some((start, frame, len)) = self.nested_frame() {
+                        self.skip(start);
+                        return Some(self.take_frame(frame, len));
+                    }
                     if input.is_empty() {
                         return None;
                     }
@@ -212,6 +210,52 @@ impl StreamDecoder {
         }
     }
 
+    fn take_frame(&mut self, frame: Frame, len: usize) -> Frame {
+        self.drain(len);
+        match frame {
+            Frame::Packet(_) => self.stats.packets = self.stats.packets.wrapping_add(1),
+            Frame::Info(_) => self.stats.info_frames = self.stats.info_frames.wrapping_add(1),
+        }
+        frame
+    }
+
+    /// While the candidate at the front is still incomplete, looks for a complete, valid frame
+    /// that starts later in the buffer (its start, the frame and its length).
+    ///
+    /// A false start in noise (a stray `$$`, or `$I` with a large length) would otherwise hold
+    /// a real frame behind it until enough further bytes arrive to reject it: with a board that
+    /// only answers requests, that is a whole request period late. A valid CRC inside the
+    /// buffer settles it at once. Each candidate is checked once, when its last byte arrives.
+    fn nested_frame(&mut self) -> Option<(usize, Frame, usize)> {
+        let checked = self.nested_checked;
+        let buf = &self.buf[..self.len];
+        for start in 1..buf.len() {
+            if buf[start] != DOLLAR {
+                continue;
+            }
+            let candidate = &buf[start..];
+            let total = match candidate {
+                [_, second, ..] if *second == PACKET_START[1] => PACKET_LEN,
+                [_, second, version, payload_len, ..] if *second == INFO_START[1] => {
+                    match info_frame_len([DOLLAR, *second, *version, *payload_len]) {
+                        Ok(total) => total,
+                        Err(_) => continue,
+                    }
+                }
+                _ => continue,
+            };
+            let end = start + total;
+            if end <= checked || end > buf.len() {
+                continue;
+            }
+            if let Step::Frame(frame, len) = Self::examine_candidate(candidate) {
+                return Some((start, frame, len));
+            }
+        }
+        self.nested_checked = self.len;
+        None
+    }
+
     fn examine(&self) -> Step {
         let buf = &self.buf[..self.len];
         match buf {
@@ -220,6 +264,13 @@ impl StreamDecoder {
                 Step::Reject(1 + rest.iter().position(|&b| b == DOLLAR).unwrap_or(rest.len()))
             }
             [_] => Step::NeedMore(1),
+            _ => Self::examine_candidate(buf),
+        }
+    }
+
+    /// Examines a candidate that starts with `$` and has at least two bytes.
+    fn examine_candidate(buf: &[u8]) -> Step {
+        match buf {
             [_, second, ..] if *second == PACKET_START[1] => Self::examine_packet(buf),
             [_, second, ..] if *second == INFO_START[1] => Self::examine_info(buf),
             _ => Step::Reject(1),
@@ -270,6 +321,7 @@ impl StreamDecoder {
         let count = count.min(self.len);
         self.buf.copy_within(count..self.len, 0);
         self.len -= count;
+        self.nested_checked = self.nested_checked.saturating_sub(count);
     }
 }
 
