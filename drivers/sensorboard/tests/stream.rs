@@ -250,8 +250,6 @@ fn item() -> impl Strategy<Value = (Frame, Vec<u8>)> {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
-
     #[test]
     fn noisy_stream_in_random_chunks_yields_exactly_the_frames(
         items in proptest::collection::vec((noise(), item()), 0..8),
@@ -272,6 +270,27 @@ proptest! {
         assert_accounted(&decoder, stream.len(), &frames);
         let stats = decoder.stats();
         prop_assert_eq!(stats.packets + stats.info_frames, expected.len() as u64);
+    }
+
+    #[test]
+    fn each_frame_comes_out_as_soon_as_its_last_byte_is_in(
+        items in proptest::collection::vec((noise(), item()), 1..6),
+        sizes in proptest::collection::vec(1usize..200, 1..16),
+    ) {
+        // The board answers only when asked: a frame held back until more bytes arrive would
+        // be a whole request period late.
+        let mut decoder = StreamDecoder::new();
+        let mut fed = 0;
+        let mut frames = Vec::new();
+        for (i, (noise, (frame, bytes))) in items.iter().enumerate() {
+            let mut answer = noise.clone();
+            answer.extend_from_slice(bytes);
+            frames.extend(decode_chunked(&mut decoder, &answer, &sizes));
+            fed += answer.len();
+            prop_assert_eq!(frames.len(), i + 1, "frame {} held back", i);
+            prop_assert_eq!(frames[i], *frame);
+        }
+        assert_accounted(&decoder, fed, &frames);
     }
 
     #[test]
