@@ -7,7 +7,7 @@
 //! frame right behind a torn one is still found.
 
 use crate::crc::Stm32Crc;
-use crate::info::{info_frame_len, InfoFrame, INFO_MAX_LEN, INFO_START};
+use crate::info::{info_frame_len, InfoFrame, INFO_MAX_LEN, INFO_START, INFO_V1_LEN};
 use crate::packet::{RawPacket, PACKET_LEN, PACKET_START};
 
 /// One complete, CRC-checked frame from the sensor board.
@@ -42,6 +42,9 @@ const BUFFER_LEN: usize = if INFO_MAX_LEN > PACKET_LEN {
 };
 
 const DOLLAR: u8 = b'$';
+
+/// The shortest frame: a version 1 info frame.
+const MIN_FRAME_LEN: usize = INFO_V1_LEN;
 
 /// Info candidates after the front that the decoder keeps track of at once.
 const PENDING_INFO: usize = 4;
@@ -172,6 +175,12 @@ impl StreamDecoder {
                         }
                     }
                     let take = count.min(input.len()).min(BUFFER_LEN - self.len);
+                    if take == 0 {
+                        // Cannot happen (a candidate never needs more than the buffer holds),
+                        // but progress must not depend on that: drop the front byte.
+                        self.skip(1);
+                        continue;
+                    }
                     let (head, rest) = input.split_at(take);
                     self.buf[self.len..self.len + take].copy_from_slice(head);
                     self.len += take;
@@ -186,6 +195,10 @@ impl StreamDecoder {
     /// The byte is always consumed. Rarely (after a rejected candidate) more than one frame can
     /// become complete at once; the next call, or [`StreamDecoder::next_buffered`], returns it.
     pub fn push(&mut self, byte: u8) -> Option<Frame> {
+        // A complete frame can only be waiting if at least the shortest frame is buffered.
+        if self.len < MIN_FRAME_LEN {
+            return self.feed(&mut core::slice::from_ref(&byte));
+        }
         if let Some(frame) = self.next_buffered() {
             // Keep the byte: the buffer has room, since a frame was just taken out of it.
             self.append_one(byte);

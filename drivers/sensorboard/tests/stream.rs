@@ -199,6 +199,43 @@ fn every_single_bit_flip_of_an_info_frame_is_rejected_in_a_stream() {
 }
 
 #[test]
+fn info_frame_from_a_future_version() {
+    // Version 2, L = 60: 8 unknown payload bytes are skipped, the CRC covers all of them.
+    let mut frame = vec![b'$', b'I', 2, 60];
+    frame.extend_from_slice(&InfoFrame::default().encode()[4..56]);
+    frame[4..7].copy_from_slice(&[3, 2, 1]);
+    frame.extend_from_slice(&[0x24; 8]);
+    let crc = dima_sensorboard::crc::crc32_bitwise(&frame);
+    frame.extend_from_slice(&crc.to_le_bytes());
+    let mut stream = frame.clone();
+    stream.extend_from_slice(&packet(6));
+
+    let mut decoder = StreamDecoder::new();
+    let frames = decode_chunked(&mut decoder, &stream, &[5]);
+    match frames.as_slice() {
+        [Frame::Info(info), Frame::Packet(raw)] => {
+            assert_eq!(info.version, 2);
+            assert_eq!(info.firmware, [3, 2, 1]);
+            assert_eq!(raw.into_bytes(), packet(6));
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+    assert_eq!(decoder.stats().bytes_skipped, 0);
+}
+
+#[test]
+fn oversized_info_length_is_a_bad_header() {
+    // L = 201 is above the cap: the header is dropped at once, nothing waits for 209 bytes.
+    let mut stream = vec![b'$', b'I', 1, 201];
+    stream.extend_from_slice(&packet(6));
+    let mut decoder = StreamDecoder::new();
+    let frames = decode_chunked(&mut decoder, &stream, &[1]);
+    assert_eq!(packets_of(&frames), vec![packet(6)]);
+    assert_eq!(decoder.stats().bytes_skipped, 4);
+    assert_eq!(decoder.stats().crc_errors, 0);
+}
+
+#[test]
 fn push_byte_by_byte() {
     let mut stream = b"$$$I\x01\x34garbage$".to_vec();
     stream.extend_from_slice(&packet(1));
