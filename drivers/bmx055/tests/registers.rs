@@ -86,6 +86,8 @@ fn accelerometer_bits() {
         (a::FIFO_OVERRUN, 0x80),
         (a::FIFO_FRAME_COUNTER, 0x7F),
         (a::SELF_TEST_SIGN, 0x04),
+        // Bosch BMA2 SensorAPI bma2_defs.h: BMA2_ACCEL_SELFTEST_AMP_MSK 0x10.
+        (a::SELF_TEST_AMP, 0x10),
         (a::OFFSET_RESET, 0x80),
         (a::CAL_RDY, 0x10),
         (a::CAL_TRIGGER_SHIFT, 5),
