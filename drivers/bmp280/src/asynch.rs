@@ -170,7 +170,9 @@ where
         self.start_forced().await?;
         delay.delay_us(self.config.measurement_time_typ_us()).await;
         for _ in 0..sequence::forced_polls(&self.config) {
-            if !self.is_measuring().await? {
+            let mut regs = [0u8; 2];
+            self.read(register::STATUS, &mut regs).await?;
+            if !sequence::forced_busy(regs[0], regs[1]) {
                 let raw = self.read_raw().await?;
                 return Ok(compensation::compensate(&calibration, raw)?);
             }
