@@ -7,7 +7,7 @@ use embedded_hal_async::delay::DelayNs;
 
 use crate::calibration::Calibration;
 use crate::compensation::{self, Measurement};
-use crate::config::Config;
+use crate::config::{Config, PowerMode};
 use crate::interface::{AsyncInterface, I2cInterface, SpiInterface};
 use crate::raw::RawSample;
 use crate::register::{self, Status};
@@ -149,10 +149,13 @@ where
         Ok(Config::from_registers(regs[0], regs[1]))
     }
 
-    /// Starts one forced measurement with the configured oversampling and filter.
+    /// Starts one forced measurement with the configured oversampling and filter; afterwards
+    /// [`Bmp280Async::config`] reports forced mode.
     pub async fn start_forced(&mut self) -> Result<(), Error<E>> {
         self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))
-            .await
+            .await?;
+        self.config.mode = PowerMode::Forced;
+        Ok(())
     }
 
     /// True while a conversion runs (`status` bit 3).

@@ -4,7 +4,7 @@ use embedded_hal::delay::DelayNs;
 
 use crate::calibration::Calibration;
 use crate::compensation::{self, Measurement};
-use crate::config::Config;
+use crate::config::{Config, PowerMode};
 use crate::interface::{I2cInterface, Interface, SpiInterface};
 use crate::raw::RawSample;
 use crate::register::{self, Status};
@@ -162,8 +162,13 @@ where
     /// Starts one forced measurement with the configured oversampling and filter. Poll with
     /// [`Bmp280::poll_forced`]; the result is ready after
     /// [`Config::measurement_time_typ_us`] to [`Config::measurement_time_max_us`].
+    ///
+    /// This leaves normal mode if it was configured: afterwards [`Bmp280::config`] reports
+    /// forced mode, and the device sleeps once the measurement is done.
     pub fn start_forced(&mut self) -> Result<(), Error<E>> {
-        self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))
+        self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))?;
+        self.config.mode = PowerMode::Forced;
+        Ok(())
     }
 
     /// True while a conversion runs (`status` bit 3).

@@ -377,6 +377,25 @@ fn forced_start_keeps_the_configured_oversampling() {
 }
 
 #[test]
+fn a_forced_start_from_normal_mode_is_reported_by_config() {
+    // DIMA preset (normal, x1/x1: 0x27), then one forced measurement with the same
+    // oversampling (0x25): the device sleeps afterwards, and `config()` must not claim normal.
+    let expectations = [
+        spi_write(0x74, 0x24),
+        spi_write(0x75, 0x00),
+        spi_write(0x74, 0x27),
+        spi_write(0x74, 0x25),
+    ]
+    .concat();
+    let mut bmp = driver(&expectations);
+    bmp.configure(Config::dima()).unwrap();
+    assert_eq!(bmp.config().mode, PowerMode::Normal);
+    bmp.start_forced().unwrap();
+    assert_eq!(bmp.config(), Config::dima().with_mode(PowerMode::Forced));
+    bmp.release().done();
+}
+
+#[test]
 fn soft_reset_alone() {
     let mut bmp = driver(&spi_write(0x60, 0xB6));
     let mut delay = CheckedDelay::new(&[D::delay_us(2000)]);
