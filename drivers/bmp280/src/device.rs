@@ -64,6 +64,7 @@ impl<IFACE> Bmp280<IFACE> {
 
     /// Lets [`Bmp280::init`] accept a BME280 (chip id 0x60) and drive its pressure and
     /// temperature part; by default a BME280 is rejected with [`Error::Bme280NotAccepted`].
+    /// On a BME280 the two longest standby codes mean 10 ms and 20 ms (see [`Chip::Bme280`]).
     pub const fn accept_bme280(mut self, accept: bool) -> Self {
         self.accept_bme280 = accept;
         self
