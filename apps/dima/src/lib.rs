@@ -1,0 +1,9 @@
+//! The DIMA robot's realtime control application.
+//!
+//! `main` only parses the command line and the configuration and wires the parts together:
+//! - [`config`]: the TOML configuration with documented defaults;
+
+#![deny(missing_docs)]
+
+pub mod cli;
+pub mod config;
