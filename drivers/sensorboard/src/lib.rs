@@ -1,6 +1,81 @@
-//! The DIMA sensor-board link.
+//! The DIMA sensor-board link: the 132-byte v1 sensor packet, the info frame, the STM32 CRC
+//! that protects both, a resynchronising stream decoder and a host driver.
+//!
+//! The sensor board (an STM32F4 with a BMX055 IMU, a BMP280 barometer and a u-blox M8 GNSS
+//! receiver) answers each rising edge on a request line with one packet on a UART. This crate
+//! is the single codec for that link, shared by the firmware, the realtime app, the simulator
+//! and the tools.
+//!
+//! # Features
+//! - Packet v1, bit-exact with the original board: [`SensorPacket::encode`] /
+//!   [`SensorPacket::decode`], raw signed counts after the arithmetic shifts, raw 20-bit BMP280
+//!   values, and the NAV-PVT frame kept verbatim ([`GnssFrame`]) and parsed with the `ublox`
+//!   crate into typed fields ([`NavPvt`]). An all-zero or damaged GNSS area means "no GNSS",
+//!   never a bad packet.
+//! - The STM32 CRC (each byte as a zero-extended 32-bit word, CRC-32/MPEG-2): a bitwise
+//!   reference model [`crc::crc32_bitwise`], a table-driven [`Stm32Crc`], and the [`SensorCrc`]
+//!   trait through which the firmware plugs in the hardware CRC unit.
+//! - Board side: [`PacketBuilder`] assembles a packet from register bytes or counts and the
+//!   latest NAV-PVT frame, and fills the CRC through [`SensorCrc`].
+//! - The info frame ([`InfoFrame`], start token `$I`): firmware version, sensor status, BMP280
+//!   calibration and BMM150 trim registers, uptime and skipped requests; its layout and trigger
+//!   are documented in [`info`].
+//! - A sans-IO [`StreamDecoder`]: any chunking, no allocation, bounded buffer, resynchronises
+//!   inside rejected bytes, counts what it drops ([`DecoderStats`]); yields [`Frame`]s.
+//! - A host driver [`SensorBoard`], generic over an embedded-hal [`OutputPin`] (request line)
+//!   and an embedded-hal-nb serial [`Read`] (works with linux-embedded-hal's `Serial` and
+//!   `CdevPin`): [`SensorBoard::request`], [`SensorBoard::end_request`],
+//!   [`SensorBoard::poll`]. It never sleeps.
+//! - Physical units for the configured ranges in [`units`] (kept out of the decoder).
+//! - `defmt` feature: `defmt::Format` for the public types.
+//!
+//! # Usage
+//! ```
+//! use dima_sensorboard::{Frame, SensorBoard, SensorPacket};
+//! use embedded_hal_mock::eh1::digital::{Mock as PinMock, State, Transaction as PinTx};
+//! use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction as SerialTx};
+//!
+//! // What the board would answer.
+//! let answer = SensorPacket { accel: [10, -20, 1000], ..SensorPacket::default() }.encode();
+//!
+//! let pin = PinMock::new(&[PinTx::set(State::High), PinTx::set(State::Low)]);
+//! let serial = SerialMock::new(&[SerialTx::read_many(answer)]);
+//! let mut board = SensorBoard::new(pin, serial);
+//!
+//! board.request().unwrap();
+//! board.end_request().unwrap();
+//! // In a real loop, poll until a deadline; here the whole answer is already there.
+//! let frame = nb::block!(board.poll()).unwrap();
+//! let Frame::Packet(raw) = frame else { panic!("expected a packet") };
+//! let packet = raw.decode();
+//! assert_eq!(packet.accel, [10, -20, 1000]);
+//! assert!(packet.nav_pvt().is_none()); // no GNSS frame yet
+//! assert_eq!(board.stats().packets, 1);
+//!
+//! let (mut pin, mut serial) = board.release();
+//! pin.done();
+//! serial.done();
+//! ```
+//!
+//! [`OutputPin`]: embedded_hal::digital::OutputPin
+//! [`Read`]: embedded_hal_nb::serial::Read
 #![no_std]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+mod builder;
 pub mod crc;
+mod driver;
+pub mod gnss;
+pub mod info;
+pub mod packet;
+pub mod stream;
+pub mod units;
+
+pub use builder::PacketBuilder;
+pub use crc::{SensorCrc, Stm32Crc};
+pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
+pub use gnss::{FixType, GnssFrame, NavPvt, ValidFlags, GNSS_FRAME_LEN};
+pub use info::{InfoError, InfoFrame, SensorStatus, INFO_V1_LEN};
+pub use packet::{PacketError, RawPacket, SensorPacket, PACKET_LEN};
+pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};

@@ -1,0 +1,244 @@
+//! The info frame: calibration and health, sent next to the unchanged v1 packet.
+//!
+//! Layout of version 1 (60 bytes, multi-byte fields little-endian):
+//!
+//! | offset | size | content |
+//! |---|---|---|
+//! | 0-1 | 2 | start token `$I` (0x24 0x49) |
+//! | 2 | 1 | format version = 1 |
+//! | 3 | 1 | payload length L = 52 |
+//! | 4-6 | 3 | firmware version major, minor, patch |
+//! | 7 | 1 | sensor status bits ([`SensorStatus`]) |
+//! | 8-31 | 24 | BMP280 calibration registers 0x88..=0x9F as read |
+//! | 32-47 | 16 | BMM150 trim registers 0x5D..=0x5E, 0x62..=0x65, 0x68..=0x71 as read |
+//! | 48-51 | 4 | uptime, ms (u32) |
+//! | 52-55 | 4 | requests skipped because a transfer was still running (u32) |
+//! | 56-59 | 4 | sensor CRC ([`crate::crc`]) over bytes 0-55, u32 LE |
+//!
+//! **Trigger.** The board appends an info frame right after the packet (same answer, packet
+//! first) in answer to the first request after boot, and to any request that arrives 500 ms or
+//! more after the previous one (the host has just started or restarted). It never sends one
+//! unrequested.
+//!
+//! **Future versions.** Decoders accept a version other than 1 with a larger L: the CRC covers
+//! the 4 header bytes and all L payload bytes, the first 52 payload bytes are read as above and
+//! the rest are skipped. L is capped at [`INFO_MAX_PAYLOAD_LEN`] so memory stays bounded.
+
+use bitflags::bitflags;
+
+use crate::crc::{SensorCrc, Stm32Crc};
+
+/// The start token of an info frame.
+pub const INFO_START: [u8; 2] = *b"$I";
+
+/// The format version this crate writes.
+pub const INFO_VERSION: u8 = 1;
+
+/// Payload length L of a version 1 frame (bytes 4..=55).
+pub const INFO_V1_PAYLOAD_LEN: u8 = 52;
+
+/// Total length of a version 1 frame.
+pub const INFO_V1_LEN: usize = 4 + INFO_V1_PAYLOAD_LEN as usize + 4;
+
+/// Largest payload length L a decoder accepts (from a future version). Longer claims are
+/// treated as a corrupt header.
+pub const INFO_MAX_PAYLOAD_LEN: u8 = 200;
+
+/// Largest info frame a decoder accepts, in bytes.
+pub const INFO_MAX_LEN: usize = 4 + INFO_MAX_PAYLOAD_LEN as usize + 4;
+
+bitflags! {
+    /// Health of the board's sensors, info frame byte 7.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+    pub struct SensorStatus: u8 {
+        /// The accelerometer answered with its chip id and was configured.
+        const ACCEL_OK = 1 << 0;
+        /// The gyroscope answered with its chip id and was configured.
+        const GYRO_OK = 1 << 1;
+        /// The magnetometer answered with its chip id and was configured.
+        const MAG_OK = 1 << 2;
+        /// The BMP280 answered with its chip id and was configured.
+        const BMP280_OK = 1 << 3;
+        /// At least one valid NAV-PVT frame arrived from the GNSS receiver.
+        const GNSS_SEEN = 1 << 4;
+        /// The last reset was caused by the independent watchdog.
+        const WATCHDOG_RESET = 1 << 5;
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl defmt::Format for SensorStatus {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(f, "SensorStatus({=u8:#04x})", self.bits());
+    }
+}
+
+/// Why bytes are not a valid info frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum InfoError {
+    /// The first two bytes are not `$I`.
+    StartToken,
+    /// Version 0, or L smaller than the version 1 payload or above [`INFO_MAX_PAYLOAD_LEN`].
+    Header {
+        /// Format version byte.
+        version: u8,
+        /// Payload length byte.
+        payload_len: u8,
+    },
+    /// Fewer bytes than the header announces.
+    Truncated {
+        /// Bytes the frame needs in total.
+        needed: usize,
+    },
+    /// The CRC does not match.
+    Checksum {
+        /// CRC computed over the header and payload.
+        computed: u32,
+        /// CRC carried in the frame.
+        received: u32,
+    },
+}
+
+impl core::fmt::Display for InfoError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::StartToken => f.write_str("info frame does not start with `$I`"),
+            Self::Header {
+                version,
+                payload_len,
+            } => write!(
+                f,
+                "info frame header not accepted: version {version}, payload length {payload_len}"
+            ),
+            Self::Truncated { needed } => write!(f, "info frame truncated: needs {needed} bytes"),
+            Self::Checksum { computed, received } => write!(
+                f,
+                "info frame CRC mismatch: computed {computed:#010x}, received {received:#010x}"
+            ),
+        }
+    }
+}
+
+impl core::error::Error for InfoError {}
+
+/// Checks the 4 header bytes of an info frame and returns its total length.
+///
+/// # Errors
+/// [`InfoError::StartToken`] or [`InfoError::Header`].
+pub fn info_frame_len(header: [u8; 4]) -> Result<usize, InfoError> {
+    if header[..2] != INFO_START {
+        return Err(InfoError::StartToken);
+    }
+    let (version, payload_len) = (header[2], header[3]);
+    if version == 0 || !(INFO_V1_PAYLOAD_LEN..=INFO_MAX_PAYLOAD_LEN).contains(&payload_len) {
+        return Err(InfoError::Header {
+            version,
+            payload_len,
+        });
+    }
+    Ok(4 + usize::from(payload_len) + 4)
+}
+
+/// Calibration and health of the sensor board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct InfoFrame {
+    /// Format version of the frame as received (1 for frames this crate writes).
+    pub version: u8,
+    /// Firmware version: major, minor, patch.
+    pub firmware: [u8; 3],
+    /// Sensor status bits. Bits this crate does not know are kept.
+    pub status: SensorStatus,
+    /// BMP280 calibration registers 0x88..=0x9F, exactly as read (dig_T1..dig_P9, LE).
+    pub bmp280_calibration: [u8; 24],
+    /// BMM150 trim registers as read: 0x5D..=0x5E (2 bytes), 0x62..=0x65 (4), 0x68..=0x71 (10).
+    pub bmm150_trim: [u8; 16],
+    /// Time since the board's last reset, ms (wraps after about 49.7 days).
+    pub uptime_ms: u32,
+    /// Requests the board ignored because the previous transfer was still running.
+    pub requests_skipped: u32,
+}
+
+impl InfoFrame {
+    /// Encodes a 60-byte frame with L = 52 and the software CRC. The `version` field is written
+    /// as it is; frames meant for the wire use [`INFO_VERSION`].
+    #[must_use]
+    pub fn encode(&self) -> [u8; INFO_V1_LEN] {
+        self.encode_with(&mut Stm32Crc)
+    }
+
+    /// Encodes the frame, computing the CRC with `crc` (the hardware unit on the board).
+    #[must_use]
+    pub fn encode_with(&self, crc: &mut impl SensorCrc) -> [u8; INFO_V1_LEN] {
+        let mut bytes = [0u8; INFO_V1_LEN];
+        bytes[..2].copy_from_slice(&INFO_START);
+        bytes[2] = self.version;
+        bytes[3] = INFO_V1_PAYLOAD_LEN;
+        bytes[4..7].copy_from_slice(&self.firmware);
+        bytes[7] = self.status.bits();
+        bytes[8..32].copy_from_slice(&self.bmp280_calibration);
+        bytes[32..48].copy_from_slice(&self.bmm150_trim);
+        bytes[48..52].copy_from_slice(&self.uptime_ms.to_le_bytes());
+        bytes[52..56].copy_from_slice(&self.requests_skipped.to_le_bytes());
+        let value = crc.checksum(&bytes[..56]);
+        bytes[56..].copy_from_slice(&value.to_le_bytes());
+        bytes
+    }
+
+    /// Decodes the frame at the start of `bytes` and returns it with its length on the wire.
+    /// Bytes after the frame are ignored.
+    ///
+    /// # Errors
+    /// Any [`InfoError`].
+    pub fn decode(bytes: &[u8]) -> Result<(Self, usize), InfoError> {
+        Self::decode_with(bytes, &mut Stm32Crc)
+    }
+
+    /// Like [`InfoFrame::decode`], computing the CRC with `crc`.
+    ///
+    /// # Errors
+    /// Any [`InfoError`].
+    pub fn decode_with(bytes: &[u8], crc: &mut impl SensorCrc) -> Result<(Self, usize), InfoError> {
+        let header = match bytes.get(..4) {
+            Some(&[a, b, c, d]) => [a, b, c, d],
+            _ => {
+                return Err(if bytes.len() >= 2 && bytes[..2] != INFO_START {
+                    InfoError::StartToken
+                } else {
+                    InfoError::Truncated { needed: 4 }
+                })
+            }
+        };
+        let len = info_frame_len(header)?;
+        let frame = bytes
+            .get(..len)
+            .ok_or(InfoError::Truncated { needed: len })?;
+        let (covered, tail) = frame.split_at(len - 4);
+        let received = u32::from_le_bytes([tail[0], tail[1], tail[2], tail[3]]);
+        let computed = crc.checksum(covered);
+        if computed != received {
+            return Err(InfoError::Checksum { computed, received });
+        }
+        Ok((Self::from_checked(frame), len))
+    }
+
+    /// Reads the fields of a frame whose header and CRC were checked (`frame.len() >= 60`).
+    pub(crate) fn from_checked(frame: &[u8]) -> Self {
+        let mut out = Self {
+            version: frame.get(2).copied().unwrap_or_default(),
+            ..Self::default()
+        };
+        if let Some(payload) = frame.get(4..56) {
+            out.firmware.copy_from_slice(&payload[0..3]);
+            out.status = SensorStatus::from_bits_retain(payload[3]);
+            out.bmp280_calibration.copy_from_slice(&payload[4..28]);
+            out.bmm150_trim.copy_from_slice(&payload[28..44]);
+            out.uptime_ms =
+                u32::from_le_bytes([payload[44], payload[45], payload[46], payload[47]]);
+            out.requests_skipped =
+                u32::from_le_bytes([payload[48], payload[49], payload[50], payload[51]]);
+        }
+        out
+    }
+}

@@ -1,0 +1,39 @@
+//! Physical units for the ranges the board configures.
+//!
+//! The packet carries raw counts; these helpers apply the scale factors of the BMX055 ranges
+//! the firmware sets (accelerometer ±2 g, gyroscope ±2000 °/s). They are separate from the
+//! decoder so a board configured differently only needs different factors.
+
+/// Accelerometer sensitivity at ±2 g: 0.98 mg per count (BMX055 datasheet).
+pub const ACCEL_MG_PER_COUNT_2G: f32 = 0.98;
+
+/// Gyroscope sensitivity at ±2000 °/s: 16.4 counts per °/s (BMX055 datasheet), i.e.
+/// 1/16.4 °/s per count.
+pub const GYRO_COUNTS_PER_DPS_2000: f32 = 16.4;
+
+/// Standard gravity, m/s², for converting g to SI units.
+pub const STANDARD_GRAVITY: f32 = 9.806_65;
+
+/// Accelerometer count at ±2 g to milli-g.
+#[must_use]
+pub fn accel_mg_2g(count: i16) -> f32 {
+    f32::from(count) * ACCEL_MG_PER_COUNT_2G
+}
+
+/// Accelerometer count at ±2 g to m/s².
+#[must_use]
+pub fn accel_m_s2_2g(count: i16) -> f32 {
+    accel_mg_2g(count) * 1e-3 * STANDARD_GRAVITY
+}
+
+/// Gyroscope count at ±2000 °/s to degrees per second.
+#[must_use]
+pub fn gyro_dps_2000(count: i16) -> f32 {
+    f32::from(count) / GYRO_COUNTS_PER_DPS_2000
+}
+
+/// Gyroscope count at ±2000 °/s to radians per second.
+#[must_use]
+pub fn gyro_rad_s_2000(count: i16) -> f32 {
+    gyro_dps_2000(count).to_radians()
+}
