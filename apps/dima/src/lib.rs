@@ -8,3 +8,5 @@
 pub mod cli;
 pub mod config;
 pub mod control;
+pub mod metrics;
+pub mod rt;
