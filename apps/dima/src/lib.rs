@@ -8,5 +8,6 @@
 pub mod cli;
 pub mod config;
 pub mod control;
+pub mod devices;
 pub mod metrics;
 pub mod rt;
