@@ -126,7 +126,7 @@ impl<T> Supervisor<T> {
         }
         let due = self
             .last_attempt
-            .is_none_or(|t| now.duration_since(t) >= self.interval);
+            .map_or(true, |t| now.duration_since(t) >= self.interval);
         if !self.connected && due && self.to_loop.slots() > 0 {
             self.last_attempt = Some(now);
             match (self.open)() {
