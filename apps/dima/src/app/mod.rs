@@ -1,0 +1,7 @@
+//! The application: the realtime loop, the telemetry and logger threads, and their wiring.
+
+pub mod record;
+pub mod rt_loop;
+
+pub use record::{CycleRecord, Snapshot};
+pub use rt_loop::{LoopEnds, LoopParams, RealtimeLoop};
