@@ -10,5 +10,7 @@ pub mod cli;
 pub mod config;
 pub mod control;
 pub mod devices;
+pub mod logging;
 pub mod metrics;
 pub mod rt;
+pub mod telemetry;

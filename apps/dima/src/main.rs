@@ -3,8 +3,13 @@
 use std::io::Write;
 use std::process::ExitCode;
 
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
 use anyhow::Context;
 use clap::Parser;
+use dima::app;
 use dima::cli::{Cli, Command};
 use dima::config::{Config, DEFAULT_TOML};
 
@@ -44,7 +49,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let mut config = Config::load(&args.config)?;
             args.overrides.apply(&mut config);
             config.validate()?;
-            anyhow::bail!("dima run: the device layer is not built yet")
+            let stop = Arc::new(AtomicBool::new(false));
+            app::install_signal_handlers(&stop)?;
+            let options = app::RunOptions {
+                duration: args.overrides.duration.map(Duration::from_secs_f64),
+            };
+            tracing::info!("starting: KILLED until a revive from the ground station");
+            let summary = app::run(&config, app::hardware_devices(&config), &options, stop)?;
+            tracing::info!("outputs safe; {}", summary.metrics.summary());
+            if let Some(path) = summary.log_path {
+                tracing::info!("log: {}", path.display());
+            }
+            Ok(())
         }
     }
 }

@@ -5,3 +5,6 @@ pub mod rt_loop;
 
 pub use record::{CycleRecord, Snapshot};
 pub use rt_loop::{LoopEnds, LoopParams, RealtimeLoop};
+pub mod run;
+
+pub use run::{hardware_devices, install_signal_handlers, run, Devices, RunOptions, RunSummary};

@@ -326,12 +326,16 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             self.action = Actuation::default();
             self.last_step_ns = None;
         }
-        let targets = self
-            .params
-            .outputs
-            .outputs(self.safety.mode, &self.safety.setpoints, &self.action);
+        let targets =
+            self.params
+                .outputs
+                .outputs(self.safety.mode, &self.safety.setpoints, &self.action);
         let t_compute = monotonic_ns();
-        let compute_from = if t_packet != 0 { t_packet } else { tick.wake_ns };
+        let compute_from = if t_packet != 0 {
+            t_packet
+        } else {
+            tick.wake_ns
+        };
         self.metrics
             .compute
             .record(t_compute.saturating_sub(compute_from));

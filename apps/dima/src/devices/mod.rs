@@ -151,8 +151,7 @@ impl<T> Supervisor<T> {
                     let every = (60 / self.interval.as_secs().max(1)).max(1);
                     if self.failures == 1 || self.failures % every == 0 {
                         tracing::warn!(
-                            "{}: {error:#} (attempt {}; retrying every {:?})",
-                            self.name,
+                            "{error:#} (attempt {}; retrying every {:?})",
                             self.failures,
                             self.interval
                         );

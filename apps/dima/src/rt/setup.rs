@@ -127,6 +127,27 @@ pub fn current_policy() -> (i32, i32) {
     }
 }
 
+/// Prepares glibc's allocator for locked memory; call before any thread is spawned. One arena
+/// (each thread's own arena would reserve and, under `mlockall(MCL_FUTURE)`, lock 64 MiB), no
+/// `mmap` for large blocks and no trimming, so memory freed and reused never faults again.
+/// Returns whether it applied (glibc only).
+pub fn prepare_allocator_for_locking() -> bool {
+    #[cfg(target_env = "gnu")]
+    {
+        // SAFETY: mallopt only changes allocator parameters.
+        #[allow(unsafe_code)]
+        unsafe {
+            libc::mallopt(libc::M_ARENA_MAX, 1) == 1
+                && libc::mallopt(libc::M_MMAP_MAX, 0) == 1
+                && libc::mallopt(libc::M_TRIM_THRESHOLD, -1) == 1
+        }
+    }
+    #[cfg(not(target_env = "gnu"))]
+    {
+        false
+    }
+}
+
 /// Sets the calling thread's timer slack, ns (the default 50 µs delays SCHED_OTHER wake-ups).
 pub fn set_timer_slack(ns: u64) -> std::io::Result<()> {
     // SAFETY: PR_SET_TIMERSLACK takes one unsigned long argument.
