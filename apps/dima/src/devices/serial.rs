@@ -112,7 +112,8 @@ impl SerialPort {
         if settings.stop_bits == 2 {
             t.control_flags |= ControlFlags::CSTOPB;
         }
-        t.control_chars[SpecialCharacterIndices::VMIN as usize] = 0;
+        // VMIN 1 with O_NONBLOCK: "no data" is EAGAIN, so a read of 0 bytes means hang-up.
+        t.control_chars[SpecialCharacterIndices::VMIN as usize] = 1;
         t.control_chars[SpecialCharacterIndices::VTIME as usize] = 0;
         termios::tcsetattr(&fd, SetArg::TCSANOW, &t)?;
         termios::tcflush(&fd, termios::FlushArg::TCIOFLUSH)?;
