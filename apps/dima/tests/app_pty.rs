@@ -93,7 +93,7 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
         after >= Duration::from_millis(990),
         "too early: {after:?} ({waited:?})"
     );
-    assert!(after <= Duration::from_millis(1_400), "too late: {after:?}");
+    assert!(after <= Duration::from_millis(1_600), "too late: {after:?}");
 
     // Latched: the link comes back, manual commands change nothing...
     ground.heartbeats.store(true, Ordering::Relaxed);
