@@ -114,7 +114,7 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
         .wait_for(SAFE, Duration::from_secs(1))
         .expect("kill");
     assert!(
-        t_kill.elapsed() < Duration::from_millis(200),
+        t_kill.elapsed() < Duration::from_millis(500),
         "{:?}",
         t_kill.elapsed()
     );
