@@ -131,7 +131,10 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
     drop(ground);
 
     let m = &summary.metrics.counters;
-    assert!(m.packets_ok > 400, "{m:?}");
+    // Counts, not latencies: a busy machine misses periods, but every cycle it runs gets its
+    // packet.
+    assert!(m.cycles > 100, "{m:?}");
+    assert!(m.packets_ok * 10 >= m.cycles * 9, "{m:?}");
     assert_eq!(m.packet_crc_errors, 0);
     assert!(m.failsafes >= 1);
     assert!(summary.telemetry.commands.frames > 10);
