@@ -8,7 +8,7 @@
 //! - [`metrics`]: the wake-up latency histogram (cyclictest format) and counters;
 //! - [`devices`]: raw termios serial ports, the sensor board and Maestro as the loop sees them,
 //!   and the supervisor that opens and reopens devices off the realtime thread;
-//! - [`app`]: the realtime loop, the fixed-size records it hands over, and [`app::run`], which
+//! - [`app`]: the realtime loop, the fixed-size records it hands over, and [`app::run()`], which
 //!   starts every thread for a given set of device openers;
 //! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread.
 #![deny(missing_docs)]
