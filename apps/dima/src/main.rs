@@ -57,6 +57,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             tracing::info!("starting: KILLED until a revive from the ground station");
             let summary = app::run(&config, app::hardware_devices(&config), &options, stop)?;
             tracing::info!("outputs safe; {}", summary.metrics.summary());
+            tracing::info!("{}", summary.telemetry.summary());
             if let Some(path) = summary.log_path {
                 tracing::info!("log: {}", path.display());
             }

@@ -118,6 +118,24 @@ pub struct TelemetryStats {
     pub port_errors: u64,
 }
 
+impl TelemetryStats {
+    /// One line for the exit summary.
+    pub fn summary(&self) -> String {
+        let c = &self.commands;
+        format!(
+            "ground link: frames {} crc-errors {} unknown-type {} out-of-range {} skipped-bytes {} \
+             | display frames {} | port errors {}",
+            c.frames,
+            c.crc_errors,
+            c.unknown_type,
+            c.out_of_range,
+            c.skipped_bytes,
+            self.display_frames,
+            self.port_errors
+        )
+    }
+}
+
 /// Spawns the telemetry thread.
 pub fn spawn_telemetry(
     mut open: Opener<SerialPort>,

@@ -226,7 +226,14 @@ where
     let histogram = metrics.wake_latency.cyclictest_format();
     let log_path = match outcome.log {
         Some(mut log) => {
-            log.metadata("summary", &[("summary", summary.clone())])?;
+            log.metadata(
+                "summary",
+                &[
+                    ("summary", summary.clone()),
+                    ("ground_link", telemetry.summary()),
+                    ("counters", serde_json::to_string(&metrics.counters)?),
+                ],
+            )?;
             log.attach(
                 "wake_latency_histogram.txt",
                 "text/plain",
