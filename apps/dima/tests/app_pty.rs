@@ -41,9 +41,15 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
     };
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
-    let runner = std::thread::spawn(move || {
-        app::run(&config, devices, &RunOptions::default(), s).expect("run")
-    });
+    let observed = Arc::new(std::sync::atomic::AtomicU64::new(0));
+    let o = observed.clone();
+    let options = RunOptions {
+        duration: None,
+        observer: Some(Box::new(move |_| {
+            o.fetch_add(1, Ordering::Relaxed);
+        })),
+    };
+    let runner = std::thread::spawn(move || app::run(&config, devices, options, s).expect("run"));
 
     // Start-up: KILLED, safe outputs at the Maestro.
     assert!(
@@ -131,6 +137,7 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
     drop(ground);
 
     let m = &summary.metrics.counters;
+    assert_eq!(observed.load(Ordering::Relaxed), summary.records_logged);
     // Counts, not latencies: a busy machine misses periods, but every cycle it runs gets its
     // packet.
     assert!(m.cycles > 100, "{m:?}");
@@ -219,7 +226,7 @@ fn auto_tracks_setpoints_and_holds_the_action_through_missing_packets() {
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     let runner = std::thread::spawn(move || {
-        app::run(&config, devices, &RunOptions::default(), s).expect("run")
+        app::run(&config, devices, RunOptions::default(), s).expect("run")
     });
     assert!(maestro.wait_for(SAFE, Duration::from_secs(3)).is_some());
     let ground = FakeGround::spawn(ground_pty.master);
