@@ -182,6 +182,7 @@ fn realtime_thread_never_allocates() {
     outcome.log.unwrap().finish().unwrap();
 
     let c = metrics.counters;
+    eprintln!("{}", metrics.summary());
     assert_eq!(cycles, CYCLES);
     assert_eq!(
         allocations, 0,
