@@ -155,7 +155,9 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
     /// Runs until the stop flag is set (or `max_cycles`), then writes safe outputs. Returns the
     /// number of cycles run.
     pub fn run(&mut self, clock: &mut PeriodicClock, max_cycles: Option<u64>) -> u64 {
-        while !self.ends.stop.load(Ordering::Relaxed) && max_cycles.is_none_or_lt(self.cycle) {
+        while !self.ends.stop.load(Ordering::Relaxed)
+            && max_cycles.map_or(true, |max| self.cycle < max)
+        {
             let tick = clock.wait();
             self.cycle(tick);
         }
@@ -450,16 +452,5 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             counters: self.metrics.counters,
             events: ev,
         });
-    }
-}
-
-/// `max_cycles` not reached yet (`None`: no limit).
-trait CycleLimit {
-    fn is_none_or_lt(&self, cycle: u64) -> bool;
-}
-
-impl CycleLimit for Option<u64> {
-    fn is_none_or_lt(&self, cycle: u64) -> bool {
-        self.map_or(true, |max| cycle < max)
     }
 }
