@@ -15,7 +15,7 @@ use crate::control::{
     SafetyLimits, SafetyState, SensorValues, ServoTargets,
 };
 use crate::devices::sensor::SensorDevice;
-use crate::devices::servo::ServoOutput;
+use crate::devices::servo::{ServoError, ServoOutput};
 use crate::devices::{DeviceLink, LinkEvent};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, Tick};
@@ -399,7 +399,14 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
                 self.last_written = Some(targets);
                 t
             }
-            Err(_) => {
+            Err(ServoError::Timeout | ServoError::InvalidInput) => {
+                // Still there, just slow to take bytes (or a target the configuration should
+                // have refused): counted, resent next cycle.
+                self.metrics.counters.servo_errors += 1;
+                self.last_written = None;
+                0
+            }
+            Err(ServoError::Device) => {
                 self.metrics.counters.servo_errors += 1;
                 self.servo.fail();
                 self.last_written = None;
