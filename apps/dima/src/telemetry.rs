@@ -162,8 +162,7 @@ pub fn spawn_telemetry(
             let mut next_display = Instant::now() + settings.display_period;
             while !stop.load(Ordering::Relaxed) {
                 let now = Instant::now();
-                if radio.is_none()
-                    && last_open.map_or(true, |t| now - t >= settings.reopen_interval)
+                if radio.is_none() && last_open.is_none_or(|t| now - t >= settings.reopen_interval)
                 {
                     last_open = Some(now);
                     match open() {
@@ -175,7 +174,7 @@ pub fn spawn_telemetry(
                         }
                         Err(e) => {
                             failures += 1;
-                            if failures == 1 || failures % 60 == 0 {
+                            if failures == 1 || failures.is_multiple_of(60) {
                                 tracing::warn!("{e:#} (attempt {failures}; retrying)");
                             }
                         }

@@ -156,7 +156,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
     /// number of cycles run.
     pub fn run(&mut self, clock: &mut PeriodicClock, max_cycles: Option<u64>) -> u64 {
         while !self.ends.stop.load(Ordering::Relaxed)
-            && max_cycles.map_or(true, |max| self.cycle < max)
+            && max_cycles.is_none_or(|max| self.cycle < max)
         {
             let tick = clock.wait();
             self.cycle(tick);
@@ -350,7 +350,8 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             .record(t_compute.saturating_sub(compute_from));
 
         // Outputs: at the servo refresh rate, and at once whenever they change.
-        let due = self.cycle % self.params.servo_every == 0 || self.last_written != Some(targets);
+        let due = self.cycle.is_multiple_of(self.params.servo_every)
+            || self.last_written != Some(targets);
         let t_write = if due {
             self.write_targets(targets, t_compute + self.params.period_ns / 2, &mut ev)
         } else {

@@ -126,7 +126,7 @@ impl<T> Supervisor<T> {
         }
         let due = self
             .last_attempt
-            .map_or(true, |t| now.duration_since(t) >= self.interval);
+            .is_none_or(|t| now.duration_since(t) >= self.interval);
         if !self.connected && due && self.to_loop.slots() > 0 {
             self.last_attempt = Some(now);
             match (self.open)() {
@@ -149,7 +149,7 @@ impl<T> Supervisor<T> {
                     self.failures += 1;
                     // Report the first failure and then about once a minute.
                     let every = (60 / self.interval.as_secs().max(1)).max(1);
-                    if self.failures == 1 || self.failures % every == 0 {
+                    if self.failures == 1 || self.failures.is_multiple_of(every) {
                         tracing::warn!(
                             "{error:#} (attempt {}; retrying every {:?})",
                             self.failures,
