@@ -28,6 +28,12 @@ pub const ID_CFG_NAV5: u8 = 0x24;
 pub const ID_CFG_TP5: u8 = 0x31;
 /// CFG-TMODE2 id.
 pub const ID_CFG_TMODE2: u8 = 0x3D;
+/// ACK class (ACK-ACK and ACK-NAK, the receiver's answer to every CFG message).
+pub(crate) const CLASS_ACK: u8 = 0x05;
+/// ACK-NAK id: the message was rejected.
+pub(crate) const ID_ACK_NAK: u8 = 0x00;
+/// ACK-ACK id: the message was accepted.
+pub(crate) const ID_ACK_ACK: u8 = 0x01;
 /// MON class.
 pub const CLASS_MON: u8 = 0x0A;
 /// MON-VER id.

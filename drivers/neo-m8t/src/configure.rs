@@ -5,7 +5,9 @@
 //! error. Every wait has a deadline (`timeout_ms`) and every message a bounded number of
 //! retries.
 
-use crate::commands::{self, Command, CLASS_MON, ID_MON_VER};
+use crate::commands::{
+    self, Command, CLASS_ACK, CLASS_CFG, CLASS_MON, ID_ACK_ACK, ID_ACK_NAK, ID_CFG_PRT, ID_MON_VER,
+};
 use crate::config::Config;
 use crate::error::Error;
 use crate::frame::{Frame, UbxFramer};
@@ -107,7 +109,9 @@ fn expired(now_ms: u32, deadline_ms: u32) -> bool {
 /// caller switches its UART. Any valid frame at the new rate then confirms the switch: the
 /// ACK, if the receiver sends it at the new rate, or else the answer to a CFG-PRT poll sent
 /// after `settle_ms` (the ACK sent at the old rate is lost). Without one before the timeout
-/// it asks to go back to the old rate and sends CFG-PRT again.
+/// it asks to go back to the old rate and sends CFG-PRT again. An ACK-NAK of CFG-PRT is not
+/// a confirmation: the receiver kept its old rate, [`Configurator::baud_rate`] goes back to
+/// it and the result is [`Error::Nak`].
 ///
 /// `N` is the receive buffer; MON-VER needs about 280 bytes on an M8T.
 ///
@@ -288,9 +292,15 @@ impl<const N: usize> Configurator<N> {
                     return Ok(Progress::SetBaudRate(self.baud_rate));
                 }
                 Phase::Settling => {
-                    if let Outcome::Advance = self.receive(serial)? {
-                        self.advance();
-                        continue;
+                    match self.receive(serial)? {
+                        Outcome::Advance => {
+                            self.advance();
+                            continue;
+                        }
+                        Outcome::Nak { class, id } => {
+                            return Err(self.port_change_rejected(class, id))
+                        }
+                        Outcome::None => {}
                     }
                     if !expired(now_ms, self.deadline_ms) {
                         return Ok(Progress::Pending);
@@ -303,6 +313,9 @@ impl<const N: usize> Configurator<N> {
                         Outcome::Advance => {
                             self.advance();
                             continue;
+                        }
+                        Outcome::Nak { class, id } if self.phase == Phase::SwitchedAwaiting => {
+                            return Err(self.port_change_rejected(class, id))
                         }
                         Outcome::Nak { class, id } => return Err(Error::Nak { class, id }),
                         Outcome::None => {}
@@ -365,6 +378,13 @@ impl<const N: usize> Configurator<N> {
                 }
             }
         }
+    }
+
+    /// The receiver answered the port change with ACK-NAK, so it stays at the old rate:
+    /// [`baud_rate`](Self::baud_rate) goes back to it, for the caller to switch the host UART.
+    fn port_change_rejected<E>(&mut self, class: u8, id: u8) -> Error<E> {
+        self.baud_rate = self.previous_baud_rate;
+        Error::Nak { class, id }
     }
 
     fn timeout_error<E>(&self) -> Error<E> {
@@ -477,8 +497,16 @@ enum Judgement {
 /// Decides what a received frame means for the step in progress.
 fn judge(step: Step, phase: Phase, sent: &Command, frame: &Frame<'_>) -> Judgement {
     if matches!(phase, Phase::Settling | Phase::SwitchedAwaiting) {
-        // Any valid frame at the new rate proves the switch.
-        return Judgement::Advance;
+        return match (frame.class(), frame.id(), frame.payload()) {
+            // The port change was rejected (the NAK may have been queued before the host
+            // switched): the receiver is still at the old rate.
+            (CLASS_ACK, ID_ACK_NAK, &[CLASS_CFG, ID_CFG_PRT]) => Judgement::Nak {
+                class: CLASS_CFG,
+                id: ID_CFG_PRT,
+            },
+            // Any other valid frame at the new rate proves the switch.
+            _ => Judgement::Advance,
+        };
     }
     if step == Step::MonVer {
         return match frame.decode() {
@@ -491,10 +519,10 @@ fn judge(step: Step, phase: Phase, sent: &Command, frame: &Frame<'_>) -> Judgeme
         };
     }
     match (frame.class(), frame.id(), frame.payload()) {
-        (0x05, 0x01, &[class, id]) if (class, id) == (sent.class(), sent.id()) => {
+        (CLASS_ACK, ID_ACK_ACK, &[class, id]) if (class, id) == (sent.class(), sent.id()) => {
             Judgement::Advance
         }
-        (0x05, 0x00, &[class, id]) if (class, id) == (sent.class(), sent.id()) => {
+        (CLASS_ACK, ID_ACK_NAK, &[class, id]) if (class, id) == (sent.class(), sent.id()) => {
             Judgement::Nak { class, id }
         }
         _ => Judgement::Pass,

@@ -10,6 +10,10 @@ use crate::version::ReceiverVersion;
 use embedded_hal::delay::DelayNs;
 use embedded_hal_nb::serial::{Read, Write};
 
+/// Most messages one [`NeoM8t::poll_nav_pvt`] call reads: over a second of 10 Hz NAV-PVT, with
+/// margin, so a backlog is caught up in one call, yet the call always ends.
+pub const MAX_MESSAGES_PER_POLL: usize = 16;
+
 /// A NEO-M8T (or any M8) on an embedded-hal-nb serial port.
 ///
 /// Owns the port and a [`GnssStream`] with an `N`-byte frame buffer (512 holds MON-VER;
@@ -83,16 +87,20 @@ where
         Err(nb::Error::WouldBlock)
     }
 
-    /// Reads what the port has (bounded) and returns the newest NAV-PVT frame that arrived,
-    /// if any.
+    /// Reads what the port has and returns the newest NAV-PVT frame that arrived, if any.
+    ///
+    /// One call reads at most [`MAX_MESSAGES_PER_POLL`] messages (each read is itself bounded
+    /// by [`MAX_READ_PER_POLL`] bytes), so a port that never runs dry cannot hold the caller;
+    /// the rest is read by the next call.
     pub fn poll_nav_pvt(&mut self) -> Result<Option<NavPvtFrame>, Error<S::Error>> {
-        loop {
+        for _ in 0..MAX_MESSAGES_PER_POLL {
             match self.read_message() {
                 Ok(_) => {}
-                Err(nb::Error::WouldBlock) => return Ok(self.stream.take_nav_pvt()),
+                Err(nb::Error::WouldBlock) => break,
                 Err(nb::Error::Other(e)) => return Err(e),
             }
         }
+        Ok(self.stream.take_nav_pvt())
     }
 
     /// Applies `config` to a receiver whose UART1 is at `current_baud_rate`, blocking with

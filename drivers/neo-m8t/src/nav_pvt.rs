@@ -163,8 +163,9 @@ pub struct NavPvt {
     pub head_acc_deg_e5: u32,
     /// Position DOP, 0.01 (`pDOP`).
     pub p_dop_e2: u16,
-    /// Bytes 78-83, reserved on M8 (later protocols put `flags3` in the first two); sent
-    /// verbatim.
+    /// Payload bytes 78-83, kept verbatim: reserved on early M8 firmware; newer protocol
+    /// versions (and the `ublox` crate's protocol 23 view) read bytes 78-79 as `flags3`
+    /// (bit 0 invalidLlh: lon, lat, height and hMSL are not valid).
     pub reserved1: [u8; 6],
     /// Heading of vehicle (2-D), 1e-5 degrees (`headVeh`); valid with [`FLAG_HEAD_VEH_VALID`].
     pub head_veh_deg_e5: i32,

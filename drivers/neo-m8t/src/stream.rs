@@ -4,13 +4,11 @@
 //! interrupt and copy out the latest 100-byte NAV-PVT frame for its sensor packet, a host
 //! can push whatever `read()` returned.
 
+use crate::commands::{CLASS_ACK, ID_ACK_ACK, ID_ACK_NAK};
 use crate::frame::{Frame, FramerStats, UbxFramer};
 use crate::nav_pvt::NavPvtFrame;
 use crate::timing::{TimTm2, TimTp};
 use ublox::proto23::PacketRef;
-
-/// ACK class.
-const ACK_CLASS: u8 = 0x05;
 
 /// One message found in the stream, copied out of the framer's buffer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,8 +54,8 @@ impl Message {
             Ok(PacketRef::TimTp(p)) => Self::TimTp(TimTp::from_ublox(&p)),
             Ok(PacketRef::TimTm2(p)) => Self::TimTm2(TimTm2::from_ublox(&p)),
             _ => match (frame.class(), frame.id(), frame.payload()) {
-                (ACK_CLASS, 0x01, &[class, id]) => Self::Ack { class, id },
-                (ACK_CLASS, 0x00, &[class, id]) => Self::Nak { class, id },
+                (CLASS_ACK, ID_ACK_ACK, &[class, id]) => Self::Ack { class, id },
+                (CLASS_ACK, ID_ACK_NAK, &[class, id]) => Self::Nak { class, id },
                 _ => Self::other(frame),
             },
         }

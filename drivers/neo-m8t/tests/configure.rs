@@ -378,6 +378,47 @@ fn baud_switch_when_the_ack_was_lost_is_confirmed_by_the_poll_answer() {
 }
 
 #[test]
+fn nak_of_the_port_change_is_an_error_not_a_confirmed_switch() {
+    // The receiver rejects CFG-PRT: it stays at the old rate. A NAK read after the host
+    // switched (it was queued before the switch) must not count as proof of the new rate.
+    let config = Config::default().with_baud_rate(460_800);
+    let prt = commands::cfg_prt_uart1(460_800);
+    let script = vec![
+        write(&MON_VER_POLL),
+        reply(&mon_ver_reply()),
+        write(prt.as_bytes()),
+        T::flush(),
+        reply(&nak(prt.as_bytes())),
+    ];
+    let mut serial = Mock::new(&script);
+    let mut cfg = Configurator::<512>::new(config, 9_600);
+    let mut switches = Vec::new();
+    let mut result = Ok(());
+    for now_ms in 0..100 {
+        match cfg.poll(&mut serial, now_ms) {
+            Ok(Progress::SetBaudRate(b)) => switches.push(b),
+            Ok(Progress::Pending) => {}
+            Ok(Progress::Done) => panic!("must not finish"),
+            Err(e) => {
+                result = Err(e);
+                break;
+            }
+        }
+    }
+    assert_eq!(
+        result,
+        Err(Error::Nak {
+            class: 0x06,
+            id: 0x00
+        })
+    );
+    assert_eq!(switches, vec![460_800]);
+    // The receiver is still at the old rate; the host UART must go back to it.
+    assert_eq!(cfg.baud_rate(), 9_600);
+    serial.done();
+}
+
+#[test]
 fn baud_switch_without_answer_goes_back_and_finally_fails() {
     let config = Config::default().with_baud_rate(460_800);
     let prt = commands::cfg_prt_uart1(460_800);

@@ -60,6 +60,24 @@ fn poll_nav_pvt_returns_the_newest_frame_once() {
 }
 
 #[test]
+fn poll_nav_pvt_ends_on_a_port_that_never_runs_dry() {
+    // More frames than one call may read: the call returns the newest it has read, the
+    // next call goes on from there.
+    let total = neo_m8t::driver::MAX_MESSAGES_PER_POLL as u32 + 4;
+    let mut script: Vec<T> = (1..=total).map(|i| T::read_many(pvt(i * 100))).collect();
+    script.push(idle());
+    let mut serial = Mock::new(&script);
+    let mut gnss: NeoM8t<_, 100> = NeoM8t::new(serial.clone());
+    let first = gnss.poll_nav_pvt().unwrap().expect("a frame");
+    let limit = neo_m8t::driver::MAX_MESSAGES_PER_POLL as u32;
+    assert_eq!(first.to_nav_pvt().itow_ms, limit * 100);
+    let second = gnss.poll_nav_pvt().unwrap().expect("the rest");
+    assert_eq!(second.to_nav_pvt().itow_ms, total * 100);
+    assert_eq!(gnss.stream().nav_pvt_count(), total);
+    serial.done();
+}
+
+#[test]
 fn line_error_drops_the_partial_frame_and_reading_goes_on() {
     let a = pvt(100);
     let mut serial = Mock::new(&[

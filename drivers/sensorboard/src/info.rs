@@ -141,7 +141,10 @@ pub fn info_frame_len(header: [u8; 4]) -> Result<usize, InfoError> {
 }
 
 /// Calibration and health of the sensor board.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+///
+/// `Default` is a version 1 frame ([`INFO_VERSION`]) with every other field zero, so a frame
+/// built with `..InfoFrame::default()` is one every decoder accepts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct InfoFrame {
     /// Format version of the frame as received (1 for frames this crate writes).
@@ -158,6 +161,20 @@ pub struct InfoFrame {
     pub uptime_ms: u32,
     /// Requests the board ignored because the previous transfer was still running.
     pub requests_skipped: u32,
+}
+
+impl Default for InfoFrame {
+    fn default() -> Self {
+        Self {
+            version: INFO_VERSION,
+            firmware: [0; 3],
+            status: SensorStatus::empty(),
+            bmp280_calibration: [0; 24],
+            bmm150_trim: [0; 16],
+            uptime_ms: 0,
+            requests_skipped: 0,
+        }
+    }
 }
 
 impl InfoFrame {

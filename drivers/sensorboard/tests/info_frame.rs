@@ -86,6 +86,20 @@ fn every_single_bit_flip_is_rejected() {
 }
 
 #[test]
+fn a_default_frame_is_a_valid_version_1_frame() {
+    // `..InfoFrame::default()` is how a board fills the fields it does not know yet: what it
+    // sends must be accepted by every decoder (version 0 is not a valid version).
+    let info = InfoFrame {
+        uptime_ms: 42,
+        ..InfoFrame::default()
+    };
+    assert_eq!(info.version, 1);
+    let bytes = info.encode();
+    assert_eq!(&bytes[..4], &[0x24, 0x49, 1, 52]);
+    assert_eq!(InfoFrame::decode(&bytes), Ok((info, INFO_V1_LEN)));
+}
+
+#[test]
 fn future_version_with_longer_payload() {
     // Version 2 with 8 more payload bytes: the known fields are read, the rest skipped, the
     // CRC covers header + all 60 payload bytes.

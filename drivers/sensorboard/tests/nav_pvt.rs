@@ -226,3 +226,74 @@ fn packet_carries_the_frame_verbatim() {
     assert_eq!(packet.gnss.into_bytes(), hand_frame());
     assert_eq!(packet.encode(), bytes);
 }
+
+/// NAV-PVT serialised by pyubx2 1.4.0 (`UBXMessage("NAV", "NAV-PVT", GET, iTOW=28548000,
+/// year=2026, month=11, day=22, hour=7, min=55, second=30, validDate=1, validTime=1,
+/// fullyResolved=1, tAcc=21, nano=-12345, fixType=3, gnssFixOk=1, confirmedAvai=1,
+/// confirmedDate=1, confirmedTime=1, numSV=11, lon=8.5417, lat=47.3769, height=470123,
+/// hMSL=422456, hAcc=1800, vAcc=2700, velN=1234, velE=-5678, velD=90, gSpeed=5810,
+/// headMot=282.27, sAcc=350, headAcc=1.5, pDOP=1.32, headVeh=282.27).serialize()`), copied
+/// verbatim. pyubx2 truncates the scaled 282.27 deg to 28226999 (1e-5 deg).
+const PYUBX2_NAV_PVT: [u8; 100] = [
+    0xB5, 0x62, 0x01, 0x07, 0x5C, 0x00, 0xA0, 0x9B, 0xB3, 0x01, 0xEA, 0x07, 0x0B, 0x16, 0x07, 0x37,
+    0x1E, 0x07, 0x15, 0x00, 0x00, 0x00, 0xC7, 0xCF, 0xFF, 0xFF, 0x03, 0x01, 0xE0, 0x0B, 0x28, 0x5C,
+    0x17, 0x05, 0x28, 0x24, 0x3D, 0x1C, 0x6B, 0x2C, 0x07, 0x00, 0x38, 0x72, 0x06, 0x00, 0x08, 0x07,
+    0x00, 0x00, 0x8C, 0x0A, 0x00, 0x00, 0xD2, 0x04, 0x00, 0x00, 0xD2, 0xE9, 0xFF, 0xFF, 0x5A, 0x00,
+    0x00, 0x00, 0xB2, 0x16, 0x00, 0x00, 0xB7, 0xB5, 0xAE, 0x01, 0x5E, 0x01, 0x00, 0x00, 0xF0, 0x49,
+    0x02, 0x00, 0x84, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0xB7, 0xB5, 0xAE, 0x01, 0x00, 0x00,
+    0x00, 0x00, 0x9D, 0x06,
+];
+
+#[test]
+fn pyubx2_frame_in_packet_bytes_28_to_127_decodes_to_its_fields() {
+    // An independent serialiser's frame at the packet offsets of DESIGN 2.1, through the
+    // whole packet codec.
+    let mut bytes = [0u8; 132];
+    bytes[..2].copy_from_slice(b"$$");
+    bytes[28..128].copy_from_slice(&PYUBX2_NAV_PVT);
+    let crc = dima_sensorboard::crc::crc32_bitwise(&bytes[..128]);
+    bytes[128..].copy_from_slice(&crc.to_le_bytes());
+    let pvt = SensorPacket::decode(&bytes)
+        .expect("valid packet")
+        .nav_pvt()
+        .expect("valid NAV-PVT");
+    assert_eq!(
+        pvt,
+        NavPvt {
+            itow_ms: 28_548_000,
+            year: 2026,
+            month: 11,
+            day: 22,
+            hour: 7,
+            min: 55,
+            sec: 30,
+            valid: ValidFlags::VALID_DATE | ValidFlags::VALID_TIME | ValidFlags::FULLY_RESOLVED,
+            t_acc_ns: 21,
+            nano_ns: -12_345,
+            fix_type: FixType::Fix3D,
+            flags: 0x01,
+            flags2: 0xE0,
+            num_sv: 11,
+            lon_deg_e7: 85_417_000,
+            lat_deg_e7: 473_769_000,
+            height_mm: 470_123,
+            hmsl_mm: 422_456,
+            h_acc_mm: 1_800,
+            v_acc_mm: 2_700,
+            vel_n_mm_s: 1_234,
+            vel_e_mm_s: -5_678,
+            vel_d_mm_s: 90,
+            g_speed_mm_s: 5_810,
+            head_mot_deg_e5: 28_226_999,
+            s_acc_mm_s: 350,
+            head_acc_deg_e5: 150_000,
+            pdop_e2: 132,
+            flags3: 0,
+            head_veh_deg_e5: 28_226_999,
+            mag_dec_deg_e2: 0,
+            mag_acc_deg_e2: 0,
+        }
+    );
+    // And the encoder writes pyubx2's bytes back.
+    assert_eq!(pvt.to_frame(), PYUBX2_NAV_PVT);
+}
