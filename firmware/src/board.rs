@@ -12,6 +12,15 @@ pub const SYSCLK_HZ: u32 = 168_000_000;
 #[cfg(feature = "qemu")]
 pub const QEMU_CORE_HZ: u32 = 168_000_000;
 
+/// Clock of the general-purpose timers in QEMU's STM32F405 model, in hertz: fixed at 1 GHz,
+/// whatever the prescalers say.
+#[cfg(feature = "qemu")]
+pub const QEMU_TIMER_HZ: u32 = 1_000_000_000;
+
+/// The internal oscillator the `qemu` build runs on (and the HAL computes timer settings for).
+#[cfg(feature = "qemu")]
+pub const HSI_HZ: u32 = 16_000_000;
+
 /// SPI1 clock for the BMX055 and BMP280, in hertz. Both chips allow 10 MHz; the HAL picks the
 /// nearest prescaler of APB2 (84 MHz / 16 = 5.25 MHz).
 pub const SPI_HZ: u32 = 8_000_000;

@@ -19,6 +19,7 @@ mod gnss;
 #[cfg(not(feature = "qemu"))]
 mod hw_crc;
 mod link;
+mod sensors;
 
 use panic_halt as _;
 use rtic_monotonics::systick::prelude::*;
@@ -64,12 +65,8 @@ mod app {
     type Crc = dima_sensorboard::Stm32Crc;
 
     /// The sensors, one SPI device per die.
-    pub struct Sensors {
-        pub accel: SensorSpi<7>,
-        pub gyro: SensorSpi<8>,
-        pub mag: SensorSpi<9>,
-        pub baro: SensorSpi<10>,
-    }
+    pub type Sensors =
+        crate::sensors::Sensors<SensorSpi<7>, SensorSpi<8>, SensorSpi<9>, SensorSpi<10>>;
 
     /// Everything the sampling tick owns: the back half of the packet double buffer.
     pub struct Sampler {
@@ -78,9 +75,11 @@ mod app {
         schedule: Schedule,
         builder: PacketBuilder,
         crc: Crc,
-        #[allow(dead_code)]
         sensors: Sensors,
     }
+
+    /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects.
+    type GnssReader = neo_m8t::GnssStream<256>;
 
     /// The latest checksum-valid NAV-PVT frame (all zeros until the first one).
     pub struct GnssLatest {
@@ -108,6 +107,7 @@ mod app {
         info: InfoFrame,
         sampler: Sampler,
         gnss_rx: gnss::GnssRx,
+        reader: GnssReader,
         led: gpio::PD12<Output<PushPull>>,
         #[cfg(feature = "qemu")]
         host_rx: serial::Rx<pac::USART3>,
@@ -158,16 +158,14 @@ mod app {
             &mut rcc,
         );
         let bus: &'static AtomicCell<SensorBus> = cx.local.spi_cell.insert(AtomicCell::new(spi));
-        let delay = CycleDelay::new(sysclk_hz);
-        let sensors = Sensors {
-            accel: spi_device(bus, gpioe.pe7.into_push_pull_output(), delay),
-            gyro: spi_device(bus, gpioe.pe8.into_push_pull_output(), delay),
-            mag: spi_device(bus, gpioe.pe9.into_push_pull_output(), delay),
-            baro: spi_device(bus, gpioe.pe10.into_push_pull_output(), delay),
-        };
-        let status = SensorStatus::empty();
-        let bmp280_calibration = [0u8; 24];
-        let bmm150_trim = [0u8; 16];
+        let mut delay = CycleDelay::new(sysclk_hz);
+        let (sensors, report) = Sensors::init(
+            spi_device(bus, gpioe.pe7.into_push_pull_output(), delay),
+            spi_device(bus, gpioe.pe8.into_push_pull_output(), delay),
+            spi_device(bus, gpioe.pe9.into_push_pull_output(), delay),
+            spi_device(bus, gpioe.pe10.into_push_pull_output(), delay),
+            &mut delay,
+        );
 
         // Link to the host: USART3 TX on PD8, 8N2.
         let link_config = serial::Config::default()
@@ -261,7 +259,16 @@ mod app {
 
         // The sampling tick, and the watchdog it feeds.
         let mut timer = dp.TIM2.counter_hz(&mut rcc);
-        timer.start(SAMPLE_RATE_HZ.Hz()).unwrap_or_else(|_| fault());
+        // The HAL sets the prescalers for its idea of the timer clock; QEMU runs the timer at
+        // a fixed 1 GHz, so ask for a rate that lands on SAMPLE_RATE_HZ there.
+        #[cfg(not(feature = "qemu"))]
+        let tick_request_hz = SAMPLE_RATE_HZ;
+        #[cfg(feature = "qemu")]
+        let tick_request_hz =
+            (u64::from(SAMPLE_RATE_HZ) * u64::from(HSI_HZ) / u64::from(QEMU_TIMER_HZ)) as u32;
+        timer
+            .start(tick_request_hz.Hz())
+            .unwrap_or_else(|_| fault());
         timer.listen(Event::Update);
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.start(WATCHDOG_MS.millis());
@@ -271,14 +278,14 @@ mod app {
         #[cfg(feature = "qemu")]
         let crc = dima_sensorboard::Stm32Crc;
 
-        let mut status = status;
+        let mut status = report.status;
         status.set(SensorStatus::WATCHDOG_RESET, watchdog_reset);
         let info = InfoFrame {
             version: INFO_VERSION,
             firmware: FIRMWARE_VERSION,
             status,
-            bmp280_calibration,
-            bmm150_trim,
+            bmp280_calibration: report.bmp280_calibration,
+            bmm150_trim: report.bmm150_trim,
             uptime_ms: 0,
             requests_skipped: 0,
         };
@@ -314,6 +321,7 @@ mod app {
                     sensors,
                 },
                 gnss_rx,
+                reader: GnssReader::new(),
                 led,
                 #[cfg(feature = "qemu")]
                 host_rx,
@@ -389,12 +397,19 @@ mod app {
     }
 
     /// GNSS bytes (idle line, or under QEMU a received byte).
-    #[task(binds = USART1, priority = 2, local = [gnss_rx], shared = [gnss_latest])]
+    #[task(binds = USART1, priority = 2, local = [gnss_rx, reader], shared = [gnss_latest])]
     fn gnss_bytes(mut cx: gnss_bytes::Context) {
+        let reader = cx.local.reader;
         cx.local.gnss_rx.drain(|bytes| {
-            let _ = bytes;
-            let _ = &mut cx.shared.gnss_latest;
+            reader.push_slice(bytes);
         });
+        if let Some(frame) = reader.take_nav_pvt() {
+            cx.shared.gnss_latest.lock(|gnss| {
+                gnss.frame = *frame.as_bytes();
+                gnss.fresh = true;
+            });
+            GNSS_SEEN.store(true, Ordering::Relaxed);
+        }
     }
 
     /// GNSS DMA buffer full before the line went idle.
@@ -410,7 +425,10 @@ mod app {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
         sampler.watchdog.feed();
-        let _plan = sampler.schedule.next_tick();
+        let plan = sampler.schedule.next_tick();
+        sampler
+            .sensors
+            .tick(plan, &mut sampler.schedule, &mut sampler.builder);
 
         let builder = &mut sampler.builder;
         cx.shared.gnss_latest.lock(|gnss| {
