@@ -19,7 +19,6 @@ mod gnss;
 #[cfg(not(feature = "qemu"))]
 mod hw_crc;
 mod link;
-mod sensors;
 
 use panic_halt as _;
 use rtic_monotonics::systick::prelude::*;
@@ -66,7 +65,7 @@ mod app {
 
     /// The sensors, one SPI device per die.
     pub type Sensors =
-        crate::sensors::Sensors<SensorSpi<7>, SensorSpi<8>, SensorSpi<9>, SensorSpi<10>>;
+        dima_firmware_logic::Sensors<SensorSpi<7>, SensorSpi<8>, SensorSpi<9>, SensorSpi<10>>;
 
     /// Everything the sampling tick owns: the back half of the packet double buffer.
     pub struct Sampler {
