@@ -37,6 +37,8 @@ mod dma {
         spare_packets: [Option<&'static mut [u8]>; 2],
         spare_info: Option<&'static mut [u8]>,
         dma_errors: u32,
+        /// A transfer could not be started: the next completion interrupt ends the answer.
+        failed_start: bool,
     }
 
     impl Link {
@@ -52,6 +54,7 @@ mod dma {
                 spare_packets: [Some(packet_a), Some(packet_b)],
                 spare_info: None,
                 dma_errors: 0,
+                failed_start: false,
             }
         }
 
@@ -73,20 +76,29 @@ mod dma {
                     | DMAError::SmallBuffer(buffer)
                     | DMAError::Overrun(buffer),
                 ) => {
-                    self.dma_errors = self.dma_errors.wrapping_add(1);
                     self.put_back(buffer);
-                    // Nothing will complete: report completion so the answer ends.
-                    cortex_m::peripheral::NVIC::pend(stm32f4xx_hal::pac::Interrupt::DMA1_STREAM3);
+                    self.fail();
                 }
             }
+        }
+
+        /// Nothing will complete: count it and have the completion interrupt end the answer,
+        /// so the link never stays busy.
+        fn fail(&mut self) {
+            self.dma_errors = self.dma_errors.wrapping_add(1);
+            self.failed_start = true;
+            cortex_m::peripheral::NVIC::pend(stm32f4xx_hal::pac::Interrupt::DMA1_STREAM3);
         }
 
         /// Starts sending `packet`.
         pub fn send_packet(&mut self, packet: &[u8; PACKET_LEN]) {
             let spare = self.spare_packets.iter_mut().find_map(Option::take);
-            if let Some(buffer) = spare {
-                buffer.copy_from_slice(packet);
-                self.start(buffer);
+            match spare {
+                Some(buffer) => {
+                    buffer.copy_from_slice(packet);
+                    self.start(buffer);
+                }
+                None => self.fail(),
             }
         }
 
@@ -100,8 +112,9 @@ mod dma {
 
         /// Starts sending the staged info frame.
         pub fn send_info(&mut self) {
-            if let Some(buffer) = self.spare_info.take() {
-                self.start(buffer);
+            match self.spare_info.take() {
+                Some(buffer) => self.start(buffer),
+                None => self.fail(),
             }
         }
 
@@ -116,6 +129,9 @@ mod dma {
                     | stm32f4xx_hal::dma::DmaFlag::DirectModeError
                     | stm32f4xx_hal::dma::DmaFlag::HalfTransfer,
             );
+            if core::mem::take(&mut self.failed_start) {
+                return true;
+            }
             if flags.is_transfer_error() {
                 self.dma_errors = self.dma_errors.wrapping_add(1);
                 return true;
