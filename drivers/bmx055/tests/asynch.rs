@@ -181,3 +181,35 @@ fn async_facade_samples_without_waiting() {
     gyro.done();
     mag.done();
 }
+
+#[test]
+fn async_accel_self_test_writes_the_documented_bytes() {
+    // ±4 g (0x0F = 0x05), then per axis PMU_SELF_TEST = axis | sign (0x04) | self_test_amp
+    // high (0x10), as Bosch's BMA2 SensorAPI `selftest_config` sets it; a 1000 mg deflection
+    // (512 counts at ±4 g, split +-256) on every axis passes the 800/800/400 mg limits.
+    let deflect = |axis: usize, counts: i16| {
+        let mut b = [0u8; 6];
+        let w = (counts << 4).to_le_bytes();
+        b[2 * axis] = w[0];
+        b[2 * axis + 1] = w[1];
+        b
+    };
+    let mut parts = vec![write(0x0F, 0x05)];
+    for (axis, (pos, neg)) in [(0x15, 0x11), (0x16, 0x12), (0x17, 0x13)]
+        .into_iter()
+        .enumerate()
+    {
+        parts.push(write(0x32, pos));
+        parts.push(read(0x02, &deflect(axis, 256)));
+        parts.push(write(0x32, neg));
+        parts.push(read(0x02, &deflect(axis, -256)));
+    }
+    parts.push(write(0x32, 0x00));
+    parts.push(write(0x14, 0xB6));
+    let mut spi = SpiMock::new(&script(parts));
+    let mut acc = AsyncAccelerometer::new_spi(spi.clone());
+    let r = block_on(acc.self_test(&mut NoopDelay)).unwrap();
+    assert!(r.passed());
+    assert!((r.difference_mg.y - 1000.0).abs() < 0.1);
+    spi.done();
+}

@@ -143,9 +143,10 @@ fn self_test_reports_a_failing_die_and_reconfigures() {
     };
     let mut acc_script = vec![write(0x0F, 0x05)];
     for axis in 0..3u8 {
-        acc_script.push(write(0x32, (axis + 1) | 0x04));
+        // axis | sign (0x04) | self_test_amp high (0x10), Bosch BMA2 SensorAPI.
+        acc_script.push(write(0x32, (axis + 1) | 0x04 | 0x10));
         acc_script.push(read(0x02, &deflect(axis.into(), 256)));
-        acc_script.push(write(0x32, axis + 1));
+        acc_script.push(write(0x32, (axis + 1) | 0x10));
         acc_script.push(read(0x02, &deflect(axis.into(), -256)));
     }
     acc_script.extend([

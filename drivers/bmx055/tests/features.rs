@@ -138,6 +138,9 @@ fn accel_fast_offset_compensation_polls_cal_rdy() {
 fn accel_self_test_measures_both_directions() {
     // +-1000 mg deflection on X and Y, +-300 mg on Z (fails Z's 400 mg minimum), at ±4 g
     // (512 counts per g): 1000 mg -> 512 counts -> word 0x2000.
+    // PMU_SELF_TEST bytes: axis (bits 1:0) | sign (bit 2, 1 = positive) | self_test_amp high
+    // (bit 4), as Bosch's BMA2 SensorAPI `selftest_config` sets them; X positive / negative
+    // is 0x15 / 0x11 (21 / 17, the values in Bosch's BMX055 self-test forum answer).
     let pos = |axis: usize, counts: i16| {
         let mut b = [0u8; 6];
         let w = (counts << 4).to_le_bytes();
@@ -147,17 +150,17 @@ fn accel_self_test_measures_both_directions() {
     };
     let mut spi = SpiMock::new(&script(vec![
         write(0x0F, 0x05),
-        write(0x32, 0x05),
+        write(0x32, 0x15),
         read(0x02, &pos(0, 256)),
-        write(0x32, 0x01),
+        write(0x32, 0x11),
         read(0x02, &pos(0, -256)),
-        write(0x32, 0x06),
+        write(0x32, 0x16),
         read(0x02, &pos(1, 256)),
-        write(0x32, 0x02),
+        write(0x32, 0x12),
         read(0x02, &pos(1, -256)),
-        write(0x32, 0x07),
+        write(0x32, 0x17),
         read(0x02, &pos(2, 77)),
-        write(0x32, 0x03),
+        write(0x32, 0x13),
         read(0x02, &pos(2, -77)),
         write(0x32, 0x00),
         write(0x14, 0xB6),

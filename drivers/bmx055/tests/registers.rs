@@ -1,5 +1,7 @@
 //! Pins every register address and bit against the BMX055 datasheet register maps
-//! (accelerometer chapter 6, gyroscope chapter 7, magnetometer chapter 8).
+//! (accelerometer chapter 6, gyroscope chapter 7, magnetometer chapter 8), cross-checked with
+//! Bosch's SensorAPI headers: `bma2_defs.h` (BMA2 SensorAPI, BMA253/BMA255 die, chip id 0xFA),
+//! `bmg160.h` (BMG160_driver) and `bmm150_defs.h` (BMM150 SensorAPI).
 
 use bosch_bmx055::accel::register as a;
 use bosch_bmx055::gyro::register as g;
@@ -86,6 +88,8 @@ fn accelerometer_bits() {
         (a::FIFO_OVERRUN, 0x80),
         (a::FIFO_FRAME_COUNTER, 0x7F),
         (a::SELF_TEST_SIGN, 0x04),
+        // Bosch BMA2 SensorAPI bma2_defs.h: BMA2_ACCEL_SELFTEST_AMP_MSK 0x10.
+        (a::SELF_TEST_AMP, 0x10),
         (a::OFFSET_RESET, 0x80),
         (a::CAL_RDY, 0x10),
         (a::CAL_TRIGGER_SHIFT, 5),
@@ -266,6 +270,8 @@ fn magnetometer_bits_and_fields() {
     assert_eq!(op_mode_bits(MagOpMode::Forced, MagDataRate::Hz10), 0x02);
     assert_eq!(op_mode_bits(MagOpMode::Sleep, MagDataRate::Hz10), 0x06);
     assert_eq!(op_mode_bits(MagOpMode::Normal, MagDataRate::Hz30), 0x38);
+    // Bosch BMM150 SensorAPI bmm150_defs.h: BMM150_{LOWPOWER,REGULAR,ENHANCED,HIGHACCURACY}
+    // _REPXY 1, 4, 7, 23 and _REPZ 2, 14, 26, 82; bmm150_set_presetmode: 20 Hz for high accuracy.
     let presets = [
         (MagPreset::LowPower, 0x01, 0x02),
         (MagPreset::Regular, 0x04, 0x0E),

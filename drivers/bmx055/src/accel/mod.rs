@@ -21,7 +21,8 @@ use crate::Error;
 use embedded_hal::delay::DelayNs;
 use register as reg;
 
-/// Wait after a soft reset before the die answers (datasheet: 1.8 ms).
+/// Wait after a soft reset before the die answers, in µs: Bosch's BMA2 SensorAPI waits
+/// `BMA2_DELAY_SOFT_RESET` = 1800 µs in `bma2_soft_reset`; rounded up to 2 ms.
 pub const SOFT_RESET_WAIT_US: u32 = 2_000;
 
 /// I2C address of the accelerometer, set by the SDO1 strap.

@@ -142,6 +142,10 @@ pub const FIFO_OVERRUN: u8 = 1 << 7;
 pub const FIFO_FRAME_COUNTER: u8 = 0x7F;
 /// `PMU_SELF_TEST`: sign bit (1 = positive deflection).
 pub const SELF_TEST_SIGN: u8 = 1 << 2;
+/// `PMU_SELF_TEST`: `self_test_amp`, 1 = high deflection amplitude (Bosch BMA2 SensorAPI
+/// `BMA2_ACCEL_SELFTEST_AMP_MSK`; its self-test sets it high for every axis, and the pass
+/// limits of [`SELF_TEST_MIN_MG`](super::SELF_TEST_MIN_MG) assume it).
+pub const SELF_TEST_AMP: u8 = 1 << 4;
 /// `OFC_CTRL`: reset the offset registers to zero.
 pub const OFFSET_RESET: u8 = 1 << 7;
 /// `OFC_CTRL`: fast compensation ready.

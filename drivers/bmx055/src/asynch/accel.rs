@@ -235,7 +235,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncAccelerometer<IFACE> {
         Ok(())
     }
 
-    /// Self-test at ±4 g, ending with a soft reset.
+    /// Self-test at ±4 g with high deflection amplitude, ending with a soft reset.
     pub async fn self_test(
         &mut self,
         delay: &mut impl DelayNs,
@@ -243,11 +243,15 @@ impl<IFACE: AsyncRegisterInterface> AsyncAccelerometer<IFACE> {
         self.set_range(AccelRange::G4).await?;
         let mut diff = [0f32; 3];
         for axis in 1..=3u8 {
-            self.write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_SIGN)
-                .await?;
+            self.write(
+                reg::PMU_SELF_TEST,
+                axis | reg::SELF_TEST_SIGN | reg::SELF_TEST_AMP,
+            )
+            .await?;
             delay.delay_ms(SELF_TEST_SETTLE_MS).await;
             let pos = self.read_raw().await?.mg(AccelRange::G4).to_array();
-            self.write(reg::PMU_SELF_TEST, axis).await?;
+            self.write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_AMP)
+                .await?;
             delay.delay_ms(SELF_TEST_SETTLE_MS).await;
             let neg = self.read_raw().await?.mg(AccelRange::G4).to_array();
             let i = usize::from(axis - 1);

@@ -17,7 +17,8 @@ use crate::Error;
 use embedded_hal::delay::DelayNs;
 use register as reg;
 
-/// Wait after a soft reset or power-up before the die answers (datasheet start-up: 30 ms).
+/// Wait after a soft reset or power-up before the die answers, in ms (BMX055 datasheet key
+/// features, gyroscope: "30ms start-up time").
 pub const SOFT_RESET_WAIT_MS: u32 = 30;
 
 /// I2C address of the gyroscope, set by the SDO2 strap.

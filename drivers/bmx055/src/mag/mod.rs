@@ -23,9 +23,11 @@ use crate::Error;
 use embedded_hal::delay::DelayNs;
 use register as reg;
 
-/// Wait after leaving suspend before the chip id is readable (datasheet start-up: 3 ms).
+/// Wait after leaving suspend before the chip id is readable, in µs (Bosch BMM150 SensorAPI
+/// `bmm150_init`: `BMM150_START_UP_TIME`, "start-up time delay of 3ms").
 pub const POWER_ON_WAIT_US: u32 = 3_000;
-/// Wait after a soft reset (Bosch SensorAPI: 1 ms).
+/// Wait after a soft reset, in µs (Bosch BMM150 SensorAPI `bmm150_soft_reset`:
+/// `BMM150_SOFT_RESET_DELAY` = 1 ms).
 pub const SOFT_RESET_WAIT_US: u32 = 1_000;
 /// Polling interval for data ready after the expected measurement time.
 pub const FORCED_POLL_INTERVAL_US: u32 = 200;

@@ -1,0 +1,138 @@
+//! API mode (`AP = 1` or `2`): typed frames over an embedded-hal-nb serial port.
+
+use embedded_hal_nb::serial::{Read, Write};
+
+use crate::at::{AtCommand, Parameter};
+use crate::codec::{write_frame, ByteSink, DecoderStats, FrameDecoder, WriteError};
+use crate::frame_id::FrameIdAllocator;
+use crate::frames::{AtCommandFrame, Frame, TransmitRequest};
+use crate::types::{Address16, Address64, ApiEscaping, Error, FrameError};
+
+/// Longest binary AT parameter [`XBeeApi::send_at_command`] carries (a 16-byte key, a 20-byte
+/// node identifier fit).
+pub const MAX_AT_PARAMETER_LEN: usize = 32;
+
+/// A module in API mode: sends typed frames, decodes received ones.
+///
+/// `N` is the receive buffer size: the longest whole frame accepted (see [`FrameDecoder`]).
+/// The default of 256 bytes holds any frame with the largest Zigbee payload.
+#[derive(Debug)]
+pub struct XBeeApi<S, const N: usize = 256> {
+    serial: S,
+    decoder: FrameDecoder<N>,
+    frame_ids: FrameIdAllocator,
+}
+
+/// Writes frame bytes to the serial port, one `nb::block!` per byte (bounded by the UART's
+/// byte time).
+struct SerialSink<'s, S>(&'s mut S);
+
+impl<S: Write<u8>> ByteSink for SerialSink<'_, S> {
+    type Error = S::Error;
+    fn put(&mut self, byte: u8) -> Result<(), S::Error> {
+        nb::block!(self.0.write(byte))
+    }
+}
+
+impl<S, const N: usize> XBeeApi<S, N> {
+    /// Wraps a serial port connected to a module in API mode with the given escaping (its
+    /// `AP` setting).
+    pub fn new(serial: S, escaping: ApiEscaping) -> Self {
+        Self {
+            serial,
+            decoder: FrameDecoder::new(escaping),
+            frame_ids: FrameIdAllocator::new(),
+        }
+    }
+
+    /// Gives the serial port back.
+    pub fn release(self) -> S {
+        self.serial
+    }
+
+    /// The serial port, for port settings such as its baud rate. Bytes written through it
+    /// bypass the frame encoder.
+    pub fn serial_mut(&mut self) -> &mut S {
+        &mut self.serial
+    }
+
+    /// The next frame id for a request that wants a response (never 0).
+    pub fn next_frame_id(&mut self) -> u8 {
+        self.frame_ids.next_id()
+    }
+
+    /// Counters of received and dropped frames.
+    pub fn stats(&self) -> DecoderStats {
+        self.decoder.stats()
+    }
+}
+
+impl<S, E, const N: usize> XBeeApi<S, N>
+where
+    S: Read<u8, Error = E> + Write<u8, Error = E>,
+{
+    /// Sends one frame (blocking per byte) and flushes.
+    pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error<E>> {
+        let escaping = self.decoder.escaping();
+        write_frame(frame, escaping, &mut SerialSink(&mut self.serial)).map_err(|e| match e {
+            WriteError::TooLong => Error::Frame(FrameError::TooLong),
+            WriteError::Sink(e) => Error::Comm(e),
+        })?;
+        nb::block!(self.serial.flush()).map_err(Error::Comm)
+    }
+
+    /// Sends a local AT command (frame 0x08) with a fresh frame id; returns the id, which the
+    /// [`AtResponse`](crate::frames::AtResponse) will carry.
+    pub fn send_at_command(
+        &mut self,
+        command: AtCommand,
+        parameter: Parameter<'_>,
+    ) -> Result<u8, Error<E>> {
+        let mut bytes = [0u8; MAX_AT_PARAMETER_LEN];
+        let len = parameter
+            .to_api_bytes(&mut bytes)
+            .ok_or(Error::InvalidInput)?;
+        let frame_id = self.next_frame_id();
+        self.send(&Frame::AtCommand(AtCommandFrame {
+            frame_id,
+            command,
+            parameter: bytes.get(..len).unwrap_or_default(),
+        }))?;
+        Ok(frame_id)
+    }
+
+    /// Sends `data` to `destination` (frame 0x10) with a fresh frame id; returns the id, which
+    /// the [`TransmitStatus`](crate::frames::TransmitStatus) will carry.
+    pub fn transmit(&mut self, destination: Address64, data: &[u8]) -> Result<u8, Error<E>> {
+        let frame_id = self.next_frame_id();
+        self.send(&Frame::TransmitRequest(TransmitRequest {
+            frame_id,
+            destination,
+            destination_16: Address16::UNKNOWN,
+            broadcast_radius: 0,
+            options: 0,
+            data,
+        }))?;
+        Ok(frame_id)
+    }
+
+    /// Reads what has arrived and returns the next complete frame, or `WouldBlock`.
+    ///
+    /// Garbage, bad checksums and oversized frames are skipped and counted in
+    /// [`stats`](Self::stats). A frame of a known type with an invalid length is returned as
+    /// [`Error::Frame`].
+    pub fn poll_frame(&mut self) -> nb::Result<Frame<'_>, Error<E>> {
+        if self.decoder.next_buffered().is_none() {
+            loop {
+                let byte = self.serial.read().map_err(|e| e.map(Error::Comm))?;
+                if self.decoder.advance(byte) {
+                    break;
+                }
+            }
+        }
+        match self.decoder.frame() {
+            Some(raw) => raw.parse().map_err(|e| nb::Error::Other(Error::Frame(e))),
+            None => Err(nb::Error::WouldBlock),
+        }
+    }
+}

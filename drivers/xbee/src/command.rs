@@ -1,0 +1,425 @@
+//! AT command mode as a state machine driven by the caller's clock.
+//!
+//! Entering: flush, `GT` (plus a small margin) of silence, `+++` (the `CC` character three times), `GT` of silence
+//! on the module's side, then `OK\r`. Each command is `AT<cmd><param>\r`, answered by one
+//! line: a value, `OK` or `ERROR`. `ATCN` leaves; the module also leaves by itself `CT` after
+//! the last valid command, and the driver tracks that deadline on both sides: it never sends
+//! a command that might arrive after the module has left (it would be radio data), and never
+//! sends data while the module might still be listening for commands.
+
+use embedded_hal_nb::serial::{Read, Write};
+
+use crate::at::{format_line, is_error, is_ok, AtCommand, AtRequest};
+use crate::transparent::{State, Transparent};
+use crate::types::Error;
+
+/// `None`: the state changed, evaluate the new one in the same poll. `Some`: the poll's result.
+type Step<E> = Option<nb::Result<CommandOutcome, Error<E>>>;
+
+/// What a completed [`Transparent::poll`] reports.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CommandOutcome {
+    /// Nothing in progress (transparent mode, or command mode waiting for a command).
+    Idle,
+    /// The module answered `OK` to `+++`: command mode is open.
+    Entered,
+    /// The module answered the command; the line is in [`Transparent::reply`].
+    Reply,
+    /// The module is back in transparent mode after `ATCN` (or after `CT` ran out while
+    /// leaving).
+    Exited,
+    /// The module left command mode by itself (`CT` ran out); data passes again.
+    AutoExited,
+}
+
+impl<S, E> Transparent<S>
+where
+    S: Read<u8, Error = E> + Write<u8, Error = E>,
+{
+    /// Starts entering command mode; then [`poll`](Self::poll) until it returns
+    /// [`CommandOutcome::Entered`] (about two guard times) or an error.
+    ///
+    /// From this call on, writes are refused. If the module is already in command mode and
+    /// well within `CT`, the next poll reports `Entered` at once; if it may be about to leave,
+    /// the driver first waits until it surely has.
+    pub fn start_command_mode(&mut self) -> Result<(), Error<E>> {
+        match self.state {
+            State::Transparent => self.go(State::EnterFlush),
+            State::Ready => self.go(State::EnterWaitExit),
+            _ => return Err(Error::Busy),
+        }
+        Ok(())
+    }
+
+    /// Starts an AT command; then [`poll`](Self::poll) until it returns
+    /// [`CommandOutcome::Reply`] or an error.
+    ///
+    /// Commands whose reply spans several lines (`ND`, `AS`) are not supported. A plain `CN`
+    /// is the same as [`start_exit`](Self::start_exit) (its poll ends with
+    /// [`CommandOutcome::Exited`]).
+    pub fn start_command(&mut self, request: &AtRequest<'_>) -> Result<(), Error<E>> {
+        if *request == AtRequest::query(AtCommand::CN) {
+            return self.start_exit();
+        }
+        match self.state {
+            State::Ready => {}
+            State::Transparent => return Err(Error::NotInCommandMode),
+            _ => return Err(Error::Busy),
+        }
+        self.clear_line();
+        let Some(n) = format_line(request, &mut self.line) else {
+            self.clear_line();
+            return Err(Error::InvalidInput);
+        };
+        self.line_len = n;
+        self.go(State::Sending {
+            pos: 0,
+            exit: false,
+        });
+        Ok(())
+    }
+
+    /// Starts leaving command mode with `ATCN`; then [`poll`](Self::poll) until it returns
+    /// [`CommandOutcome::Exited`].
+    pub fn start_exit(&mut self) -> Result<(), Error<E>> {
+        match self.state {
+            State::Ready => {}
+            State::Transparent => return Err(Error::NotInCommandMode),
+            _ => return Err(Error::Busy),
+        }
+        self.clear_line();
+        let n = format_line(&AtRequest::query(AtCommand::CN), &mut self.line)
+            .ok_or(Error::InvalidInput)?;
+        self.line_len = n;
+        self.go(State::Sending { pos: 0, exit: true });
+        Ok(())
+    }
+
+    /// The last reply line, without its `\r` (valid after [`CommandOutcome::Reply`] and
+    /// [`Error::AtError`]).
+    pub fn reply(&self) -> &[u8] {
+        match self.state {
+            State::Sending { .. } => &[],
+            _ => self.line.get(..self.line_len).unwrap_or_default(),
+        }
+    }
+
+    /// Advances command mode. `now_ms` is the caller's monotonic clock in milliseconds; it may
+    /// wrap around. Returns `WouldBlock` while an operation is in progress.
+    ///
+    /// Every waiting state has a deadline, so polling always ends. Call it at least every few
+    /// milliseconds while an operation is in progress (each call reads what has arrived), and
+    /// now and then while in command mode so that a `CT` expiry is noticed.
+    pub fn poll(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        self.delay_clock = false;
+        self.advance(now_ms)
+    }
+
+    /// [`poll`](Self::poll) on the blocking API's clock, which is counted from delays.
+    pub(crate) fn poll_delay_clock(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        self.delay_clock = true;
+        self.advance(now_ms)
+    }
+
+    fn advance(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        loop {
+            let since = *self.state_since.get_or_insert(now_ms);
+            let elapsed = now_ms.wrapping_sub(since);
+            let step = match self.state {
+                State::Transparent => Some(Ok(CommandOutcome::Idle)),
+                State::Ready => Some(self.step_ready(now_ms)),
+                State::Leaving => Some(self.step_leaving(now_ms)),
+                State::EnterWaitExit => self.step_wait_exit(now_ms),
+                State::EnterFlush => self.step_flush(elapsed),
+                State::EnterGuard => self.step_guard(elapsed),
+                State::EnterPlus { sent } => self.step_plus(sent, now_ms, elapsed),
+                State::EnterAwaitOk => Some(self.step_await_ok(elapsed)),
+                State::Sending { pos, exit } => self.step_sending(pos, exit, now_ms, elapsed),
+                State::AwaitReply { exit } => Some(self.step_await_reply(exit, elapsed)),
+            };
+            if let Some(result) = step {
+                return result;
+            }
+        }
+    }
+
+    // Each step returns `None` after a state change to be evaluated in the same poll, or the
+    // poll's result.
+
+    fn step_ready(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        if self.surely_left(now_ms) {
+            self.go(State::Transparent);
+            return Ok(CommandOutcome::AutoExited);
+        }
+        Ok(CommandOutcome::Idle)
+    }
+
+    fn step_leaving(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        if self.surely_left(now_ms) {
+            self.go(State::Transparent);
+            return Ok(CommandOutcome::Exited);
+        }
+        Err(nb::Error::WouldBlock)
+    }
+
+    fn step_wait_exit(&mut self, now_ms: u32) -> Step<E> {
+        if self.fresh(now_ms) {
+            self.go(State::Ready);
+            return Some(Ok(CommandOutcome::Entered));
+        }
+        if !self.surely_left(now_ms) {
+            return Some(Err(nb::Error::WouldBlock));
+        }
+        self.go(State::EnterFlush);
+        None
+    }
+
+    fn step_flush(&mut self, elapsed: u32) -> Step<E> {
+        match self.serial.flush() {
+            Ok(()) => {
+                self.go(State::EnterGuard);
+                None
+            }
+            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+                Some(Err(nb::Error::WouldBlock))
+            }
+            // Nothing of the command sequence went out: still transparent.
+            Err(nb::Error::WouldBlock) => Some(self.fail(State::Transparent, Error::Timeout)),
+            Err(nb::Error::Other(e)) => Some(self.fail(State::Transparent, Error::Comm(e))),
+        }
+    }
+
+    fn step_guard(&mut self, elapsed: u32) -> Step<E> {
+        let silence = self
+            .timing
+            .guard_time_ms
+            .saturating_add(self.timing.guard_margin_ms);
+        if elapsed < silence {
+            return Some(Err(nb::Error::WouldBlock));
+        }
+        self.go(State::EnterPlus { sent: 0 });
+        None
+    }
+
+    fn step_plus(&mut self, sent: u8, now_ms: u32, elapsed: u32) -> Step<E> {
+        if sent >= 3 {
+            self.input_ms = now_ms;
+            self.confirmed_ms = None;
+            self.clear_line();
+            self.go(State::EnterAwaitOk);
+            return None;
+        }
+        let error = match self.serial.write(self.timing.command_character) {
+            Ok(()) => {
+                // Same state, same deadline: the three characters must go out together.
+                self.state = State::EnterPlus { sent: sent + 1 };
+                return None;
+            }
+            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+                return Some(Err(nb::Error::WouldBlock))
+            }
+            Err(nb::Error::WouldBlock) => Error::Timeout,
+            Err(nb::Error::Other(e)) => Error::Comm(e),
+        };
+        // Part of `+++` may be out: stay cautious until `CT` has passed.
+        self.input_ms = now_ms;
+        self.confirmed_ms = None;
+        Some(self.fail(State::Ready, error))
+    }
+
+    fn step_await_ok(&mut self, elapsed: u32) -> nb::Result<CommandOutcome, Error<E>> {
+        loop {
+            match self.read_line() {
+                Ok(Some(())) if is_ok(self.reply()) && !self.line_overflow => {
+                    self.confirmed_ms = Some(self.input_ms);
+                    self.go(State::Ready);
+                    return Ok(CommandOutcome::Entered);
+                }
+                Ok(Some(())) => {
+                    // Radio data that arrived before the switch.
+                    self.count_discarded(self.line_len + 1);
+                    self.clear_line();
+                }
+                Ok(None) => break,
+                Err(e) => return self.fail(State::Ready, Error::Comm(e)),
+            }
+        }
+        let deadline = self
+            .timing
+            .guard_time_ms
+            .saturating_add(self.timing.reply_timeout_ms);
+        if elapsed >= deadline {
+            self.count_discarded(self.line_len);
+            self.clear_line();
+            // The module may have switched without us hearing the `OK`.
+            return self.fail(State::Ready, Error::Timeout);
+        }
+        Err(nb::Error::WouldBlock)
+    }
+
+    fn step_sending(&mut self, pos: usize, exit: bool, now_ms: u32, elapsed: u32) -> Step<E> {
+        if pos == 0 {
+            if !self.fresh(now_ms) {
+                self.clear_line();
+                if exit {
+                    self.go(State::Leaving);
+                    return None;
+                }
+                return Some(self.fail(State::Ready, Error::NotInCommandMode));
+            }
+            if self.stale_input {
+                if let Err(e) = self.drain() {
+                    self.clear_line();
+                    return Some(self.fail(State::Ready, Error::Comm(e)));
+                }
+            }
+        }
+        let Some(&byte) = self.line.get(..self.line_len).and_then(|l| l.get(pos)) else {
+            self.input_ms = now_ms;
+            self.clear_line();
+            self.go(State::AwaitReply { exit });
+            return None;
+        };
+        let error = match self.serial.write(byte) {
+            Ok(()) => {
+                self.state = State::Sending { pos: pos + 1, exit };
+                return None;
+            }
+            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+                return Some(Err(nb::Error::WouldBlock))
+            }
+            Err(nb::Error::WouldBlock) => Error::Timeout,
+            Err(nb::Error::Other(e)) => Error::Comm(e),
+        };
+        if pos > 0 {
+            // Part of the line is out: the module's `CT` timer may have restarted.
+            self.input_ms = now_ms;
+        }
+        self.clear_line();
+        Some(self.fail(State::Ready, error))
+    }
+
+    fn step_await_reply(
+        &mut self,
+        exit: bool,
+        elapsed: u32,
+    ) -> nb::Result<CommandOutcome, Error<E>> {
+        match self.read_line() {
+            Ok(Some(())) => return self.finish_reply(exit),
+            Ok(None) => {}
+            Err(e) => return self.fail(State::Ready, Error::Comm(e)),
+        }
+        if elapsed >= self.timing.reply_timeout_ms {
+            // A late answer must not be taken for the next command's reply.
+            self.stale_input = true;
+            return self.fail(State::Ready, Error::Timeout);
+        }
+        Err(nb::Error::WouldBlock)
+    }
+
+    fn finish_reply(&mut self, exit: bool) -> nb::Result<CommandOutcome, Error<E>> {
+        if self.line_overflow {
+            return self.fail(State::Ready, Error::InvalidReply);
+        }
+        if is_error(self.reply()) {
+            return self.fail(State::Ready, Error::AtError);
+        }
+        self.confirmed_ms = Some(self.input_ms);
+        if exit {
+            if is_ok(self.reply()) {
+                self.go(State::Transparent);
+                return Ok(CommandOutcome::Exited);
+            }
+            return self.fail(State::Ready, Error::InvalidReply);
+        }
+        self.go(State::Ready);
+        Ok(CommandOutcome::Reply)
+    }
+
+    /// Throws away whatever has arrived (a late reply after a timeout).
+    fn drain(&mut self) -> Result<(), E> {
+        self.stale_input = false;
+        // Bounded: a late reply is one short line, not a stream.
+        for _ in 0..2 * crate::at::MAX_LINE_LEN {
+            match self.serial.read() {
+                Ok(_) => self.count_discarded(1),
+                Err(nb::Error::WouldBlock) => return Ok(()),
+                Err(nb::Error::Other(e)) => return Err(e),
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads what has arrived into the line buffer; `Some` when a `\r` ended the line.
+    fn read_line(&mut self) -> Result<Option<()>, E> {
+        loop {
+            match self.serial.read() {
+                Ok(b'\r') => return Ok(Some(())),
+                Ok(b'\n') => {}
+                Ok(byte) => match self.line.get_mut(self.line_len) {
+                    Some(slot) => {
+                        *slot = byte;
+                        self.line_len += 1;
+                    }
+                    None => {
+                        self.line_overflow = true;
+                        self.count_discarded(1);
+                    }
+                },
+                Err(nb::Error::WouldBlock) => return Ok(None),
+                Err(nb::Error::Other(e)) => return Err(e),
+            }
+        }
+    }
+}
+
+impl<S> Transparent<S> {
+    pub(crate) fn go(&mut self, state: State) {
+        self.state = state;
+        self.state_since = None;
+    }
+
+    fn fail<T, E>(&mut self, state: State, error: Error<E>) -> nb::Result<T, Error<E>> {
+        self.go(state);
+        Err(nb::Error::Other(error))
+    }
+
+    /// Zeroes the line buffer, so a key sent with `KY` does not linger in memory.
+    pub(crate) fn clear_line(&mut self) {
+        self.line = [0; crate::at::MAX_LINE_LEN];
+        self.line_len = 0;
+        self.line_overflow = false;
+    }
+
+    fn count_discarded(&mut self, n: usize) {
+        let n = u32::try_from(n).unwrap_or(u32::MAX);
+        self.discarded = self.discarded.saturating_add(n);
+    }
+
+    /// The module accepted a command recently enough that another one arrives before `CT`.
+    ///
+    /// On the blocking API's clock the window is halved: a `DelayNs` sleeps at least as long as
+    /// asked, often longer, so that clock runs slow, and here that errs on the unsafe side.
+    /// Halving allows the delays to take up to twice their nominal time.
+    fn fresh(&self, now_ms: u32) -> bool {
+        let mut limit = self
+            .timing
+            .command_timeout_ms
+            .saturating_sub(self.timing.reply_timeout_ms);
+        if self.delay_clock {
+            limit /= 2;
+        }
+        self.confirmed_ms
+            .is_some_and(|t| now_ms.wrapping_sub(t) < limit)
+    }
+
+    /// `CT` has surely run out since the last command-mode input.
+    fn surely_left(&self, now_ms: u32) -> bool {
+        let limit = self
+            .timing
+            .command_timeout_ms
+            .saturating_add(self.timing.reply_timeout_ms);
+        now_ms.wrapping_sub(self.input_ms) >= limit
+    }
+}

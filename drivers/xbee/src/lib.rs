@@ -1,0 +1,104 @@
+//! Driver for Digi XBee radio modules (XBee 3, XBee S2C and compatible), `no_std` and
+//! allocation-free, over any embedded-hal-nb 1.0 serial port.
+//!
+//! # Transparent mode (a byte pipe)
+//!
+//! [`Transparent`] wraps the serial port and passes bytes through. It implements
+//! embedded-hal-nb [`Read<u8>`](embedded_hal_nb::serial::Read) and
+//! [`Write<u8>`](embedded_hal_nb::serial::Write) (and `embedded_io::{Read, Write}` with the
+//! `embedded-io` feature), so a framed protocol runs over the radio exactly as over a cable.
+//!
+//! AT command mode is guarded so it can never corrupt the data stream: the guard times
+//! (`GT`) are respected, data written while the module is (or may still be) in command mode is
+//! refused with [`Error::CommandModeActive`] instead of being sent as AT text, and the
+//! command-mode timeout (`CT`) is tracked on both sides. It runs either
+//!
+//! - driven by the caller's clock: [`Transparent::start_command_mode`],
+//!   [`Transparent::start_command`], [`Transparent::start_exit`], then
+//!   [`Transparent::poll`]`(now_ms)` until it stops returning `WouldBlock`; requests come from
+//!   [`settings`] and replies are read with [`Transparent::reply`]; or
+//! - blocking with a `DelayNs`: [`Transparent::command_mode`] returns a [`CommandSession`]
+//!   with helpers for PAN id ([`CommandSession::set_pan_id`]), channel
+//!   ([`CommandSession::set_channel`]), node identifier
+//!   ([`CommandSession::set_node_identifier`]), baud rate ([`CommandSession::set_baud_rate`]),
+//!   API mode ([`CommandSession::set_api_mode`]), power level
+//!   ([`CommandSession::set_power_level`]), encryption ([`CommandSession::set_encryption`],
+//!   [`CommandSession::set_encryption_key`], write-only), role ([`CommandSession::set_role`]),
+//!   versions ([`CommandSession::firmware_version`]), [`CommandSession::write_settings`]
+//!   (`WR`), [`CommandSession::apply_changes`] (`AC`) and [`CommandSession::exit`] (`CN`);
+//!   [`Transparent::wait_until_transparent`] waits out `CT` after a failed entry.
+//!
+//! [`Transparent::mode`] tells where the driver believes the module is;
+//! [`Transparent::release`] gives the port back.
+//!
+//! # API mode (frames)
+//!
+//! [`codec`] has the frame codec without I/O: [`encode`] into a caller buffer (API 1 or API 2
+//! escaping), and [`FrameDecoder`], a push-byte decoder that resynchronises on 0x7E, checks
+//! length and checksum, bounds the frame size and counts what it drops. [`Frame`] types the
+//! frames 0x08, 0x09, 0x10, 0x11, 0x17, 0x88, 0x8A, 0x8B, 0x90, 0x91 and 0x97, with
+//! [`Frame::Unknown`] for the rest. [`XBeeApi`] puts them on a serial port
+//! ([`XBeeApi::send`], [`XBeeApi::send_at_command`], [`XBeeApi::transmit`],
+//! [`XBeeApi::poll_frame`]), with a [`FrameIdAllocator`].
+//!
+//! # Example: the DIMA byte pipe, and a setting changed in between
+//!
+//! ```
+//! # use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
+//! # use embedded_hal_mock::eh1::delay::NoopDelay;
+//! use embedded_hal_nb::serial::Write;
+//! use xbee_driver::{PowerLevel, Transparent};
+//!
+//! # let mut expected = vec![Transaction::write(b'$')];
+//! # expected.push(Transaction::flush());
+//! # expected.push(Transaction::write_many(b"+++"));
+//! # expected.push(Transaction::read_many(b"OK\r"));
+//! # expected.push(Transaction::write_many(b"ATPL2\r"));
+//! # expected.push(Transaction::read_many(b"OK\r"));
+//! # expected.push(Transaction::write_many(b"ATCN\r"));
+//! # expected.push(Transaction::read_many(b"OK\r"));
+//! # expected.push(Transaction::write(b'$'));
+//! # let serial = SerialMock::new(&expected);
+//! # let mut delay = NoopDelay::new();
+//! let mut radio = Transparent::new(serial);
+//! nb::block!(radio.write(b'$'))?; // data goes straight through
+//!
+//! let mut session = radio.command_mode(&mut delay)?; // GT, +++, GT, OK
+//! session.set_power_level(PowerLevel::Medium)?;      // ATPL2 -> OK
+//! session.exit()?;                                   // ATCN -> OK
+//!
+//! nb::block!(radio.write(b'$'))?; // transparent again
+//! # radio.release().done();
+//! # Ok::<(), xbee_driver::Error<embedded_hal_nb::serial::ErrorKind>>(())
+//! ```
+//!
+//! # Features
+//!
+//! - `embedded-io`: `embedded_io::{Read, Write}` for [`Transparent`].
+//! - `defmt`: `defmt::Format` for the public types.
+#![no_std]
+#![deny(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod api;
+pub mod at;
+pub mod codec;
+pub mod command;
+pub mod escape;
+pub mod frame_id;
+pub mod frames;
+pub mod session;
+pub mod settings;
+pub mod transparent;
+pub mod types;
+
+pub use api::XBeeApi;
+pub use at::{AtCommand, AtRequest, Parameter};
+pub use codec::{encode, encoded_len, DecoderStats, FrameDecoder, RawFrame};
+pub use command::CommandOutcome;
+pub use frame_id::FrameIdAllocator;
+pub use frames::{CommandStatus, Frame, ModemStatus};
+pub use session::CommandSession;
+pub use settings::{ApiMode, BaudRate, PowerLevel, Role};
+pub use transparent::{CommandTiming, Mode, Transparent};
+pub use types::{Address16, Address64, ApiEscaping, Error, FrameError};
