@@ -114,7 +114,7 @@ impl Schedule {
     /// Plans the next tick and advances the schedule.
     pub fn next_tick(&mut self) -> TickPlan {
         let baro_every = u32::from(self.config.baro_every.max(1));
-        let read_baro = self.tick % baro_every == 0;
+        let read_baro = self.tick.is_multiple_of(baro_every);
         self.tick = self.tick.wrapping_add(1);
 
         let mag = match self.mag {
