@@ -3,10 +3,13 @@
 //! Tasks, highest priority first:
 //! - `request` (EXTI15_10, PD10 rising edge) and `link_done` (DMA1 stream 3): answer a request
 //!   with the latest complete packet, plus an info frame when due; never tear a transfer.
-//! - `gnss_idle` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
+//! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
 //! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
 //!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog.
-//! - `status_led` (software task): the status LED pattern.
+//! - `status_led` (software task): the status LED pattern on PD12. DESIGN names no LED pin;
+//!   PD12 is the STM32F4-Discovery's green LED.
+//!
+//! Under the `qemu` feature `host_byte` (USART3 receive) stands in for the request edge.
 //!
 //! The decisions live in the host-tested `dima-firmware-logic` crate; this file wires them to
 //! the peripherals.
