@@ -7,7 +7,7 @@ use embedded_hal_async::delay::DelayNs;
 
 use crate::calibration::Calibration;
 use crate::compensation::{self, Measurement};
-use crate::config::Config;
+use crate::config::{Config, PowerMode};
 use crate::interface::{AsyncInterface, I2cInterface, SpiInterface};
 use crate::raw::RawSample;
 use crate::register::{self, Status};
@@ -149,10 +149,13 @@ where
         Ok(Config::from_registers(regs[0], regs[1]))
     }
 
-    /// Starts one forced measurement with the configured oversampling and filter.
+    /// Starts one forced measurement with the configured oversampling and filter; afterwards
+    /// [`Bmp280Async::config`] reports forced mode.
     pub async fn start_forced(&mut self) -> Result<(), Error<E>> {
         self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))
-            .await
+            .await?;
+        self.config.mode = PowerMode::Forced;
+        Ok(())
     }
 
     /// True while a conversion runs (`status` bit 3).
@@ -170,7 +173,9 @@ where
         self.start_forced().await?;
         delay.delay_us(self.config.measurement_time_typ_us()).await;
         for _ in 0..sequence::forced_polls(&self.config) {
-            if !self.is_measuring().await? {
+            let mut regs = [0u8; 2];
+            self.read(register::STATUS, &mut regs).await?;
+            if !sequence::forced_busy(regs[0], regs[1]) {
                 let raw = self.read_raw().await?;
                 return Ok(compensation::compensate(&calibration, raw)?);
             }

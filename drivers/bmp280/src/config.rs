@@ -110,6 +110,8 @@ impl Filter {
 }
 
 /// Inactive time between two measurements in normal mode, `config` bits 7:5 (datasheet table 11).
+///
+/// The BME280 reads the codes of [`Standby::Ms2000`] and [`Standby::Ms4000`] as 10 ms and 20 ms.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Standby {

@@ -4,7 +4,7 @@ use embedded_hal::delay::DelayNs;
 
 use crate::calibration::Calibration;
 use crate::compensation::{self, Measurement};
-use crate::config::Config;
+use crate::config::{Config, PowerMode};
 use crate::interface::{I2cInterface, Interface, SpiInterface};
 use crate::raw::RawSample;
 use crate::register::{self, Status};
@@ -64,6 +64,7 @@ impl<IFACE> Bmp280<IFACE> {
 
     /// Lets [`Bmp280::init`] accept a BME280 (chip id 0x60) and drive its pressure and
     /// temperature part; by default a BME280 is rejected with [`Error::Bme280NotAccepted`].
+    /// On a BME280 the two longest standby codes mean 10 ms and 20 ms (see [`Chip::Bme280`]).
     pub const fn accept_bme280(mut self, accept: bool) -> Self {
         self.accept_bme280 = accept;
         self
@@ -162,8 +163,13 @@ where
     /// Starts one forced measurement with the configured oversampling and filter. Poll with
     /// [`Bmp280::poll_forced`]; the result is ready after
     /// [`Config::measurement_time_typ_us`] to [`Config::measurement_time_max_us`].
+    ///
+    /// This leaves normal mode if it was configured: afterwards [`Bmp280::config`] reports
+    /// forced mode, and the device sleeps once the measurement is done.
     pub fn start_forced(&mut self) -> Result<(), Error<E>> {
-        self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))
+        self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))?;
+        self.config.mode = PowerMode::Forced;
+        Ok(())
     }
 
     /// True while a conversion runs (`status` bit 3).
@@ -171,14 +177,17 @@ where
         Ok(sequence::measuring(self.read_byte(register::STATUS)?))
     }
 
-    /// Polls a forced measurement: `WouldBlock` while `measuring` is set, else the compensated
+    /// Polls a forced measurement: `WouldBlock` while it runs, else the compensated
     /// sample. Fails with [`Error::NotCalibrated`] before reading anything if the calibration is
     /// unknown.
     ///
-    /// The bit is set from the `ctrl_meas` write until the results are in the data registers,
-    /// so any poll after [`Bmp280::start_forced`] returned is valid; polling only after
-    /// [`Config::measurement_time_typ_us`] saves bus traffic. Without a started measurement the
-    /// bit is clear and the previous sample is returned.
+    /// Each poll reads `status` and `ctrl_meas` in one burst; the measurement runs while
+    /// `measuring` (status bit 3) is set or the mode bits still read forced (the device returns
+    /// to sleep when done). The mode bits cover the moment right after the start when
+    /// `measuring` can still read 0 (see [`sequence::forced_busy`]), so any poll after
+    /// [`Bmp280::start_forced`] returned is valid; polling only after
+    /// [`Config::measurement_time_typ_us`] saves bus traffic. Without a started measurement
+    /// the previous sample is returned.
     pub fn poll_forced(&mut self) -> nb::Result<Measurement, Error<E>> {
         let calibration = self.calibration.ok_or(Error::NotCalibrated)?;
         let raw = self.poll_forced_raw()?;
@@ -187,15 +196,17 @@ where
 
     /// Polls a forced measurement for the raw values only (no calibration needed).
     pub fn poll_forced_raw(&mut self) -> nb::Result<RawSample, Error<E>> {
-        if self.is_measuring()? {
+        let mut regs = [0u8; 2];
+        self.read(register::STATUS, &mut regs)?;
+        if sequence::forced_busy(regs[0], regs[1]) {
             return Err(nb::Error::WouldBlock);
         }
         Ok(self.read_raw()?)
     }
 
-    /// One forced measurement, start to result: waits the typical time, then polls `measuring`
-    /// every 0.5 ms until the datasheet's maximum time plus 2 ms has passed
-    /// ([`Error::Timeout`] after that).
+    /// One forced measurement, start to result: waits the typical time, then polls
+    /// ([`Bmp280::poll_forced`]) every 0.5 ms until the datasheet's maximum time plus 2 ms has
+    /// passed ([`Error::Timeout`] after that).
     pub fn measure_forced(&mut self, delay: &mut impl DelayNs) -> Result<Measurement, Error<E>> {
         if self.calibration.is_none() {
             return Err(Error::NotCalibrated);

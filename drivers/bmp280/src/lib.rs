@@ -14,7 +14,8 @@
 //!   0x27). The measurement time follows from it: [`Config::measurement_time_typ_us`],
 //!   [`Config::measurement_time_max_us`].
 //! - Forced mode without fixed sleeps: [`Bmp280::start_forced`] then [`Bmp280::poll_forced`]
-//!   (`nb`, `WouldBlock` while `status.measuring` is set), or [`Bmp280::measure_forced`] with a
+//!   (`nb`, `WouldBlock` while `status.measuring` is set or `ctrl_meas` still reads forced
+//!   mode), or [`Bmp280::measure_forced`] with a
 //!   borrowed delay and a deadline.
 //! - Normal mode: [`Bmp280::measure`] (one burst read, compensated, raw values kept),
 //!   [`Bmp280::read_raw`] and [`Bmp280::read_raw_bytes`] (the register bytes the DIMA sensor

@@ -54,6 +54,17 @@ pub const fn measuring(status: u8) -> bool {
     Status::from_bits_truncate(status).contains(Status::MEASURING)
 }
 
+/// True while a forced measurement may still be running, from `status` (0xF3) and `ctrl_meas`
+/// (0xF4) read in one burst.
+///
+/// The `measuring` bit alone is not enough: right after the `ctrl_meas` write that starts a
+/// forced measurement it can still read 0 for a moment, and a poll then would hand out the
+/// previous sample. The mode bits stay at forced until the device has finished and returned to
+/// sleep (datasheet 3.6.2), so either sign means "not ready yet".
+pub const fn forced_busy(status: u8, ctrl_meas: u8) -> bool {
+    measuring(status) || matches!(PowerMode::from_bits(ctrl_meas), PowerMode::Forced)
+}
+
 /// Number of `measuring` polls after waiting the typical time, so that the total wait covers the
 /// maximum time plus [`FORCED_TIMEOUT_MARGIN_US`].
 pub const fn forced_polls(config: &Config) -> u32 {

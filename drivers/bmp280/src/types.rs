@@ -32,7 +32,9 @@ pub enum Chip {
     /// An early engineering sample of the BMP280, id 0x56 or 0x57.
     Bmp280Sample(u8),
     /// A BME280 (id 0x60), accepted only when the driver was told to: its pressure and
-    /// temperature registers and formulas are the BMP280's, humidity is ignored.
+    /// temperature registers and formulas are the BMP280's, humidity is ignored. One field
+    /// differs: the `t_sb` codes 0b110 and 0b111 ([`Standby::Ms2000`](crate::Standby::Ms2000),
+    /// [`Standby::Ms4000`](crate::Standby::Ms4000)) mean 10 ms and 20 ms on a BME280.
     Bme280,
 }
 

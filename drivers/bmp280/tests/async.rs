@@ -71,8 +71,8 @@ fn i2c_forced_measurement_waits_then_polls() {
         i2c_write(a, 0xF5, 0x00),
         i2c_write(a, 0xF4, 0x25),
         i2c_write(a, 0xF4, 0x25),
-        i2c_read(a, 0xF3, &[0x08]),
-        i2c_read(a, 0xF3, &[0x00]),
+        i2c_read(a, 0xF3, &[0x00, 0x25]),
+        i2c_read(a, 0xF3, &[0x00, 0x24]),
         i2c_read(a, 0xF7, &DATASHEET_DATA_BYTES),
     ]);
     let mut bmp = Bmp280Async::new_i2c(I2cMock::new(&expectations), I2cAddress::SdoHigh);

@@ -82,8 +82,8 @@ fn forced_measurement_polls_measuring() {
         i2c_write(a, 0xF5, 0x00),
         i2c_write(a, 0xF4, 0x25),
         i2c_write(a, 0xF4, 0x25),
-        i2c_read(a, 0xF3, &[0x08]),
-        i2c_read(a, 0xF3, &[0x00]),
+        i2c_read(a, 0xF3, &[0x08, 0x25]),
+        i2c_read(a, 0xF3, &[0x00, 0x24]),
         i2c_read(a, 0xF7, &DATASHEET_DATA_BYTES),
     ]);
     let mut bmp = Bmp280::new_i2c(Mock::new(&expectations), I2cAddress::SdoLow);

@@ -243,14 +243,15 @@ fn set_calibration_replaces_the_read() {
 #[test]
 fn forced_measurement_polls_the_measuring_bit() {
     // Forced, ultra low power: osrs_t x1 = 001, osrs_p x1 = 001, forced = 01 -> 0x25.
+    // Each poll reads status (0xF3) and ctrl_meas (0xF4) in one burst.
     let expectations = [
         spi_write(0x74, 0x24),
         spi_write(0x75, 0x00),
         spi_write(0x74, 0x25),
         spi_write(0x74, 0x25), // start_forced
-        spi_read(0xF3, &[0x08]),
-        spi_read(0xF3, &[0x08]),
-        spi_read(0xF3, &[0x00]),
+        spi_read(0xF3, &[0x08, 0x25]),
+        spi_read(0xF3, &[0x08, 0x25]),
+        spi_read(0xF3, &[0x00, 0x24]), // done: measuring clear, back in sleep mode
         spi_read(0xF7, &DATASHEET_DATA_BYTES),
     ]
     .concat();
@@ -267,9 +268,37 @@ fn forced_measurement_polls_the_measuring_bit() {
 }
 
 #[test]
+fn a_forced_poll_waits_while_the_mode_bits_still_read_forced() {
+    // Just after the start the measuring bit can still read 0 while ctrl_meas holds forced
+    // mode (01 or 10): the sample in the data registers is then the previous one.
+    let expectations = [
+        spi_write(0x74, 0x24),
+        spi_write(0x75, 0x00),
+        spi_write(0x74, 0x25),
+        spi_write(0x74, 0x25), // start_forced
+        spi_read(0xF3, &[0x00, 0x25]),
+        spi_read(0xF3, &[0x00, 0x26]),
+        spi_read(0xF3, &[0x08, 0x25]),
+        spi_read(0xF3, &[0x00, 0x24]),
+        spi_read(0xF7, &DATASHEET_DATA_BYTES),
+    ]
+    .concat();
+    let mut bmp = driver(&expectations);
+    bmp.set_calibration(DATASHEET_CALIB);
+    bmp.configure(Config::forced(Resolution::UltraLowPower))
+        .unwrap();
+    bmp.start_forced().unwrap();
+    for _ in 0..3 {
+        assert_eq!(bmp.poll_forced(), Err(nb::Error::WouldBlock));
+    }
+    assert_eq!(bmp.poll_forced().unwrap().pressure_pa(), DATASHEET_P_PA);
+    bmp.release().done();
+}
+
+#[test]
 fn the_im_update_bit_alone_does_not_block_a_forced_poll() {
     let expectations = [
-        spi_read(0xF3, &[0x01]),
+        spi_read(0xF3, &[0x01, 0x00]),
         spi_read(0xF7, &DATASHEET_DATA_BYTES),
     ]
     .concat();
@@ -287,8 +316,8 @@ fn measure_forced_waits_the_typical_time_then_polls() {
         spi_write(0x75, 0x00),
         spi_write(0x74, 0x25),
         spi_write(0x74, 0x25),
-        spi_read(0xF3, &[0x08]),
-        spi_read(0xF3, &[0x00]),
+        spi_read(0xF3, &[0x08, 0x25]),
+        spi_read(0xF3, &[0x00, 0x24]),
         spi_read(0xF7, &DATASHEET_DATA_BYTES),
     ]
     .concat();
@@ -314,8 +343,10 @@ fn measure_forced_gives_up_after_the_maximum_time() {
     ]
     .concat();
     let mut delays = vec![D::delay_us(5500)];
-    for _ in 0..6 {
-        expectations.extend(spi_read(0xF3, &[0x08]));
+    for i in 0..6 {
+        // Measuring, or measuring already clear but the mode bits still forced.
+        let status = if i % 2 == 0 { 0x08 } else { 0x00 };
+        expectations.extend(spi_read(0xF3, &[status, 0x25]));
         delays.push(D::delay_us(500));
     }
     let mut bmp = initialised(&expectations);
@@ -342,6 +373,25 @@ fn forced_start_keeps_the_configured_oversampling() {
     assert_eq!(config.pressure_oversampling, Oversampling::X16);
     bmp.configure(config).unwrap();
     bmp.start_forced().unwrap();
+    bmp.release().done();
+}
+
+#[test]
+fn a_forced_start_from_normal_mode_is_reported_by_config() {
+    // DIMA preset (normal, x1/x1: 0x27), then one forced measurement with the same
+    // oversampling (0x25): the device sleeps afterwards, and `config()` must not claim normal.
+    let expectations = [
+        spi_write(0x74, 0x24),
+        spi_write(0x75, 0x00),
+        spi_write(0x74, 0x27),
+        spi_write(0x74, 0x25),
+    ]
+    .concat();
+    let mut bmp = driver(&expectations);
+    bmp.configure(Config::dima()).unwrap();
+    assert_eq!(bmp.config().mode, PowerMode::Normal);
+    bmp.start_forced().unwrap();
+    assert_eq!(bmp.config(), Config::dima().with_mode(PowerMode::Forced));
     bmp.release().done();
 }
 

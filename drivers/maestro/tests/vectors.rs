@@ -94,6 +94,16 @@ fn compact_set_target_with_crc() {
     assert_eq!(&*p, &[0x84, 0x02, 0x70, 0x2E, 0x18]);
 }
 
+// Pololu support (forum thread "CRC-7 usage on Maestro and Python 2.x"): in the Pololu
+// protocol the CRC covers the whole packet, 0xAA and the device number included:
+// Get Position ch 0, device 1 -> AA 01 10 00, CRC 6B.
+#[test]
+fn pololu_protocol_crc_covers_the_whole_packet() {
+    let framing = Framing::pololu(DeviceNumber::new(1).unwrap()).with_crc(true);
+    let p = encode(&Command::GetPosition { channel: ch(0) }, framing);
+    assert_eq!(&*p, &[0xAA, 0x01, 0x10, 0x00, 0x6B]);
+}
+
 // Pololu guide: Get Position reply 70 17 -> 6000
 #[test]
 fn get_position_reply() {

@@ -12,6 +12,10 @@ use crate::types::{Address16, Address64, ApiEscaping, Error, FrameError};
 /// node identifier fit).
 pub const MAX_AT_PARAMETER_LEN: usize = 32;
 
+/// Default number of `WouldBlock` answers tolerated per written byte (and for the final
+/// flush) before [`XBeeApi::send`] gives up with [`Error::Timeout`].
+pub const DEFAULT_WRITE_POLLS_PER_BYTE: u32 = 1_000_000;
+
 /// A module in API mode: sends typed frames, decodes received ones.
 ///
 /// `N` is the receive buffer size: the longest whole frame accepted (see [`FrameDecoder`]).
@@ -21,16 +25,52 @@ pub struct XBeeApi<S, const N: usize = 256> {
     serial: S,
     decoder: FrameDecoder<N>,
     frame_ids: FrameIdAllocator,
+    write_polls_per_byte: u32,
 }
 
-/// Writes frame bytes to the serial port, one `nb::block!` per byte (bounded by the UART's
-/// byte time).
-struct SerialSink<'s, S>(&'s mut S);
+/// Why a frame could not be put on the serial port.
+enum SinkError<E> {
+    /// The port kept answering `WouldBlock` for the whole poll budget.
+    Timeout,
+    /// The port failed.
+    Comm(E),
+}
+
+/// Polls a non-blocking serial operation until it completes, at most `polls` times, so a
+/// wedged UART ends in a timeout instead of hanging the caller.
+fn poll_bounded<E>(
+    polls: u32,
+    mut op: impl FnMut() -> nb::Result<(), E>,
+) -> Result<(), SinkError<E>> {
+    for _ in 0..polls {
+        match op() {
+            Ok(()) => return Ok(()),
+            Err(nb::Error::WouldBlock) => {}
+            Err(nb::Error::Other(e)) => return Err(SinkError::Comm(e)),
+        }
+    }
+    Err(SinkError::Timeout)
+}
+
+/// Writes frame bytes to the serial port, each within the poll budget.
+struct SerialSink<'s, S> {
+    serial: &'s mut S,
+    polls: u32,
+}
 
 impl<S: Write<u8>> ByteSink for SerialSink<'_, S> {
-    type Error = S::Error;
-    fn put(&mut self, byte: u8) -> Result<(), S::Error> {
-        nb::block!(self.0.write(byte))
+    type Error = SinkError<S::Error>;
+    fn put(&mut self, byte: u8) -> Result<(), Self::Error> {
+        poll_bounded(self.polls, || self.serial.write(byte))
+    }
+}
+
+impl<E> From<SinkError<E>> for Error<E> {
+    fn from(e: SinkError<E>) -> Self {
+        match e {
+            SinkError::Timeout => Error::Timeout,
+            SinkError::Comm(e) => Error::Comm(e),
+        }
     }
 }
 
@@ -42,7 +82,16 @@ impl<S, const N: usize> XBeeApi<S, N> {
             serial,
             decoder: FrameDecoder::new(escaping),
             frame_ids: FrameIdAllocator::new(),
+            write_polls_per_byte: DEFAULT_WRITE_POLLS_PER_BYTE,
         }
+    }
+
+    /// Sets how many `WouldBlock` answers a written byte (or the final flush) may get before
+    /// [`send`](XBeeApi::send) gives up with [`Error::Timeout`] (at least 1; default
+    /// [`DEFAULT_WRITE_POLLS_PER_BYTE`]).
+    pub fn with_write_polls_per_byte(mut self, polls: u32) -> Self {
+        self.write_polls_per_byte = polls.max(1);
+        self
     }
 
     /// Gives the serial port back.
@@ -71,14 +120,23 @@ impl<S, E, const N: usize> XBeeApi<S, N>
 where
     S: Read<u8, Error = E> + Write<u8, Error = E>,
 {
-    /// Sends one frame (blocking per byte) and flushes.
+    /// Sends one frame and flushes, polling the port while it answers `WouldBlock`.
+    ///
+    /// Fails with [`Error::Timeout`] if one byte (or the flush) is refused for the whole poll
+    /// budget ([`with_write_polls_per_byte`](XBeeApi::with_write_polls_per_byte)); the frame
+    /// may then be partly sent, which the module drops by its length and checksum.
     pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error<E>> {
         let escaping = self.decoder.escaping();
-        write_frame(frame, escaping, &mut SerialSink(&mut self.serial)).map_err(|e| match e {
+        let polls = self.write_polls_per_byte;
+        let mut sink = SerialSink {
+            serial: &mut self.serial,
+            polls,
+        };
+        write_frame(frame, escaping, &mut sink).map_err(|e| match e {
             WriteError::TooLong => Error::Frame(FrameError::TooLong),
-            WriteError::Sink(e) => Error::Comm(e),
+            WriteError::Sink(e) => Error::from(e),
         })?;
-        nb::block!(self.serial.flush()).map_err(Error::Comm)
+        Ok(poll_bounded(polls, || self.serial.flush())?)
     }
 
     /// Sends a local AT command (frame 0x08) with a fresh frame id; returns the id, which the

@@ -102,3 +102,8 @@ pub use session::CommandSession;
 pub use settings::{ApiMode, BaudRate, PowerLevel, Role};
 pub use transparent::{CommandTiming, Mode, Transparent};
 pub use types::{Address16, Address64, ApiEscaping, Error, FrameError};
+
+/// The README's code blocks, compiled as doctests so they keep matching the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -185,3 +185,48 @@ fn frame_longer_than_the_length_field_is_refused() {
         Err(FrameError::BufferTooSmall)
     );
 }
+
+#[test]
+fn a_port_that_never_takes_a_byte_times_out_instead_of_hanging() {
+    // The first byte (the delimiter) is refused three times: with a budget of three polls the
+    // send ends there. Without the budget this test would spin forever.
+    let refused: Vec<_> = (0..3)
+        .map(|_| Transaction::write_error(0x7E, nb::Error::WouldBlock))
+        .collect();
+    let serial = SerialMock::new(&refused);
+    let mut api: XBeeApi<_> =
+        XBeeApi::new(serial, ApiEscaping::Escaped).with_write_polls_per_byte(3);
+    assert_eq!(
+        api.send_at_command(AtCommand::NI, Parameter::None),
+        Err(Error::Timeout)
+    );
+    api.release().done();
+}
+
+#[test]
+fn a_flush_that_never_completes_times_out() {
+    let data = [frame_type::AT_COMMAND, 1, b'N', b'I'];
+    let mut expected = vec![Transaction::write_many(raw(&data, ApiEscaping::Unescaped))];
+    expected.extend((0..2).map(|_| Transaction::flush_error(nb::Error::WouldBlock)));
+    let mut api: XBeeApi<_> = XBeeApi::new(SerialMock::new(&expected), ApiEscaping::Unescaped)
+        .with_write_polls_per_byte(2);
+    assert_eq!(
+        api.send_at_command(AtCommand::NI, Parameter::None),
+        Err(Error::Timeout)
+    );
+    api.release().done();
+}
+
+#[test]
+fn a_busy_port_within_the_budget_still_sends_the_frame() {
+    let data = [frame_type::AT_COMMAND, 1, b'N', b'I'];
+    let bytes = raw(&data, ApiEscaping::Unescaped);
+    let mut expected = vec![Transaction::write_error(bytes[0], nb::Error::WouldBlock)];
+    expected.push(Transaction::write_many(bytes));
+    expected.push(Transaction::flush_error(nb::Error::WouldBlock));
+    expected.push(Transaction::flush());
+    let mut api: XBeeApi<_> = XBeeApi::new(SerialMock::new(&expected), ApiEscaping::Unescaped)
+        .with_write_polls_per_byte(2);
+    assert_eq!(api.send_at_command(AtCommand::NI, Parameter::None), Ok(1));
+    api.release().done();
+}

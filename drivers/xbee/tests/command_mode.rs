@@ -4,7 +4,7 @@
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
 use embedded_hal_nb::serial::{ErrorKind, Read, Write};
-use xbee_driver::at::{AtCommand, AtRequest};
+use xbee_driver::at::{AtCommand, AtRequest, Parameter};
 use xbee_driver::{
     settings, ApiMode, BaudRate, CommandOutcome, CommandTiming, Error, Mode, PowerLevel, Role,
     Transparent,
@@ -316,6 +316,9 @@ fn blocking_session_configures_a_dima_pair_module() {
         (b"ATPL4\r", b"OK\r"),
         (b"ATBD3\r", b"OK\r"),
         (b"ATAP0\r", b"OK\r"),
+        // The ground station sends to the robot's module (README pairing table).
+        (b"ATDH13A200\r", b"OK\r"),
+        (b"ATDL40A1B2C3\r", b"OK\r"),
         (b"ATNI\r", b"GROUND\r"),
         (b"ATCE\r", b"1\r"),
         (b"ATEE\r", b"1\r"),
@@ -340,6 +343,11 @@ fn blocking_session_configures_a_dima_pair_module() {
     s.set_power_level(PowerLevel::Highest).unwrap();
     s.set_baud_rate(BaudRate::Bps9600).unwrap();
     s.set_api_mode(ApiMode::Transparent).unwrap();
+    let robot = xbee_driver::Address64(0x0013_A200_40A1_B2C3);
+    s.set_raw(AtCommand::DH, Parameter::Number(robot.0 >> 32))
+        .unwrap();
+    s.set_raw(AtCommand::DL, Parameter::Number(robot.0 & 0xFFFF_FFFF))
+        .unwrap();
     let mut name = [0u8; 20];
     let n = s.node_identifier(&mut name).unwrap();
     assert_eq!(&name[..n], b"GROUND");

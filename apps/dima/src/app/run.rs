@@ -1,0 +1,265 @@
+//! Wiring: rings, device supervisors, the realtime, telemetry and logger threads, shutdown.
+//!
+//! [`run`] is device-agnostic: it takes one opener per device. `dima run` passes the hardware
+//! openers ([`hardware_devices`]); a simulation passes openers for pseudo-terminals and its own
+//! request line, and everything else (threads, loop, drivers, decoders, logger) is the same.
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Arc};
+use std::time::{Duration, Instant};
+
+use anyhow::Context;
+use embedded_hal::digital::OutputPin;
+use linux_embedded_hal::CdevPin;
+
+use super::record::CycleRecord;
+use super::rt_loop::{LoopEnds, LoopParams, RealtimeLoop};
+use crate::config::Config;
+use crate::devices::sensor::{open_hardware_sensor, SensorDevice};
+use crate::devices::serial::{LineSettings, SerialPort};
+use crate::devices::servo::{MaestroPort, ServoOutput};
+use crate::devices::{device_link, spawn_supervisors, Opener};
+use crate::logging::{spawn_logger, LoggerSettings, McapLog};
+use crate::metrics::LoopMetrics;
+use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport};
+use crate::telemetry::{spawn_telemetry, TelemetrySettings, TelemetryStats};
+
+/// One opener per device.
+pub struct Devices<P, S> {
+    /// Sensor board: serial port and request line.
+    pub sensor: Opener<SensorDevice<P>>,
+    /// Servo controller.
+    pub servo: Opener<S>,
+    /// Ground link (XBee in transparent mode).
+    pub ground: Opener<SerialPort>,
+}
+
+/// The real hardware, as configured.
+pub fn hardware_devices(config: &Config) -> Devices<CdevPin, MaestroPort> {
+    let sensor = config.sensor.clone();
+    let maestro = config.maestro.clone();
+    let xbee = config.xbee.clone();
+    Devices {
+        sensor: Box::new(move || open_hardware_sensor(&sensor)),
+        servo: Box::new(move || MaestroPort::open(&maestro)),
+        ground: Box::new(move || {
+            SerialPort::open(
+                &xbee.port,
+                LineSettings {
+                    baud: xbee.baud,
+                    stop_bits: 1,
+                },
+            )
+            .with_context(|| {
+                format!(
+                    "XBee: cannot open {} at {} baud (plugged in, and in the dialout group?)",
+                    xbee.port.display(),
+                    xbee.baud
+                )
+            })
+        }),
+    }
+}
+
+/// Called on the logger thread with every cycle record, in order (never on the realtime
+/// thread): for a live status display.
+pub type Observer = Box<dyn FnMut(&CycleRecord) + Send>;
+
+/// How a run ends, and who watches it.
+#[derive(Default)]
+pub struct RunOptions {
+    /// Stop after this long (None: at SIGINT/SIGTERM or when `stop` is set).
+    pub duration: Option<Duration>,
+    /// Sees every cycle record (e.g. a simulation's status line).
+    pub observer: Option<Observer>,
+}
+
+/// What a run did.
+pub struct RunSummary {
+    /// Loop metrics.
+    pub metrics: LoopMetrics,
+    /// Telemetry counters.
+    pub telemetry: TelemetryStats,
+    /// The RT setup report.
+    pub rt_report: Option<RtSetupReport>,
+    /// The MCAP file written, if any.
+    pub log_path: Option<PathBuf>,
+    /// Records the logger wrote.
+    pub records_logged: u64,
+}
+
+/// Sets `stop` on SIGINT and SIGTERM.
+pub fn install_signal_handlers(stop: &Arc<AtomicBool>) -> anyhow::Result<()> {
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, Arc::clone(stop))
+            .context("installing the SIGINT/SIGTERM handlers")?;
+    }
+    Ok(())
+}
+
+/// Runs the whole application until `stop` is set or the duration passes; outputs go safe,
+/// the log is flushed and closed, and the summary is returned.
+pub fn run<P, S>(
+    config: &Config,
+    devices: Devices<P, S>,
+    options: RunOptions,
+    stop: Arc<AtomicBool>,
+) -> anyhow::Result<RunSummary>
+where
+    P: OutputPin + Send + 'static,
+    S: ServoOutput + Send + 'static,
+{
+    config.validate()?;
+    let params = LoopParams::from_config(config);
+    let rt = &config.realtime;
+    if rt.lock_memory {
+        crate::rt::setup::prepare_allocator_for_locking();
+    }
+    let (commands_tx, commands_rx) = rtrb::RingBuffer::new(rt.command_ring);
+    let (log_tx, log_rx) = rtrb::RingBuffer::new(rt.log_ring_records);
+    let (snapshot_in, snapshot_out) = triple_buffer::triple_buffer(&Default::default());
+
+    // Device supervisors.
+    let (mut sensor_sup, sensor_link) = device_link(
+        "sensor board",
+        devices.sensor,
+        Duration::from_millis(u64::from(config.sensor.reopen_interval_ms)),
+    );
+    let (mut servo_sup, servo_link) = device_link(
+        "Maestro",
+        devices.servo,
+        Duration::from_millis(u64::from(config.maestro.reopen_interval_ms)),
+    );
+    let aux_stop = Arc::new(AtomicBool::new(false));
+    let supervisors = spawn_supervisors(
+        vec![
+            Box::new(move |now| sensor_sup.service(now)),
+            Box::new(move |now| servo_sup.service(now)),
+        ],
+        Arc::clone(&aux_stop),
+    )?;
+
+    // Logger.
+    let mut log = if config.log.enabled {
+        let log = McapLog::create(&config.log.directory)?;
+        tracing::info!("logging to {}", log.path().display());
+        Some(log)
+    } else {
+        None
+    };
+    if let Some(l) = log.as_mut() {
+        l.metadata(
+            "dima",
+            &[
+                ("version", env!("CARGO_PKG_VERSION").to_owned()),
+                ("config", toml::to_string(config)?),
+            ],
+        )?;
+    }
+    let (report_tx, report_rx) = mpsc::channel();
+    let logger_stop = Arc::new(AtomicBool::new(false));
+    let logger = spawn_logger(
+        log,
+        log_rx,
+        report_rx,
+        LoggerSettings {
+            flush_interval: Duration::from_millis(u64::from(config.log.flush_interval_ms)),
+            decoded_every: u64::from(config.log.decoded_every),
+        },
+        Arc::clone(&logger_stop),
+        options.observer,
+    )?;
+
+    // Telemetry.
+    let telemetry = spawn_telemetry(
+        devices.ground,
+        commands_tx,
+        snapshot_out,
+        TelemetrySettings {
+            display_period: Duration::from_secs_f64(1.0 / config.xbee.display_rate_hz),
+            reopen_interval: Duration::from_millis(u64::from(config.xbee.reopen_interval_ms)),
+            priority: rt.telemetry_priority,
+        },
+        Arc::clone(&aux_stop),
+    )?;
+
+    // The realtime thread.
+    let settings = RtSettings::from(rt);
+    let ends = LoopEnds {
+        commands: commands_rx,
+        log: log_tx,
+        snapshot: snapshot_in,
+        stop: Arc::clone(&stop),
+    };
+    let period_ns = params.period_ns;
+    let (rt_report_tx, rt_report_rx) = mpsc::channel();
+    let realtime = std::thread::Builder::new()
+        .name("dima-rt".into())
+        .stack_size(settings.prefault_stack_kib.max(256) * 1024 + 256 * 1024)
+        .spawn(move || {
+            let setup = RtSetup::apply(&settings);
+            let _ = rt_report_tx.send(setup.report.clone());
+            let mut rt_loop = RealtimeLoop::new(params, ends, sensor_link, servo_link);
+            let mut clock = PeriodicClock::new(period_ns, monotonic_ns());
+            rt_loop.run(&mut clock, None);
+            drop(setup);
+            rt_loop.metrics().clone()
+        })?;
+    let rt_report = rt_report_rx.recv().ok();
+    if let Some(report) = &rt_report {
+        tracing::info!("{report}");
+        let _ = report_tx.send(report.clone());
+    }
+
+    let started = Instant::now();
+    while !realtime.is_finished() {
+        if options.duration.is_some_and(|d| started.elapsed() >= d) {
+            stop.store(true, Ordering::Relaxed);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let metrics = realtime
+        .join()
+        .map_err(|_| anyhow::anyhow!("the realtime thread panicked"))?;
+    aux_stop.store(true, Ordering::Relaxed);
+    let telemetry = telemetry.join().unwrap_or_default();
+    let _ = supervisors.join();
+    logger_stop.store(true, Ordering::Release);
+    let outcome = logger
+        .join()
+        .map_err(|_| anyhow::anyhow!("the logger thread panicked"))?;
+
+    let summary = metrics.summary();
+    let histogram = metrics.wake_latency.cyclictest_format();
+    let log_path = match outcome.log {
+        Some(mut log) => {
+            log.metadata(
+                "summary",
+                &[
+                    ("summary", summary.clone()),
+                    ("ground_link", telemetry.summary()),
+                    ("counters", serde_json::to_string(&metrics.counters)?),
+                ],
+            )?;
+            log.attach(
+                "wake_latency_histogram.txt",
+                "text/plain",
+                histogram.as_bytes(),
+            )?;
+            let path = log.finish()?;
+            let hist_path = path.with_extension("latency.txt");
+            std::fs::write(&hist_path, &histogram)
+                .with_context(|| format!("writing {}", hist_path.display()))?;
+            Some(path)
+        }
+        None => None,
+    };
+    Ok(RunSummary {
+        metrics,
+        telemetry,
+        rt_report,
+        log_path,
+        records_logged: outcome.records,
+    })
+}

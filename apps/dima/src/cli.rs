@@ -1,0 +1,146 @@
+//! Command-line interface.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::config::Config;
+
+/// The DIMA robot's realtime control application.
+#[derive(Debug, Parser)]
+#[command(name = "dima", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Run the control loop on the real hardware.
+    Run(RunArgs),
+    /// Configuration helpers.
+    Config(ConfigArgs),
+}
+
+/// `dima run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// Configuration file (TOML); `dima config --print-default` writes a commented one.
+    #[arg(long, short, value_name = "FILE")]
+    pub config: PathBuf,
+    /// Flags that override the file.
+    #[command(flatten)]
+    pub overrides: Overrides,
+}
+
+/// Flags that override the configuration file.
+#[derive(Debug, Args, Default)]
+pub struct Overrides {
+    /// Sensor-board serial device.
+    #[arg(long, value_name = "PATH")]
+    pub sensor_port: Option<PathBuf>,
+    /// Maestro serial device.
+    #[arg(long, value_name = "PATH")]
+    pub maestro_port: Option<PathBuf>,
+    /// XBee serial device.
+    #[arg(long, value_name = "PATH")]
+    pub xbee_port: Option<PathBuf>,
+    /// Control-loop rate in Hz.
+    #[arg(long, value_name = "HZ")]
+    pub loop_rate: Option<u32>,
+    /// SCHED_FIFO priority of the loop (0 = SCHED_OTHER).
+    #[arg(long, value_name = "PRIO")]
+    pub priority: Option<u8>,
+    /// Directory for the MCAP log.
+    #[arg(long, value_name = "DIR")]
+    pub log_dir: Option<PathBuf>,
+    /// Do not write an MCAP log.
+    #[arg(long)]
+    pub no_log: bool,
+    /// Stop after this many seconds (default: run until SIGINT/SIGTERM).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+}
+
+impl Overrides {
+    /// Applies the flags that were given.
+    pub fn apply(&self, config: &mut Config) {
+        if let Some(p) = &self.sensor_port {
+            config.sensor.port = p.clone();
+        }
+        if let Some(p) = &self.maestro_port {
+            config.maestro.port = p.clone();
+        }
+        if let Some(p) = &self.xbee_port {
+            config.xbee.port = p.clone();
+        }
+        if let Some(hz) = self.loop_rate {
+            config.realtime.loop_rate_hz = hz;
+        }
+        if let Some(prio) = self.priority {
+            config.realtime.priority = prio;
+            if prio == 0 {
+                config.realtime.telemetry_priority = 0;
+            }
+        }
+        if let Some(dir) = &self.log_dir {
+            config.log.directory = dir.clone();
+        }
+        if self.no_log {
+            config.log.enabled = false;
+        }
+    }
+}
+
+/// `dima config`.
+#[derive(Debug, Args)]
+pub struct ConfigArgs {
+    /// Print the commented default configuration.
+    #[arg(long)]
+    pub print_default: bool,
+    /// Check a configuration file and print it with every default filled in.
+    #[arg(long, value_name = "FILE", conflicts_with = "print_default")]
+    pub check: Option<PathBuf>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[test]
+    fn cli_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn run_with_overrides() {
+        let cli = Cli::try_parse_from([
+            "dima",
+            "run",
+            "--config",
+            "x.toml",
+            "--maestro-port",
+            "/dev/pts/7",
+            "--loop-rate",
+            "100",
+            "--no-log",
+        ])
+        .unwrap();
+        let Command::Run(args) = cli.command else {
+            panic!("not run")
+        };
+        let mut config = Config::default();
+        args.overrides.apply(&mut config);
+        assert_eq!(config.maestro.port, PathBuf::from("/dev/pts/7"));
+        assert_eq!(config.realtime.loop_rate_hz, 100);
+        assert!(!config.log.enabled);
+    }
+
+    #[test]
+    fn run_needs_a_config() {
+        assert!(Cli::try_parse_from(["dima", "run"]).is_err());
+    }
+}

@@ -1,0 +1,458 @@
+//! The logger thread: drains the loop's record ring and writes an MCAP file.
+//!
+//! Channels (topics):
+//! - `/sensor/raw`: every valid 132-byte packet exactly as received (message encoding
+//!   `dima-sensor-v1`, no schema) for replay through the sensor-board decoder;
+//! - `/dima/cycle`: one JSON message per cycle (or every n-th) with timings, decoded values,
+//!   controller output, servo targets, mode and counters, under a JSON schema Foxglove plots;
+//! - `/dima/state`: a JSON message on every mode change and device event;
+//! - `/sensor/info`: sensor-board info frames (calibration, firmware, health) as JSON;
+//! - metadata `dima` (version, configuration), `rt_setup` (the RT setup report), `summary`
+//!   (metrics at exit), and the wake-up latency histogram as an attachment.
+//!
+//! Chunks are zstd-compressed and flushed at least every `flush_interval_ms`, so a crash loses
+//! at most that much. The thread also prints state transitions and device events: the loop
+//! itself never prints.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc;
+use std::sync::Arc;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::Context;
+use serde_json::json;
+
+use crate::app::record::{events, CycleRecord};
+use crate::control::Mode;
+use crate::rt::{monotonic_ns, RtSetupReport};
+
+/// The MCAP file being written.
+pub struct McapLog {
+    writer: mcap::Writer<BufWriter<File>>,
+    path: PathBuf,
+    raw: u16,
+    cycle: u16,
+    state: u16,
+    info: u16,
+    sequence: u32,
+    /// Added to CLOCK_MONOTONIC to get wall-clock ns for log times.
+    epoch_offset_ns: i128,
+}
+
+const CYCLE_SCHEMA: &str = r#"{
+  "type": "object",
+  "title": "dima.Cycle",
+  "properties": {
+    "cycle": {"type": "integer"},
+    "mode": {"type": "string"},
+    "wake_latency_us": {"type": "number"},
+    "missed_periods": {"type": "integer"},
+    "request_to_packet_us": {"type": "number"},
+    "compute_us": {"type": "number"},
+    "servo_write_us": {"type": "number"},
+    "packet_ok": {"type": "boolean"},
+    "sensor": {"type": "object", "properties": {
+      "accel": {"type": "array", "items": {"type": "integer"}},
+      "gyro": {"type": "array", "items": {"type": "integer"}},
+      "mag": {"type": "array", "items": {"type": "integer"}},
+      "rhall": {"type": "integer"},
+      "press_raw": {"type": "integer"},
+      "temp_raw": {"type": "integer"},
+      "gyro_z_dps": {"type": "number"},
+      "gnss_fix_ok": {"type": "boolean"},
+      "lat_deg": {"type": "number"},
+      "lon_deg": {"type": "number"},
+      "g_speed_mm_s": {"type": "integer"},
+      "head_mot_deg": {"type": "number"},
+      "num_sv": {"type": "integer"}
+    }},
+    "action": {"type": "object", "properties": {
+      "throttle": {"type": "number"}, "steering": {"type": "number"}, "tail": {"type": "number"}
+    }},
+    "targets_us": {"type": "array", "items": {"type": "integer"}},
+    "counters": {"type": "object"}
+  }
+}"#;
+
+const STATE_SCHEMA: &str = r#"{
+  "type": "object",
+  "title": "dima.State",
+  "properties": {
+    "cycle": {"type": "integer"},
+    "mode": {"type": "string"},
+    "cause": {"type": ["string", "null"]},
+    "events": {"type": "array", "items": {"type": "string"}}
+  }
+}"#;
+
+/// `dima-YYYYMMDDTHHMMSSZ.mcap` for `now`.
+pub fn log_file_name(now: SystemTime) -> String {
+    let secs = now.duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
+    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "dima-{year:04}{month:02}{day:02}T{:02}{:02}{:02}Z.mcap",
+        rem / 3_600,
+        rem % 3_600 / 60,
+        rem % 60
+    )
+}
+
+fn event_names(bits: u16) -> Vec<&'static str> {
+    [
+        (events::SENSOR_CONNECTED, "sensor_connected"),
+        (events::SENSOR_LOST, "sensor_lost"),
+        (events::SERVO_CONNECTED, "servo_connected"),
+        (events::SERVO_LOST, "servo_lost"),
+        (events::MODE_CHANGED, "mode_changed"),
+        (events::SHUTDOWN, "shutdown"),
+    ]
+    .iter()
+    .filter(|(bit, _)| bits & bit != 0)
+    .map(|&(_, name)| name)
+    .collect()
+}
+
+fn mode_name(mode: Mode) -> &'static str {
+    match mode {
+        Mode::Killed => "KILLED",
+        Mode::Manual => "MANUAL",
+        Mode::Auto => "AUTO",
+        Mode::Failsafe => "FAILSAFE",
+    }
+}
+
+fn us(ns: u64) -> f64 {
+    ns as f64 / 1_000.0
+}
+
+impl McapLog {
+    /// Creates `dir` if needed and a new timestamped file in it.
+    pub fn create(dir: &Path) -> anyhow::Result<McapLog> {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("log: cannot create directory {}", dir.display()))?;
+        let path = dir.join(log_file_name(SystemTime::now()));
+        McapLog::create_file(&path)
+    }
+
+    /// Creates the file at `path`.
+    pub fn create_file(path: &Path) -> anyhow::Result<McapLog> {
+        let file = File::create(path)
+            .with_context(|| format!("log: cannot create {} (writable?)", path.display()))?;
+        let mut writer = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .chunk_size(Some(4 * 1024 * 1024))
+            .profile("")
+            .create(BufWriter::new(file))
+            .context("log: starting the MCAP file")?;
+        let none = BTreeMap::new();
+        let raw = writer.add_channel(0, "/sensor/raw", "dima-sensor-v1", &none)?;
+        let cycle_schema =
+            writer.add_schema("dima.Cycle", "jsonschema", CYCLE_SCHEMA.as_bytes())?;
+        let cycle = writer.add_channel(cycle_schema, "/dima/cycle", "json", &none)?;
+        let state_schema =
+            writer.add_schema("dima.State", "jsonschema", STATE_SCHEMA.as_bytes())?;
+        let state = writer.add_channel(state_schema, "/dima/state", "json", &none)?;
+        let info_schema = writer.add_schema(
+            "dima.SensorInfo",
+            "jsonschema",
+            br#"{"type": "object", "title": "dima.SensorInfo"}"#,
+        )?;
+        let info = writer.add_channel(info_schema, "/sensor/info", "json", &none)?;
+        let wall = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos() as i128);
+        Ok(McapLog {
+            writer,
+            path: path.to_owned(),
+            raw,
+            cycle,
+            state,
+            info,
+            sequence: 0,
+            epoch_offset_ns: wall - i128::from(monotonic_ns()),
+        })
+    }
+
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    fn log_time(&self, mono_ns: u64) -> u64 {
+        (i128::from(mono_ns) + self.epoch_offset_ns).max(0) as u64
+    }
+
+    fn message(&mut self, channel_id: u16, mono_ns: u64, data: &[u8]) -> anyhow::Result<()> {
+        self.sequence = self.sequence.wrapping_add(1);
+        let t = self.log_time(mono_ns);
+        self.writer.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id,
+                sequence: self.sequence,
+                log_time: t,
+                publish_time: t,
+            },
+            data,
+        )?;
+        Ok(())
+    }
+
+    /// A metadata record of string pairs.
+    pub fn metadata(&mut self, name: &str, pairs: &[(&str, String)]) -> anyhow::Result<()> {
+        self.writer.write_metadata(&mcap::records::Metadata {
+            name: name.to_owned(),
+            metadata: pairs
+                .iter()
+                .map(|(k, v)| ((*k).to_owned(), v.clone()))
+                .collect(),
+        })?;
+        Ok(())
+    }
+
+    /// The RT setup report as metadata.
+    pub fn rt_setup(&mut self, report: &RtSetupReport) -> anyhow::Result<()> {
+        self.metadata(
+            "rt_setup",
+            &[
+                ("report", report.to_string()),
+                ("json", serde_json::to_string(report)?),
+            ],
+        )
+    }
+
+    /// Writes one cycle: raw packet, decoded values (if `with_decoded`), state changes.
+    pub fn record(&mut self, r: &CycleRecord, with_decoded: bool) -> anyhow::Result<()> {
+        let t = r.tick.wake_ns;
+        if let Some(raw) = &r.packet {
+            self.message(self.raw, t, raw.as_ref())?;
+        }
+        if let Some(info) = &r.info {
+            let msg = json!({
+                "version": info.version,
+                "firmware": info.firmware,
+                "status": info.status.bits(),
+                "bmp280_calibration": info.bmp280_calibration,
+                "bmm150_trim": info.bmm150_trim,
+                "uptime_ms": info.uptime_ms,
+                "requests_skipped": info.requests_skipped,
+            });
+            self.message(self.info, t, &serde_json::to_vec(&msg)?)?;
+        }
+        if r.events != 0 {
+            let msg = json!({
+                "cycle": r.cycle,
+                "mode": mode_name(r.safety.mode),
+                "cause": r.safety.cause.map(|c| format!("{c:?}")),
+                "events": event_names(r.events),
+            });
+            self.message(self.state, t, &serde_json::to_vec(&msg)?)?;
+        }
+        if with_decoded {
+            let sensor = r.packet.map(|raw| {
+                let p = raw.decode();
+                let pvt = p.nav_pvt();
+                json!({
+                    "accel": p.accel, "gyro": p.gyro, "mag": p.mag, "rhall": p.rhall,
+                    "press_raw": p.press_raw, "temp_raw": p.temp_raw,
+                    "gyro_z_dps": r.values.gyro_z_dps,
+                    "gnss_fix_ok": r.values.gnss_fix_ok,
+                    "lat_deg": pvt.map(|v| v.lat_deg()),
+                    "lon_deg": pvt.map(|v| v.lon_deg()),
+                    "g_speed_mm_s": pvt.map(|v| v.g_speed_mm_s),
+                    "head_mot_deg": pvt.map(|v| v.head_mot_deg()),
+                    "num_sv": pvt.map(|v| v.num_sv),
+                })
+            });
+            let since = |a: u64, b: u64| {
+                if a != 0 && b != 0 {
+                    Some(us(a.saturating_sub(b)))
+                } else {
+                    None
+                }
+            };
+            let msg = json!({
+                "cycle": r.cycle,
+                "mode": mode_name(r.safety.mode),
+                "wake_latency_us": us(r.tick.latency_ns),
+                "missed_periods": r.tick.missed,
+                "request_to_packet_us": since(r.t_packet_ns, r.t_request_ns),
+                "compute_us": us(r.t_compute_ns.saturating_sub(
+                    if r.t_packet_ns != 0 { r.t_packet_ns } else { r.tick.wake_ns })),
+                "servo_write_us": since(r.t_write_ns, r.t_compute_ns),
+                "packet_ok": r.packet.is_some(),
+                "sensor": sensor,
+                "action": {
+                    "throttle": r.action.throttle,
+                    "steering": r.action.steering,
+                    "tail": r.action.tail,
+                },
+                "targets_us": r.targets.pulse_us,
+                "counters": r.counters,
+            });
+            self.message(self.cycle, t, &serde_json::to_vec(&msg)?)?;
+        }
+        Ok(())
+    }
+
+    /// Ends the current chunk and flushes it to the file.
+    pub fn flush(&mut self) -> anyhow::Result<()> {
+        self.writer.flush()?;
+        Ok(())
+    }
+
+    /// Adds an attachment (e.g. the latency histogram).
+    pub fn attach(&mut self, name: &str, media_type: &str, data: &[u8]) -> anyhow::Result<()> {
+        let t = self.log_time(monotonic_ns());
+        self.writer.attach(&mcap::Attachment {
+            log_time: t,
+            create_time: t,
+            name: name.to_owned(),
+            media_type: media_type.to_owned(),
+            data: std::borrow::Cow::Borrowed(data),
+        })?;
+        Ok(())
+    }
+
+    /// Writes the summary and index and closes the file.
+    pub fn finish(mut self) -> anyhow::Result<PathBuf> {
+        self.writer.finish()?;
+        Ok(self.path)
+    }
+}
+
+/// What the logger thread did.
+pub struct LoggerOutcome {
+    /// The log, still open, for the summary and histogram; `None` when logging is off or the
+    /// file failed.
+    pub log: Option<McapLog>,
+    /// Records written.
+    pub records: u64,
+}
+
+/// Logger thread settings.
+pub struct LoggerSettings {
+    /// Chunk flush interval.
+    pub flush_interval: Duration,
+    /// Decoded values every n-th cycle.
+    pub decoded_every: u64,
+}
+
+/// Prints what a record says happened (mode changes, device events).
+fn report_events(r: &CycleRecord, last_mode: &mut Mode) {
+    if r.safety.mode != *last_mode {
+        match r.safety.cause {
+            Some(cause) if r.safety.mode == Mode::Failsafe => tracing::warn!(
+                "mode {} -> FAILSAFE ({cause:?}) at cycle {}",
+                mode_name(*last_mode),
+                r.cycle
+            ),
+            _ => tracing::info!(
+                "mode {} -> {} at cycle {}",
+                mode_name(*last_mode),
+                mode_name(r.safety.mode),
+                r.cycle
+            ),
+        }
+        *last_mode = r.safety.mode;
+    }
+    if r.events & events::SENSOR_LOST != 0 {
+        tracing::warn!("sensor board: I/O error in cycle {}, reopening", r.cycle);
+    }
+    if r.events & events::SERVO_LOST != 0 {
+        tracing::warn!("Maestro: write failed in cycle {}, reopening", r.cycle);
+    }
+}
+
+/// Spawns the logger thread (normal priority). It drains `records` until `stop` is set and
+/// the ring is empty, and writes `rt_setup` reports as they arrive.
+pub fn spawn_logger(
+    mut log: Option<McapLog>,
+    mut records: rtrb::Consumer<CycleRecord>,
+    rt_reports: mpsc::Receiver<RtSetupReport>,
+    settings: LoggerSettings,
+    stop: Arc<AtomicBool>,
+    mut observer: Option<crate::app::run::Observer>,
+) -> std::io::Result<std::thread::JoinHandle<LoggerOutcome>> {
+    std::thread::Builder::new()
+        .name("dima-logger".into())
+        .spawn(move || {
+            let mut written = 0u64;
+            let mut last_flush = Instant::now();
+            let mut last_mode = Mode::Killed;
+            let decoded_every = settings.decoded_every.max(1);
+            loop {
+                let stopping = stop.load(Ordering::Acquire);
+                if let Ok(report) = rt_reports.try_recv() {
+                    if let Some(l) = log.as_mut() {
+                        if let Err(e) = l.rt_setup(&report) {
+                            tracing::error!("log: {e:#}");
+                        }
+                    }
+                }
+                let mut n = 0;
+                while let Ok(r) = records.pop() {
+                    report_events(&r, &mut last_mode);
+                    if let Some(observe) = observer.as_mut() {
+                        observe(&r);
+                    }
+                    if let Some(l) = log.as_mut() {
+                        let decoded = r.cycle % decoded_every == 0 || r.events != 0;
+                        if let Err(e) = l.record(&r, decoded) {
+                            tracing::error!("log: {e:#}; logging stops, the loop goes on");
+                            log = None;
+                        }
+                    }
+                    written += 1;
+                    n += 1;
+                }
+                if last_flush.elapsed() >= settings.flush_interval {
+                    if let Some(l) = log.as_mut() {
+                        if let Err(e) = l.flush() {
+                            tracing::error!("log: flush: {e:#}; logging stops");
+                            log = None;
+                        }
+                    }
+                    last_flush = Instant::now();
+                }
+                if stopping && n == 0 && records.is_empty() {
+                    break;
+                }
+                if n == 0 {
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+            }
+            LoggerOutcome {
+                log,
+                records: written,
+            }
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn file_names_are_utc_timestamps() {
+        let t = UNIX_EPOCH + Duration::from_secs(1_795_000_000);
+        // `date -u -d @1795000000`: 2026-11-18 11:06:40 UTC.
+        assert_eq!(log_file_name(t), "dima-20261118T110640Z.mcap");
+        assert_eq!(log_file_name(UNIX_EPOCH), "dima-19700101T000000Z.mcap");
+        let leap = UNIX_EPOCH + Duration::from_secs(951_825_600); // 2000-02-29 12:00:00
+        assert_eq!(log_file_name(leap), "dima-20000229T120000Z.mcap");
+    }
+}

@@ -1,0 +1,68 @@
+//! `dima`: parses the command line and the configuration, then hands over to the library.
+
+use std::io::Write;
+use std::process::ExitCode;
+
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::Context;
+use clap::Parser;
+use dima::app;
+use dima::cli::{Cli, Command};
+use dima::config::{Config, DEFAULT_TOML};
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            tracing::error!("{error:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Config(args) => {
+            if let Some(path) = args.check {
+                let config = Config::load(&path)?;
+                let text = toml::to_string(&config).context("serialising the configuration")?;
+                std::io::stdout().write_all(text.as_bytes())?;
+            } else if args.print_default {
+                std::io::stdout().write_all(DEFAULT_TOML.as_bytes())?;
+            } else {
+                anyhow::bail!("dima config: give --print-default or --check FILE");
+            }
+            Ok(())
+        }
+        Command::Run(args) => {
+            let mut config = Config::load(&args.config)?;
+            args.overrides.apply(&mut config);
+            config.validate()?;
+            let stop = Arc::new(AtomicBool::new(false));
+            app::install_signal_handlers(&stop)?;
+            let options = app::RunOptions {
+                duration: args.overrides.duration.map(Duration::from_secs_f64),
+                observer: None,
+            };
+            tracing::info!("starting: KILLED until a revive from the ground station");
+            let summary = app::run(&config, app::hardware_devices(&config), options, stop)?;
+            tracing::info!("outputs safe; {}", summary.metrics.summary());
+            tracing::info!("{}", summary.telemetry.summary());
+            if let Some(path) = summary.log_path {
+                tracing::info!("log: {}", path.display());
+            }
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,130 @@
+//! The `dima` binary's configuration commands, run as a user would.
+
+use std::process::Command;
+
+use dima::config::Config;
+
+fn dima() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_dima"))
+}
+
+#[test]
+fn print_default_parses_back_to_the_defaults() {
+    let out = dima().args(["config", "--print-default"]).output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.lines().filter(|l| l.starts_with('#')).count() > 10,
+        "commented"
+    );
+    let parsed: Config = toml::from_str(&text).unwrap();
+    assert_eq!(parsed, Config::default());
+}
+
+#[test]
+fn check_reports_the_file_and_the_problem() {
+    let dir = std::env::temp_dir().join(format!("dima-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("bad.toml");
+    std::fs::write(&path, "[realtime]\nloop_rate_hz = 0\n").unwrap();
+    let out = dima()
+        .args(["config", "--check", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("loop_rate_hz"), "{err}");
+
+    let missing = dir.join("missing.toml");
+    let out = dima()
+        .args(["run", "--config", missing.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("missing.toml"));
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn sigterm_writes_safe_outputs_and_exits_zero() {
+    use std::os::fd::AsFd;
+    let dir = std::env::temp_dir().join(format!("dima-sigterm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut config = Config::default();
+    config.realtime.priority = 0;
+    config.realtime.telemetry_priority = 0;
+    config.realtime.cpus = vec![];
+    config.realtime.lock_memory = false;
+    config.realtime.cpu_dma_latency = false;
+    config.log.directory = dir.clone();
+    let path = dir.join("dima.toml");
+    std::fs::write(&path, toml::to_string(&config).unwrap()).unwrap();
+
+    // The Maestro on a pseudo-terminal; the sensor board and XBee are absent.
+    let maestro = nix::pty::openpty(None, None).unwrap();
+    let mut t = nix::sys::termios::tcgetattr(&maestro.master).unwrap();
+    nix::sys::termios::cfmakeraw(&mut t);
+    nix::sys::termios::tcsetattr(&maestro.master, nix::sys::termios::SetArg::TCSANOW, &t).unwrap();
+    let maestro_path = nix::unistd::ttyname(&maestro.slave).unwrap();
+    let child = dima()
+        .args(["run", "--config", path.to_str().unwrap()])
+        .args(["--maestro-port", maestro_path.to_str().unwrap()])
+        .args(["--sensor-port", "/dev/dima-test-absent-sensor"])
+        .args(["--xbee-port", "/dev/dima-test-absent-xbee"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(1_500));
+    // Drain what the Maestro got so far, then stop the app.
+    let mut buf = [0u8; 4096];
+    let read_all = |buf: &mut [u8]| {
+        let mut got = Vec::new();
+        let t0 = std::time::Instant::now();
+        loop {
+            if t0.elapsed() > std::time::Duration::from_secs(3) {
+                break got;
+            }
+            let mut fds = [nix::poll::PollFd::new(
+                maestro.master.as_fd(),
+                nix::poll::PollFlags::POLLIN,
+            )];
+            if nix::poll::poll(&mut fds, nix::poll::PollTimeout::from(200u16)).unwrap_or(0) == 0 {
+                break got;
+            }
+            match nix::unistd::read(&maestro.master, buf) {
+                Ok(n) if n > 0 => got.extend_from_slice(&buf[..n]),
+                _ => break got,
+            }
+        }
+    };
+    let before = read_all(&mut buf);
+    std::thread::sleep(std::time::Duration::from_millis(100));
+    // Safe targets (compact Set Target, 1500/1545/1500 µs) were sent while KILLED.
+    assert!(
+        before.windows(4).any(|w| w == [0x84, 0x00, 0x70, 0x2E]),
+        "{before:02X?}"
+    );
+    nix::sys::signal::kill(
+        nix::unistd::Pid::from_raw(child.id() as i32),
+        nix::sys::signal::Signal::SIGTERM,
+    )
+    .unwrap();
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{:?}\n{stderr}", out.status);
+    // The last write is the safe outputs, in one write: throttle, steering, tail.
+    let after = read_all(&mut buf);
+    let safe = [
+        0x84, 0x00, 0x70, 0x2E, 0x84, 0x01, 0x24, 0x30, 0x84, 0x02, 0x70, 0x2E,
+    ];
+    assert!(after.ends_with(&safe), "{after:02X?}");
+    assert!(stderr.contains("RT setup report"), "{stderr}");
+    assert!(stderr.contains("sensor board: cannot open"), "{stderr}");
+    let logs: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.path().extension().is_some_and(|x| x == "mcap"))
+        .collect();
+    assert_eq!(logs.len(), 1);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,47 @@
+//! The DIMA ground link, version 1: the frames exchanged between the robot and its ground
+//! station over the XBee radio link (transparent mode).
+//!
+//! - [`Command`]: 10-byte command frames, ground station -> robot (`$`, type, i32 big-endian data,
+//!   CRC-32/ISO-HDLC over type and data). [`Command::encode`], [`Command::decode`], and the
+//!   resynchronising [`CommandDecoder`] that finds frames in a byte stream by `$` and CRC.
+//! - [`DisplayFrame`]: 68-byte display frames, robot -> ground station (sensor values and the GNSS
+//!   solution, CRC-32/ISO-HDLC, no start token). [`DisplayFrame::encode`],
+//!   [`DisplayFrame::decode`], and the sliding-window [`DisplayDecoder`].
+//!
+//! Both decoders are total: they take any bytes in any chunking, never panic, reject CRC-valid
+//! frames with unknown types or out-of-range data, and count everything they drop
+//! ([`CommandStats`], [`DisplayStats`]). The frames are bit-compatible with the original DIMA
+//! ground station; speed and heading setpoints (types 6 and 7) are new in this implementation.
+//!
+//! ```
+//! use dima_groundlink::{Command, CommandDecoder, Percent};
+//!
+//! // The original ground station's heartbeat, byte for byte.
+//! let heartbeat = [0x24, 0x00, 0x00, 0x00, 0x00, 0x00, 0xC6, 0x22, 0xF7, 0x1D];
+//! assert_eq!(Command::Heartbeat.encode(), heartbeat);
+//!
+//! // Reads split anywhere, with garbage in between, still yield every frame.
+//! let throttle = Command::Throttle(Percent::new(75).unwrap()).encode();
+//! let mut decoder = CommandDecoder::new();
+//! let mut seen = 0;
+//! for chunk in [&heartbeat[..3], &heartbeat[3..], &[0x55, b'$', 0x01][..], &throttle[..]] {
+//!     for command in decoder.feed(chunk) {
+//!         assert!(command.is_ok());
+//!         seen += 1;
+//!     }
+//! }
+//! assert_eq!(seen, 2);
+//! ```
+#![no_std]
+#![deny(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod checksum;
+pub mod command;
+pub mod display;
+
+pub use command::{
+    Command, CommandDecoder, CommandError, CommandStats, CommandType, Percent, COMMAND_FRAME_LEN,
+    COMMAND_START, HEADING_FULL_TURN_DEG_E5, MAX_SPEED_MM_S,
+};
+pub use display::{DisplayDecoder, DisplayError, DisplayFrame, DisplayStats, DISPLAY_FRAME_LEN};
