@@ -1,0 +1,29 @@
+//! Pure logic of the DIMA sensor-board firmware.
+//!
+//! Everything here is plain state machines and code generic over embedded-hal traits, so it
+//! builds for the STM32 (where the firmware in `../src` drives it from interrupts) and for the
+//! host, where `cargo test-logic` runs its unit tests:
+//!
+//! - [`request`]: what to do with a request edge (send the latest packet, append an info
+//!   frame, or skip and count because a transfer is still running);
+//! - [`schedule`]: which sensor to read on which sampling tick (accelerometer and gyroscope
+//!   every tick, magnetometer in forced mode with data-ready polling, BMP280 in normal mode);
+//! - [`latest`]: the front half of the packet double buffer, the latest complete packet;
+//! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
+//! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
+//!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
+//!   register file).
+#![no_std]
+#![deny(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod blink;
+pub mod latest;
+pub mod request;
+pub mod schedule;
+pub mod sensors;
+
+pub use latest::LatestPacket;
+pub use request::{AfterTransfer, Answer, RequestHandler, INFO_GAP_MS};
+pub use schedule::{MagAction, Schedule, ScheduleConfig, TickPlan};
+pub use sensors::{BootReport, Sensors};

@@ -1,0 +1,355 @@
+//! QEMU smoke test of the sensor-board firmware.
+//!
+//! Runs the firmware's `qemu` build on QEMU's `netduinoplus2` machine (STM32F405) with USART1
+//! (GNSS) and USART3 (host link) on local TCP sockets, then checks what a host sees:
+//!
+//! 1. nothing at all arrives before the first request (no packet at boot, none unrequested);
+//! 2. the first request is answered with one packet followed by one info frame;
+//! 3. requests a few milliseconds apart get one packet each and no info frame;
+//! 4. after a pause (500 ms or more on the board's clock) the answer carries an info frame
+//!    again, with a larger uptime and the GNSS bit set;
+//! 5. a NAV-PVT frame written to the GNSS UART shows up, byte for byte, in later packets.
+//!
+//! Every byte from USART3 goes through `dima_sensorboard::StreamDecoder`, which checks start
+//! tokens and CRCs: a packet counts only if the decoder accepts it, and any skipped byte or CRC
+//! error fails the test.
+//!
+//! Usage: `qemu-smoke PATH/TO/ELF` (QEMU's `qemu-system-arm` must be on the PATH). The last
+//! line of output is `N passed, N failed`; the exit status is non-zero on any failure.
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream};
+use std::process::{Child, Command, Stdio};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+use dima_sensorboard::gnss::{ubx_checksum, GNSS_FRAME_LEN, NAV_PVT_HEADER};
+use dima_sensorboard::{Frame, InfoFrame, RawPacket, StreamDecoder};
+
+/// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
+const PAUSE: Duration = Duration::from_secs(2);
+
+/// How long to wait for an answer to one request.
+const ANSWER_TIMEOUT: Duration = Duration::from_millis(1500);
+
+/// Kills QEMU when the test ends, whatever the outcome.
+struct Qemu(Child);
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The host side of USART3: sends request bytes, decodes what comes back.
+struct HostLink {
+    stream: TcpStream,
+    decoder: StreamDecoder,
+    /// Requests sent so far.
+    requests: u32,
+}
+
+impl HostLink {
+    /// Reads for `window` and returns the frames decoded in that time.
+    fn collect_for(&mut self, window: Duration) -> Vec<Frame> {
+        let deadline = Instant::now() + window;
+        let mut frames = Vec::new();
+        let mut buffer = [0u8; 512];
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                return frames;
+            }
+            self.stream
+                .set_read_timeout(Some(left.max(Duration::from_millis(1))))
+                .expect("set read timeout");
+            match self.stream.read(&mut buffer) {
+                Ok(0) => return frames,
+                Ok(n) => frames.extend(self.decoder.frames(&buffer[..n])),
+                Err(e)
+                    if e.kind() == std::io::ErrorKind::WouldBlock
+                        || e.kind() == std::io::ErrorKind::TimedOut => {}
+                Err(e) => panic!("reading USART3: {e}"),
+            }
+        }
+    }
+
+    /// Sends one request and reads until `expected` frames arrived (or the timeout).
+    fn request(&mut self, expected: usize) -> Vec<Frame> {
+        self.stream.write_all(b"R").expect("write request");
+        self.requests += 1;
+        let deadline = Instant::now() + ANSWER_TIMEOUT;
+        let mut frames = Vec::new();
+        while frames.len() < expected && Instant::now() < deadline {
+            frames.extend(self.collect_for(Duration::from_millis(20)));
+        }
+        // Anything beyond the expected answer would be an unrequested frame.
+        frames.extend(self.collect_for(Duration::from_millis(30)));
+        frames
+    }
+}
+
+/// Tallies checks and prints each one.
+#[derive(Default)]
+struct Checks {
+    passed: u32,
+    failed: u32,
+}
+
+impl Checks {
+    fn check(&mut self, ok: bool, what: &str) {
+        if ok {
+            self.passed += 1;
+            println!("ok      {what}");
+        } else {
+            self.failed += 1;
+            println!("FAILED  {what}");
+        }
+    }
+}
+
+fn split(frames: &[Frame]) -> (Vec<RawPacket>, Vec<InfoFrame>) {
+    let mut packets = Vec::new();
+    let mut infos = Vec::new();
+    for frame in frames {
+        match frame {
+            Frame::Packet(packet) => packets.push(*packet),
+            Frame::Info(info) => infos.push(*info),
+        }
+    }
+    (packets, infos)
+}
+
+/// The frame kinds in order, for messages: e.g. "packet, info".
+fn kinds(frames: &[Frame]) -> String {
+    let names: Vec<&str> = frames
+        .iter()
+        .map(|frame| match frame {
+            Frame::Packet(_) => "packet",
+            Frame::Info(_) => "info",
+        })
+        .collect();
+    format!("[{}]", names.join(", "))
+}
+
+/// A checksum-valid UBX NAV-PVT frame (100 bytes) with recognisable contents.
+fn nav_pvt_frame() -> [u8; GNSS_FRAME_LEN] {
+    let mut frame = [0u8; GNSS_FRAME_LEN];
+    frame[..6].copy_from_slice(&NAV_PVT_HEADER);
+    let payload = &mut frame[6..98];
+    payload[0..4].copy_from_slice(&345_600_000u32.to_le_bytes()); // iTOW, ms
+    payload[4..6].copy_from_slice(&2026u16.to_le_bytes()); // year
+    payload[6] = 11; // month
+    payload[7] = 22; // day
+    payload[8] = 8; // hour
+    payload[11] = 0x07; // valid: date, time, fully resolved
+    payload[20] = 3; // fixType: 3D
+    payload[21] = 0x01; // flags: gnssFixOK
+    payload[23] = 9; // numSV
+    payload[24..28].copy_from_slice(&112_345_678i32.to_le_bytes()); // lon, 1e-7 deg
+    payload[28..32].copy_from_slice(&481_234_567i32.to_le_bytes()); // lat, 1e-7 deg
+    payload[32..36].copy_from_slice(&520_000i32.to_le_bytes()); // height, mm
+    payload[36..40].copy_from_slice(&470_000i32.to_le_bytes()); // hMSL, mm
+    let (ck_a, ck_b) = ubx_checksum(&frame[2..98]);
+    frame[98] = ck_a;
+    frame[99] = ck_b;
+    frame
+}
+
+fn main() {
+    let elf = std::env::args()
+        .nth(1)
+        .expect("usage: qemu-smoke PATH/TO/FIRMWARE.elf");
+    let qemu_bin = std::env::var("QEMU").unwrap_or_else(|_| "qemu-system-arm".into());
+
+    // QEMU connects to these as a client: USART1 (GNSS) and USART3 (host link).
+    let gnss_listener = TcpListener::bind("127.0.0.1:0").expect("bind GNSS socket");
+    let link_listener = TcpListener::bind("127.0.0.1:0").expect("bind link socket");
+    let gnss_port = gnss_listener.local_addr().expect("GNSS port").port();
+    let link_port = link_listener.local_addr().expect("link port").port();
+
+    let mut child = Command::new(&qemu_bin)
+        .args(["-M", "netduinoplus2", "-nographic", "-monitor", "none"])
+        .args(["-semihosting-config", "enable=on,target=native"])
+        .args(["-serial", &format!("tcp:127.0.0.1:{gnss_port},nodelay=on")])
+        .args(["-serial", "null"])
+        .args(["-serial", &format!("tcp:127.0.0.1:{link_port},nodelay=on")])
+        .args(["-kernel", &elf])
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .unwrap_or_else(|e| panic!("starting {qemu_bin}: {e}"));
+    let stdout = child.stdout.take().expect("QEMU stdout");
+    let qemu = Qemu(child);
+
+    let (mut gnss, _) = gnss_listener.accept().expect("QEMU connects USART1");
+    let (link_stream, _) = link_listener.accept().expect("QEMU connects USART3");
+    link_stream.set_nodelay(true).expect("nodelay");
+
+    // The firmware prints "ready" (semihosting) once its receivers are enabled.
+    let (ready_tx, ready_rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            println!("firmware: {line}");
+            if line.trim() == "ready" {
+                let _ = ready_tx.send(());
+            }
+        }
+    });
+    let started = Instant::now();
+    ready_rx
+        .recv_timeout(Duration::from_secs(20))
+        .expect("firmware did not print `ready` within 20 s");
+    println!("firmware ready after {:?}", started.elapsed());
+
+    let mut link = HostLink {
+        stream: link_stream,
+        decoder: StreamDecoder::new(),
+        requests: 0,
+    };
+    let mut checks = Checks::default();
+
+    // 1. Silence until requested.
+    let unrequested = link.collect_for(Duration::from_millis(300));
+    checks.check(
+        unrequested.is_empty() && link.decoder.stats().bytes_skipped == 0,
+        "nothing is sent before the first request",
+    );
+
+    // 2. First request: packet, then info frame.
+    let first = link.request(2);
+    let (packets, infos) = split(&first);
+    checks.check(
+        matches!(first.as_slice(), [Frame::Packet(_), Frame::Info(_)]),
+        &format!(
+            "first request answered with packet + info frame (got {})",
+            kinds(&first)
+        ),
+    );
+    let first_info = infos.first().copied();
+    if let Some(info) = first_info {
+        checks.check(info.version == 1, "info frame version 1");
+        checks.check(
+            info.firmware == [0, 1, 0],
+            &format!("firmware version 0.1.0 (got {:?})", info.firmware),
+        );
+        println!(
+            "info: status {:#04x}, uptime {} ms, skipped {}",
+            info.status.bits(),
+            info.uptime_ms,
+            info.requests_skipped
+        );
+    }
+    checks.check(
+        packets.first().is_some_and(|p| p.as_bytes()[..2] == *b"$$"),
+        "packet starts with $$ and passes the CRC",
+    );
+
+    // 3. Requests 10 ms apart: one packet each, no info frame.
+    let mut plain = 0;
+    let mut extra = 0;
+    for _ in 0..20 {
+        std::thread::sleep(Duration::from_millis(10));
+        let frames = link.request(1);
+        let (p, i) = split(&frames);
+        if p.len() == 1 && i.is_empty() {
+            plain += 1;
+        } else {
+            extra += 1;
+        }
+    }
+    checks.check(
+        plain == 20 && extra == 0,
+        &format!("20 quick requests -> 20 single packets (got {plain}, {extra} odd answers)"),
+    );
+
+    // 5. GNSS: a NAV-PVT frame on USART1 must appear in the packets that follow.
+    let nav = nav_pvt_frame();
+    gnss.write_all(&[0x00, 0xFF, 0xB5])
+        .expect("write GNSS noise");
+    gnss.write_all(&nav).expect("write NAV-PVT");
+    // The next sampling tick takes it over; allow a slow board clock (up to 10 tries).
+    let mut carried = false;
+    for _ in 0..10 {
+        std::thread::sleep(Duration::from_millis(50));
+        let frames = link.request(1);
+        let (p, _) = split(&frames);
+        carried = p
+            .first()
+            .is_some_and(|packet| packet.as_bytes()[28..128] == nav);
+        if carried {
+            break;
+        }
+    }
+    checks.check(
+        carried,
+        "NAV-PVT written to USART1 is carried verbatim in bytes 28..128",
+    );
+
+    // 4. A pause (500 ms or more on the board's clock): the next answer carries an info frame
+    // again. QEMU's SysTick drops periods when the host is busy, so the board's clock can run
+    // far slower than the host's: the pause doubles until the board sees 500 ms (at most
+    // three tries). Every try is a request that must be answered.
+    let mut pause = PAUSE;
+    let mut after_pause = Vec::new();
+    for _ in 0..3 {
+        std::thread::sleep(pause);
+        after_pause = link.request(2);
+        if after_pause.len() != 1 {
+            break;
+        }
+        println!("no info frame after a {pause:?} pause: the board's clock runs slow");
+        pause *= 2;
+    }
+    let (_, infos) = split(&after_pause);
+    checks.check(
+        matches!(after_pause.as_slice(), [Frame::Packet(_), Frame::Info(_)]),
+        &format!(
+            "request after a {pause:?} pause answered with packet + info frame (got {})",
+            kinds(&after_pause)
+        ),
+    );
+    if let (Some(first), Some(second)) = (first_info, infos.first()) {
+        checks.check(
+            second.uptime_ms > first.uptime_ms + 500,
+            &format!(
+                "uptime grows ({} ms -> {} ms)",
+                first.uptime_ms, second.uptime_ms
+            ),
+        );
+        checks.check(
+            second
+                .status
+                .contains(dima_sensorboard::SensorStatus::GNSS_SEEN),
+            &format!(
+                "info frame reports GNSS frames seen (status {:#04x})",
+                second.status.bits()
+            ),
+        );
+    }
+
+    let stats = link.decoder.stats();
+    println!(
+        "decoder: {} packets, {} info frames, {} CRC errors, {} bytes skipped",
+        stats.packets, stats.info_frames, stats.crc_errors, stats.bytes_skipped
+    );
+    checks.check(
+        stats.crc_errors == 0 && stats.bytes_skipped == 0,
+        "no CRC error, no byte outside a frame",
+    );
+    checks.check(
+        stats.packets == u64::from(link.requests) && stats.info_frames == 2,
+        &format!(
+            "{} packets and 2 info frames for {} requests",
+            stats.packets, link.requests
+        ),
+    );
+
+    drop(qemu);
+    println!("{} passed, {} failed", checks.passed, checks.failed);
+    if checks.failed != 0 {
+        std::process::exit(1);
+    }
+}

@@ -1,0 +1,115 @@
+//! The GNSS receive side: USART1 at 115 200 baud from the NEO-M8T.
+//!
+//! On the board the bytes arrive by DMA (DMA2 stream 2, channel 4) into one of two buffers; the
+//! idle-line interrupt (end of a burst) and the transfer-complete interrupt (buffer full) both
+//! hand the bytes received so far to the UBX reader and restart the stream on the other
+//! buffer. The USART keeps a byte in its data register while the stream is briefly stopped, so
+//! at 115 200 baud (87 µs per byte) nothing is lost in the swap.
+//!
+//! Under QEMU (`qemu` feature) DMA is not modelled: the receive-not-empty interrupt delivers
+//! one byte at a time.
+
+#[cfg(not(feature = "qemu"))]
+pub use self::dma::GnssRx;
+#[cfg(feature = "qemu")]
+pub use self::interrupt::GnssRx;
+
+#[cfg(not(feature = "qemu"))]
+mod dma {
+    use crate::board::GNSS_DMA_LEN;
+    use stm32f4xx_hal::dma::{DmaFlag, PeripheralToMemory, Stream2, Transfer};
+    use stm32f4xx_hal::pac::{DMA2, USART1};
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::serial::{Rx, RxISR};
+
+    /// USART1 RX is DMA2 stream 2, channel 4.
+    pub type RxTransfer =
+        Transfer<Stream2<DMA2>, 4, Rx<USART1>, PeripheralToMemory, &'static mut [u8; GNSS_DMA_LEN]>;
+
+    /// The DMA receiver with its spare buffer.
+    pub struct GnssRx {
+        transfer: RxTransfer,
+        spare: Option<&'static mut [u8; GNSS_DMA_LEN]>,
+    }
+
+    impl GnssRx {
+        /// Takes a started transfer and the second buffer.
+        pub fn new(transfer: RxTransfer, spare: &'static mut [u8; GNSS_DMA_LEN]) -> Self {
+            Self {
+                transfer,
+                spare: Some(spare),
+            }
+        }
+
+        /// In the USART1 or DMA2 stream 2 interrupt: passes the bytes received so far to
+        /// `on_bytes` and restarts reception on the other buffer.
+        pub fn drain(&mut self, on_bytes: impl FnOnce(&[u8])) {
+            if self.transfer.is_idle() {
+                self.transfer.clear_idle_interrupt();
+            }
+            self.transfer.clear_flags(
+                DmaFlag::TransferComplete
+                    | DmaFlag::HalfTransfer
+                    | DmaFlag::FifoError
+                    | DmaFlag::TransferError
+                    | DmaFlag::DirectModeError,
+            );
+            let Some(spare) = self.spare.take() else {
+                return;
+            };
+            self.transfer.pause(|_| {});
+            let received =
+                GNSS_DMA_LEN.saturating_sub(usize::from(self.transfer.number_of_transfers()));
+            match self.transfer.next_transfer(spare) {
+                Ok((full, _)) => {
+                    on_bytes(full.get(..received).unwrap_or(&[]));
+                    self.spare = Some(full);
+                }
+                Err(error) => {
+                    // Single-buffer peripheral-to-memory transfers do not fail; if one ever
+                    // did, keep receiving into the old buffer.
+                    self.transfer.start(|_| {});
+                    self.spare = Some(match error {
+                        stm32f4xx_hal::dma::DMAError::NotReady(b)
+                        | stm32f4xx_hal::dma::DMAError::SmallBuffer(b)
+                        | stm32f4xx_hal::dma::DMAError::Overrun(b) => b,
+                    });
+                }
+            }
+        }
+    }
+}
+
+#[cfg(feature = "qemu")]
+mod interrupt {
+    use stm32f4xx_hal::pac::USART1;
+    use stm32f4xx_hal::serial::Rx;
+
+    /// The interrupt-driven receiver used under QEMU.
+    pub struct GnssRx {
+        rx: Rx<USART1>,
+    }
+
+    impl GnssRx {
+        /// Wraps a receiver that listens for receive-not-empty.
+        pub fn new(rx: Rx<USART1>) -> Self {
+            Self { rx }
+        }
+
+        /// In the USART1 interrupt: passes the received bytes to `on_bytes`.
+        pub fn drain(&mut self, on_bytes: impl FnOnce(&[u8])) {
+            let mut bytes = [0u8; 16];
+            let mut count = 0;
+            while count < bytes.len() {
+                match embedded_hal_nb::serial::Read::read(&mut self.rx) {
+                    Ok(byte) => {
+                        bytes[count] = byte;
+                        count += 1;
+                    }
+                    Err(_) => break,
+                }
+            }
+            on_bytes(&bytes[..count]);
+        }
+    }
+}

@@ -1,0 +1,457 @@
+//! Firmware of the DIMA sensor board (STM32F405/407).
+//!
+//! Tasks, highest priority first:
+//! - `request` (EXTI15_10, PD10 rising edge) and `link_done` (DMA1 stream 3): answer a request
+//!   with the latest complete packet, plus an info frame when due; never tear a transfer.
+//! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
+//! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
+//!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog.
+//! - `status_led` (software task): the status LED pattern on PD12. DESIGN names no LED pin;
+//!   PD12 is the STM32F4-Discovery's green LED.
+//!
+//! Under the `qemu` feature `host_byte` (USART3 receive) stands in for the request edge.
+//!
+//! The decisions live in the host-tested `dima-firmware-logic` crate; this file wires them to
+//! the peripherals.
+#![no_std]
+#![no_main]
+
+mod board;
+mod delay;
+mod gnss;
+#[cfg(not(feature = "qemu"))]
+mod hw_crc;
+mod link;
+
+use panic_halt as _;
+use rtic_monotonics::systick::prelude::*;
+
+systick_monotonic!(Mono, board::MONO_HZ);
+
+#[rtic::app(device = stm32f4xx_hal::pac, peripherals = true, dispatchers = [SPI2, SPI3])]
+mod app {
+    use super::*;
+    use crate::board::*;
+    use crate::delay::CycleDelay;
+    use core::sync::atomic::{AtomicBool, Ordering};
+    use dima_firmware_logic::{
+        blink as led_pattern, AfterTransfer, Answer, LatestPacket, RequestHandler,
+    };
+    use dima_firmware_logic::{Schedule, ScheduleConfig};
+    use dima_sensorboard::gnss::GNSS_FRAME_LEN;
+    use dima_sensorboard::info::INFO_VERSION;
+    use dima_sensorboard::{InfoFrame, PacketBuilder, SensorStatus, PACKET_LEN};
+    use embedded_hal_bus::spi::AtomicDevice;
+    use embedded_hal_bus::util::AtomicCell;
+    use stm32f4xx_hal::gpio::{self, Edge, Input, Output, PushPull};
+    use stm32f4xx_hal::pac::{self, SPI1, TIM2};
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::rcc::Config;
+    use stm32f4xx_hal::serial::{self, config::StopBits};
+    use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
+    use stm32f4xx_hal::timer::{CounterHz, Event, Flag};
+    use stm32f4xx_hal::watchdog::IndependentWatchdog;
+
+    /// Set once the first checksum-valid NAV-PVT frame has arrived (info frame status bit 4).
+    static GNSS_SEEN: AtomicBool = AtomicBool::new(false);
+
+    /// SPI1, shared by the four chip selects.
+    type SensorBus = Spi<SPI1>;
+    /// One sensor die on SPI1 behind its chip select on port E.
+    pub type SensorSpi<const N: u8> =
+        AtomicDevice<'static, SensorBus, gpio::Pin<'E', N, Output<PushPull>>, CycleDelay>;
+
+    #[cfg(not(feature = "qemu"))]
+    type Crc = crate::hw_crc::HwCrc;
+    #[cfg(feature = "qemu")]
+    type Crc = dima_sensorboard::Stm32Crc;
+
+    /// The sensors, one SPI device per die.
+    pub type Sensors =
+        dima_firmware_logic::Sensors<SensorSpi<7>, SensorSpi<8>, SensorSpi<9>, SensorSpi<10>>;
+
+    /// Everything the sampling tick owns: the back half of the packet double buffer.
+    pub struct Sampler {
+        timer: CounterHz<TIM2>,
+        watchdog: IndependentWatchdog,
+        schedule: Schedule,
+        builder: PacketBuilder,
+        crc: Crc,
+        sensors: Sensors,
+    }
+
+    /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects.
+    type GnssReader = neo_m8t::GnssStream<256>;
+
+    /// The latest checksum-valid NAV-PVT frame (all zeros until the first one).
+    pub struct GnssLatest {
+        frame: [u8; GNSS_FRAME_LEN],
+        fresh: bool,
+    }
+
+    #[shared]
+    struct Shared {
+        /// Front half of the double buffer: the latest complete packet.
+        latest: LatestPacket<PACKET_LEN>,
+        /// Request state machine (only the two priority-3 link tasks use it).
+        #[lock_free]
+        handler: RequestHandler,
+        /// The transmitter (only the two priority-3 link tasks use it).
+        #[lock_free]
+        link: link::Link,
+        /// Hand-over of NAV-PVT frames from the GNSS task to the sampling tick.
+        gnss_latest: GnssLatest,
+    }
+
+    #[local]
+    struct Local {
+        request_pin: gpio::PD10<Input>,
+        info: InfoFrame,
+        sampler: Sampler,
+        gnss_rx: gnss::GnssRx,
+        reader: GnssReader,
+        led: gpio::PD12<Output<PushPull>>,
+        #[cfg(feature = "qemu")]
+        host_rx: serial::Rx<pac::USART3>,
+    }
+
+    #[init(local = [
+        packet_a: [u8; PACKET_LEN] = [0; PACKET_LEN],
+        packet_b: [u8; PACKET_LEN] = [0; PACKET_LEN],
+        info_buffer: [u8; dima_sensorboard::INFO_V1_LEN] = [0; dima_sensorboard::INFO_V1_LEN],
+        gnss_a: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
+        gnss_b: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
+        spi_cell: Option<AtomicCell<SensorBus>> = None,
+    ])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let mut dp = cx.device;
+
+        // Why did we reset? Read the flags before anything else, then clear them.
+        let watchdog_reset = dp.RCC.csr().read().wdgrstf().bit_is_set();
+        dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
+
+        // QEMU models no RCC: HSE and PLL would never report ready there.
+        #[cfg(not(feature = "qemu"))]
+        let clock_config = Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz());
+        #[cfg(feature = "qemu")]
+        let clock_config = Config::hsi();
+        let mut rcc = dp.RCC.freeze(clock_config);
+        let sysclk_hz = rcc.clocks.sysclk().raw();
+        // QEMU's netduinoplus2 clocks the core at a fixed 168 MHz whatever RCC says.
+        #[cfg(not(feature = "qemu"))]
+        Mono::start(cx.core.SYST, sysclk_hz);
+        #[cfg(feature = "qemu")]
+        Mono::start(cx.core.SYST, QEMU_CORE_HZ);
+
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let gpiob = dp.GPIOB.split(&mut rcc);
+        let gpiod = dp.GPIOD.split(&mut rcc);
+        let gpioe = dp.GPIOE.split(&mut rcc);
+
+        // SPI1 mode 3, one device per chip select (high = deselected).
+        let mode = Mode {
+            polarity: Polarity::IdleHigh,
+            phase: Phase::CaptureOnSecondTransition,
+        };
+        let spi = dp.SPI1.spi(
+            (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
+            mode,
+            SPI_HZ.Hz(),
+            &mut rcc,
+        );
+        let bus: &'static AtomicCell<SensorBus> = cx.local.spi_cell.insert(AtomicCell::new(spi));
+        let mut delay = CycleDelay::new(sysclk_hz);
+        let (sensors, report) = Sensors::init(
+            spi_device(bus, gpioe.pe7.into_push_pull_output(), delay),
+            spi_device(bus, gpioe.pe8.into_push_pull_output(), delay),
+            spi_device(bus, gpioe.pe9.into_push_pull_output(), delay),
+            spi_device(bus, gpioe.pe10.into_push_pull_output(), delay),
+            &mut delay,
+        );
+
+        // Link to the host: USART3 TX on PD8, 8N2.
+        let link_config = serial::Config::default()
+            .baudrate(LINK_BAUD.bps())
+            .wordlength_8()
+            .parity_none()
+            .stopbits(StopBits::STOP2);
+        #[cfg(not(feature = "qemu"))]
+        let link = {
+            use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
+            let tx = dp
+                .USART3
+                .tx(
+                    gpiod.pd8,
+                    link_config.dma(serial::config::DmaConfig::Tx),
+                    &mut rcc,
+                )
+                .unwrap_or_else(|_| fault());
+            let streams = StreamsTuple::new(dp.DMA1, &mut rcc);
+            let info_buffer: &'static mut [u8] = cx.local.info_buffer;
+            let transfer = Transfer::init_memory_to_peripheral(
+                streams.3,
+                tx,
+                info_buffer,
+                None,
+                DmaConfig::default()
+                    .memory_increment(true)
+                    .transfer_complete_interrupt(true)
+                    .transfer_error_interrupt(true),
+            );
+            link::Link::new(transfer, cx.local.packet_a, cx.local.packet_b)
+        };
+        // Under QEMU a byte on USART3's receive side stands in for the request edge.
+        #[cfg(feature = "qemu")]
+        let (link, host_rx) = {
+            let _ = (cx.local.packet_a, cx.local.packet_b, cx.local.info_buffer);
+            let serial = dp
+                .USART3
+                .serial((gpiod.pd8, gpiod.pd9), link_config, &mut rcc)
+                .unwrap_or_else(|_| fault());
+            let (tx, mut rx) = serial.split();
+            rx.listen();
+            (link::Link::new(tx), rx)
+        };
+
+        // GNSS: USART1 RX on PB7 (PB6 is its TX).
+        let gnss_config = serial::Config::default().baudrate(GNSS_BAUD.bps());
+        #[cfg(not(feature = "qemu"))]
+        let gnss_rx = {
+            use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
+            let _ = gpiob.pb6;
+            let mut rx = dp
+                .USART1
+                .rx(
+                    gpiob.pb7,
+                    gnss_config.dma(serial::config::DmaConfig::Rx),
+                    &mut rcc,
+                )
+                .unwrap_or_else(|_| fault());
+            rx.listen_idle();
+            let streams = StreamsTuple::new(dp.DMA2, &mut rcc);
+            let mut transfer = Transfer::init_peripheral_to_memory(
+                streams.2,
+                rx,
+                cx.local.gnss_a,
+                None,
+                DmaConfig::default()
+                    .memory_increment(true)
+                    .transfer_complete_interrupt(true),
+            );
+            transfer.start(|_| {});
+            gnss::GnssRx::new(transfer, cx.local.gnss_b)
+        };
+        #[cfg(feature = "qemu")]
+        let gnss_rx = {
+            let _ = (gpiob.pb6, cx.local.gnss_a, cx.local.gnss_b);
+            let mut rx = dp
+                .USART1
+                .rx(gpiob.pb7, gnss_config, &mut rcc)
+                .unwrap_or_else(|_| fault());
+            rx.listen();
+            gnss::GnssRx::new(rx)
+        };
+
+        // Request line: PD10, rising edge.
+        let mut syscfg = dp.SYSCFG.constrain(&mut rcc);
+        let mut request_pin = gpiod.pd10.into_pull_down_input();
+        request_pin.make_interrupt_source(&mut syscfg);
+        request_pin.trigger_on_edge(&mut dp.EXTI, Edge::Rising);
+        request_pin.enable_interrupt(&mut dp.EXTI);
+
+        // The sampling tick, and the watchdog it feeds.
+        let mut timer = dp.TIM2.counter_hz(&mut rcc);
+        // The HAL sets the prescalers for its idea of the timer clock; QEMU runs the timer at
+        // a fixed 1 GHz, so ask for a rate that lands on SAMPLE_RATE_HZ there.
+        #[cfg(not(feature = "qemu"))]
+        let tick_request_hz = SAMPLE_RATE_HZ;
+        #[cfg(feature = "qemu")]
+        let tick_request_hz =
+            (u64::from(SAMPLE_RATE_HZ) * u64::from(HSI_HZ) / u64::from(QEMU_TIMER_HZ)) as u32;
+        timer
+            .start(tick_request_hz.Hz())
+            .unwrap_or_else(|_| fault());
+        timer.listen(Event::Update);
+        let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+        watchdog.start(WATCHDOG_MS.millis());
+
+        #[cfg(not(feature = "qemu"))]
+        let crc = crate::hw_crc::HwCrc(stm32f4xx_hal::crc32::Crc32::new(dp.CRC, &mut rcc));
+        #[cfg(feature = "qemu")]
+        let crc = dima_sensorboard::Stm32Crc;
+
+        let mut status = report.status;
+        status.set(SensorStatus::WATCHDOG_RESET, watchdog_reset);
+        let info = InfoFrame {
+            version: INFO_VERSION,
+            firmware: FIRMWARE_VERSION,
+            status,
+            bmp280_calibration: report.bmp280_calibration,
+            bmm150_trim: report.bmm150_trim,
+            uptime_ms: 0,
+            requests_skipped: 0,
+        };
+
+        let led = gpiod.pd12.into_push_pull_output();
+        status_led::spawn(status.bits()).ok();
+
+        #[cfg(feature = "qemu")]
+        cortex_m_semihosting::hprintln!("ready");
+
+        (
+            Shared {
+                latest: LatestPacket::new(),
+                handler: RequestHandler::new(),
+                link,
+                gnss_latest: GnssLatest {
+                    frame: [0; GNSS_FRAME_LEN],
+                    fresh: false,
+                },
+            },
+            Local {
+                request_pin,
+                info,
+                sampler: Sampler {
+                    timer,
+                    watchdog,
+                    schedule: Schedule::new(ScheduleConfig {
+                        period_us: 1_000_000 / SAMPLE_RATE_HZ,
+                        ..ScheduleConfig::DEFAULT
+                    }),
+                    builder: PacketBuilder::new(),
+                    crc,
+                    sensors,
+                },
+                gnss_rx,
+                reader: GnssReader::new(),
+                led,
+                #[cfg(feature = "qemu")]
+                host_rx,
+            },
+        )
+    }
+
+    /// One SPI device on the shared bus; the chip select starts high (deselected).
+    fn spi_device<const N: u8>(
+        bus: &'static AtomicCell<SensorBus>,
+        cs: gpio::Pin<'E', N, Output<PushPull>>,
+        delay: CycleDelay,
+    ) -> SensorSpi<N> {
+        match AtomicDevice::new(bus, cs, delay) {
+            Ok(device) => device,
+            Err(never) => match never {},
+        }
+    }
+
+    /// A configuration the hardware rejected at boot: stop here and let the watchdog (if
+    /// started) or the user reset the board.
+    fn fault() -> ! {
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    /// A request edge: start the answer and return.
+    #[task(binds = EXTI15_10, priority = 3, local = [request_pin, info], shared = [handler, link, latest])]
+    fn request(mut cx: request::Context) {
+        use stm32f4xx_hal::gpio::ExtiPin;
+        cx.local.request_pin.clear_interrupt_pending_bit();
+        let now_ms = Mono::now().ticks();
+        let handler = cx.shared.handler;
+        let link = cx.shared.link;
+        let answer = cx.shared.latest.lock(|latest| {
+            let packet = latest.get();
+            let answer = handler.on_request(now_ms, packet.is_some());
+            if let (Answer::Send { .. }, Some(packet)) = (answer, packet) {
+                link.send_packet(packet);
+            }
+            answer
+        });
+        if answer == (Answer::Send { info: true }) {
+            // The packet is on its way; the info frame is built while it goes out.
+            let info = cx.local.info;
+            info.uptime_ms = now_ms;
+            info.requests_skipped = handler.skipped();
+            info.status
+                .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
+            link.stage_info(&info.encode());
+        }
+    }
+
+    /// The running transfer has ended: send the info frame or go idle.
+    #[task(binds = DMA1_STREAM3, priority = 3, shared = [handler, link])]
+    fn link_done(cx: link_done::Context) {
+        if !cx.shared.link.take_completion() {
+            return;
+        }
+        if cx.shared.handler.on_transfer_complete() == AfterTransfer::SendInfo {
+            cx.shared.link.send_info();
+        }
+    }
+
+    /// Under QEMU: a byte from the host on USART3 is a request.
+    #[cfg(feature = "qemu")]
+    #[task(binds = USART3, priority = 3, local = [host_rx])]
+    fn host_byte(cx: host_byte::Context) {
+        while embedded_hal_nb::serial::Read::read(cx.local.host_rx).is_ok() {
+            rtic::pend(pac::Interrupt::EXTI15_10);
+        }
+    }
+
+    /// GNSS bytes (idle line, or under QEMU a received byte).
+    #[task(binds = USART1, priority = 2, local = [gnss_rx, reader], shared = [gnss_latest])]
+    fn gnss_bytes(mut cx: gnss_bytes::Context) {
+        let reader = cx.local.reader;
+        cx.local.gnss_rx.drain(|bytes| {
+            reader.push_slice(bytes);
+        });
+        if let Some(frame) = reader.take_nav_pvt() {
+            cx.shared.gnss_latest.lock(|gnss| {
+                gnss.frame = *frame.as_bytes();
+                gnss.fresh = true;
+            });
+            GNSS_SEEN.store(true, Ordering::Relaxed);
+        }
+    }
+
+    /// GNSS DMA buffer full before the line went idle.
+    #[cfg(not(feature = "qemu"))]
+    #[task(binds = DMA2_STREAM2, priority = 2)]
+    fn gnss_dma(_cx: gnss_dma::Context) {
+        rtic::pend(pac::Interrupt::USART1);
+    }
+
+    /// One sampling tick: read what the schedule says, publish the packet, feed the watchdog.
+    #[task(binds = TIM2, priority = 1, local = [sampler], shared = [latest, gnss_latest])]
+    fn sample(mut cx: sample::Context) {
+        let sampler = cx.local.sampler;
+        sampler.timer.clear_flags(Flag::Update);
+        sampler.watchdog.feed();
+        let plan = sampler.schedule.next_tick();
+        sampler
+            .sensors
+            .tick(plan, &mut sampler.schedule, &mut sampler.builder);
+
+        let builder = &mut sampler.builder;
+        cx.shared.gnss_latest.lock(|gnss| {
+            if core::mem::take(&mut gnss.fresh) {
+                builder.gnss_frame(&gnss.frame);
+            }
+        });
+        let packet = sampler.builder.build(&mut sampler.crc);
+        cx.shared.latest.lock(|latest| latest.publish(packet));
+    }
+
+    /// The status LED: see `dima_firmware_logic::blink`.
+    #[task(priority = 1, local = [led])]
+    async fn status_led(cx: status_led::Context, status: u8) {
+        loop {
+            for step in led_pattern::pattern(status) {
+                cx.local.led.set_high();
+                Mono::delay(step.on_ms.millis()).await;
+                cx.local.led.set_low();
+                Mono::delay(step.off_ms.millis()).await;
+            }
+        }
+    }
+}

@@ -1,0 +1,148 @@
+//! On-target checks of the pure logic, run under QEMU through semihosting.
+//!
+//! The same `dima-firmware-logic` and `dima-sensorboard` code the host tests cover, built for
+//! thumbv7em and run on QEMU's Cortex-M4: the CRC vectors, the request state machine, the
+//! sampling schedule, and a packet and an info frame through encoder and decoder. Prints one
+//! line per check and `N passed, N failed`; the exit status is the verdict.
+//!
+//! ```sh
+//! CARGO_TARGET_THUMBV7EM_NONE_EABIHF_RUNNER="qemu-system-arm -M netduinoplus2 -nographic \
+//!   -monitor none -semihosting-config enable=on,target=native -kernel" \
+//!   cargo test --release --test on_target
+//! ```
+#![no_std]
+#![no_main]
+
+use cortex_m_rt::entry;
+use cortex_m_semihosting::{debug, hprintln};
+use dima_firmware_logic::{AfterTransfer, Answer, MagAction, RequestHandler, Schedule};
+use dima_firmware_logic::{ScheduleConfig, INFO_GAP_MS};
+use dima_sensorboard::{InfoFrame, PacketBuilder, SensorPacket, SensorStatus, Stm32Crc};
+// Links the device's interrupt vectors.
+use stm32f4xx_hal as _;
+
+struct Checks {
+    passed: u32,
+    failed: u32,
+}
+
+impl Checks {
+    fn check(&mut self, ok: bool, name: &str) {
+        if ok {
+            self.passed += 1;
+            hprintln!("ok      {}", name);
+        } else {
+            self.failed += 1;
+            hprintln!("FAILED  {}", name);
+        }
+    }
+}
+
+#[entry]
+fn main() -> ! {
+    let mut checks = Checks {
+        passed: 0,
+        failed: 0,
+    };
+
+    // Sensor CRC vectors (DESIGN 2.1 / shared vectors: STM32 CRC unit, one byte per word).
+    let ascending: [u8; 128] = core::array::from_fn(|i| i as u8);
+    checks.check(
+        Stm32Crc::compute(&ascending) == 0x6557_DE1A,
+        "CRC of bytes 0x00..=0x7F is 0x6557DE1A",
+    );
+    checks.check(
+        Stm32Crc::compute(&[0u8; 128]) == 0xE151_AAB2,
+        "CRC of 128 zero bytes is 0xE151AAB2",
+    );
+
+    // Request state machine.
+    let mut handler = RequestHandler::new();
+    checks.check(
+        handler.on_request(0, false) == Answer::NotReady,
+        "no packet before the first one exists",
+    );
+    checks.check(
+        handler.on_request(1, true) == Answer::Send { info: true },
+        "first answer carries the info frame",
+    );
+    checks.check(
+        handler.on_request(2, true) == Answer::Skip && handler.skipped() == 1,
+        "request during a transfer is skipped and counted",
+    );
+    checks.check(
+        handler.on_transfer_complete() == AfterTransfer::SendInfo
+            && handler.on_transfer_complete() == AfterTransfer::Idle,
+        "packet, then info frame, then idle",
+    );
+    checks.check(
+        handler.on_request(6, true) == Answer::Send { info: false },
+        "next request: packet only",
+    );
+    handler.on_transfer_complete();
+    checks.check(
+        handler.on_request(6 + INFO_GAP_MS, true) == Answer::Send { info: true },
+        "a pause of 500 ms brings the info frame back",
+    );
+
+    // Sampling schedule.
+    let mut schedule = Schedule::new(ScheduleConfig::DEFAULT);
+    let first = schedule.next_tick();
+    let second = schedule.next_tick();
+    checks.check(
+        first.read_inertial && first.read_baro && first.mag == MagAction::Trigger,
+        "tick 0: inertial, baro, magnetometer trigger",
+    );
+    checks.check(
+        second.mag == MagAction::Poll && !second.read_baro,
+        "tick 1: magnetometer poll, no baro",
+    );
+
+    // A packet through the builder and the decoder.
+    let mut builder = PacketBuilder::new();
+    builder
+        .gyro_registers([0x11, 0x22, 0x33, 0x44, 0x55, 0x66])
+        .bmp280_registers([0x65, 0x5A, 0xC0, 0x7E, 0xED, 0x00]);
+    let packet = *builder.build(&mut Stm32Crc);
+    let decoded = SensorPacket::decode(&packet);
+    checks.check(
+        decoded.is_ok_and(|p| p.gyro == [0x2211, 0x4433, 0x6655]),
+        "packet round trip through PacketBuilder and SensorPacket::decode",
+    );
+
+    // An info frame through encoder and decoder.
+    let info = InfoFrame {
+        version: 1,
+        firmware: [0, 1, 0],
+        status: SensorStatus::ACCEL_OK | SensorStatus::GNSS_SEEN,
+        bmp280_calibration: [7; 24],
+        bmm150_trim: [9; 16],
+        uptime_ms: 123_456,
+        requests_skipped: 3,
+    };
+    let bytes = info.encode();
+    checks.check(
+        InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 60),
+        "info frame round trip (60 bytes)",
+    );
+
+    hprintln!("{} passed, {} failed", checks.passed, checks.failed);
+    if checks.failed == 0 {
+        debug::exit(debug::EXIT_SUCCESS);
+    } else {
+        debug::exit(debug::EXIT_FAILURE);
+    }
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    hprintln!("panic: {}", info);
+    hprintln!("0 passed, 1 failed");
+    debug::exit(debug::EXIT_FAILURE);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
