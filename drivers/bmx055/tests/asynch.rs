@@ -1,12 +1,15 @@
 //! The async twins produce the same bus transactions as the blocking drivers.
 #![cfg(feature = "async")]
 
+mod common;
+
 use bosch_bmx055::accel::AccelConfig;
 use bosch_bmx055::gyro::GyroConfig;
 use bosch_bmx055::mag::MagConfig;
 use bosch_bmx055::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer, Xyz};
+use common::{accel_dima_init, gyro_dima_init, read, script, write};
 use embedded_hal_mock::eh1::delay::NoopDelay;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 use std::future::Future;
 use std::sync::Arc;
 use std::task::{Context, Poll, Wake, Waker};
@@ -28,44 +31,13 @@ fn block_on<F: Future>(fut: F) -> F::Output {
     panic!("future did not complete");
 }
 
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
-}
-
-fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
-    parts.into_iter().flatten().collect()
-}
-
 #[test]
 fn async_dima_configuration_and_reads() {
     let mut acc_spi = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0xFA]),
-        write(0x0F, 0x03),
-        write(0x10, 0x0F),
-        write(0x11, 0x00),
+        accel_dima_init(),
         read(0x02, &[0x01, 0x40, 0x00, 0x00, 0x00, 0x00]),
     ]));
-    let mut gyro_spi = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0x0F]),
-        write(0x0F, 0x00),
-        write(0x10, 0x81),
-        write(0x11, 0x00),
-    ]));
+    let mut gyro_spi = SpiMock::new(&script(vec![gyro_dima_init()]));
     let mut mag_spi = SpiMock::new(&script(vec![
         write(0x4B, 0x01),
         write(0x4B, 0x83),
@@ -138,21 +110,10 @@ fn async_i2c_gyro_and_forced_timeout() {
 fn async_facade_samples_without_waiting() {
     use bosch_bmx055::{AsyncBmx055, Bmx055Config};
     let mut acc = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0xFA]),
-        write(0x0F, 0x03),
-        write(0x10, 0x0F),
-        write(0x11, 0x00),
+        accel_dima_init(),
         read(0x02, &[0x01, 0x40, 0x00, 0x00, 0x00, 0x00]),
     ]));
-    let mut gyro = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0x0F]),
-        write(0x0F, 0x00),
-        write(0x10, 0x81),
-        write(0x11, 0x00),
-        read(0x02, &[0; 6]),
-    ]));
+    let mut gyro = SpiMock::new(&script(vec![gyro_dima_init(), read(0x02, &[0; 6])]));
     let mut mag = SpiMock::new(&script(vec![
         write(0x4B, 0x01),
         write(0x4B, 0x83),

@@ -1,34 +1,16 @@
 //! The facade: DIMA initialisation of all three dies and non-blocking sampling.
 
+mod common;
+
 use bosch_bmx055::accel::{accel_word_to_mg, AccelRange};
 use bosch_bmx055::gyro::{gyro_word_to_dps, GyroRange};
 use bosch_bmx055::mag::{compensate_f32, MagTrim};
 use bosch_bmx055::packet::{packet_words_from_physical, ImuPhysical};
 use bosch_bmx055::{Bmx055, Bmx055Config, ImuPacketWords, Xyz};
+use common::{accel_dima_init, gyro_dima_init, read, script, write};
 use embedded_hal_mock::eh1::delay::NoopDelay;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 use proptest::prelude::*;
-
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
-}
-
-fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
-    parts.into_iter().flatten().collect()
-}
 
 // Trim from the shared BMM150 vectors (Bosch SensorAPI).
 const TRIM_3: [u8; 10] = [0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D];
@@ -42,20 +24,12 @@ fn dima_init_then_sample_keeps_stale_mag_and_retriggers_on_fresh() {
     let acc_regs = [0x11, 0x00, 0xF1, 0xFF, 0x01, 0x40];
     let gyro_regs = [0x90, 0x02, 0x70, 0xFD, 0x00, 0x00];
     let mut acc = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0xFA]),
-        write(0x0F, 0x03),
-        write(0x10, 0x0F),
-        write(0x11, 0x00),
+        accel_dima_init(),
         read(0x02, &acc_regs),
         read(0x02, &acc_regs),
     ]));
     let mut gyro = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0x0F]),
-        write(0x0F, 0x00),
-        write(0x10, 0x81),
-        write(0x11, 0x00),
+        gyro_dima_init(),
         read(0x02, &gyro_regs),
         read(0x02, &gyro_regs),
     ]));

@@ -1,5 +1,7 @@
 //! Interrupts, FIFO, self-test and offsets as bus transactions.
 
+mod common;
+
 use bosch_bmx055::accel::{
     AccelFifoConfig, AccelInterruptConfig, AccelRaw, OffsetTarget, SlopeConfig,
 };
@@ -7,29 +9,9 @@ use bosch_bmx055::gyro::{GyroFifoConfig, GyroInterruptConfig, GyroRaw};
 use bosch_bmx055::{
     Accelerometer, Error, FifoData, FifoMode, Gyroscope, InterruptPin, Magnetometer, PinConfig, Xyz,
 };
+use common::{read, script, write};
 use embedded_hal_mock::eh1::delay::NoopDelay;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
-
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
-}
-
-fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
-    parts.into_iter().flatten().collect()
-}
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 
 #[test]
 fn accel_data_ready_on_int1_and_slope_on_int2() {
