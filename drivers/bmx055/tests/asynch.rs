@@ -7,7 +7,9 @@ use bosch_bmx055::accel::AccelConfig;
 use bosch_bmx055::gyro::GyroConfig;
 use bosch_bmx055::mag::MagConfig;
 use bosch_bmx055::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer, Xyz};
-use common::{accel_dima_init, gyro_dima_init, read, script, write};
+use common::{
+    accel_deflection, accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write,
+};
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 use std::future::Future;
@@ -39,18 +41,7 @@ fn async_dima_configuration_and_reads() {
     ]));
     let mut gyro_spi = SpiMock::new(&script(vec![gyro_dima_init()]));
     let mut mag_spi = SpiMock::new(&script(vec![
-        write(0x4B, 0x01),
-        write(0x4B, 0x83),
-        read(0x40, &[0x32]),
-        read(0x5D, &[0x00, 0x00]),
-        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
-        read(
-            0x68,
-            &[0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D],
-        ),
-        write(0x51, 0x01),
-        write(0x52, 0x02),
-        write(0x4C, 0x02),
+        mag_dima_init(),
         write(0x4C, 0x02),
         read(0x42, &[0, 0, 0, 0, 0, 0, 0x34, 0x6E]),
         // Shared vector row 2 (Bosch SensorAPI): 120, -90, -1538 µT.
@@ -115,18 +106,7 @@ fn async_facade_samples_without_waiting() {
     ]));
     let mut gyro = SpiMock::new(&script(vec![gyro_dima_init(), read(0x02, &[0; 6])]));
     let mut mag = SpiMock::new(&script(vec![
-        write(0x4B, 0x01),
-        write(0x4B, 0x83),
-        read(0x40, &[0x32]),
-        read(0x5D, &[0x00, 0x00]),
-        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
-        read(
-            0x68,
-            &[0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D],
-        ),
-        write(0x51, 0x01),
-        write(0x52, 0x02),
-        write(0x4C, 0x02),
+        mag_dima_init(),
         read(0x42, &[0x80, 0x02, 0x20, 0xFE, 0xF4, 0xFE, 0x61, 0x6D]),
         write(0x4C, 0x02),
     ]));
@@ -148,22 +128,15 @@ fn async_accel_self_test_writes_the_documented_bytes() {
     // ±4 g (0x0F = 0x05), then per axis PMU_SELF_TEST = axis | sign (0x04) | self_test_amp
     // high (0x10), as Bosch's BMA2 SensorAPI `selftest_config` sets it; a 1000 mg deflection
     // (512 counts at ±4 g, split +-256) on every axis passes the 800/800/400 mg limits.
-    let deflect = |axis: usize, counts: i16| {
-        let mut b = [0u8; 6];
-        let w = (counts << 4).to_le_bytes();
-        b[2 * axis] = w[0];
-        b[2 * axis + 1] = w[1];
-        b
-    };
     let mut parts = vec![write(0x0F, 0x05)];
     for (axis, (pos, neg)) in [(0x15, 0x11), (0x16, 0x12), (0x17, 0x13)]
         .into_iter()
         .enumerate()
     {
         parts.push(write(0x32, pos));
-        parts.push(read(0x02, &deflect(axis, 256)));
+        parts.push(read(0x02, &accel_deflection(axis, 256)));
         parts.push(write(0x32, neg));
-        parts.push(read(0x02, &deflect(axis, -256)));
+        parts.push(read(0x02, &accel_deflection(axis, -256)));
     }
     parts.push(write(0x32, 0x00));
     parts.push(write(0x14, 0xB6));

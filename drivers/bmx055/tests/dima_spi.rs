@@ -8,14 +8,11 @@ use bosch_bmx055::accel::AccelConfig;
 use bosch_bmx055::gyro::GyroConfig;
 use bosch_bmx055::mag::MagConfig;
 use bosch_bmx055::{Accelerometer, Error, Gyroscope, Magnetometer, Xyz};
-use common::{accel_dima_init, gyro_dima_init, read, script, write};
+use common::{
+    accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write, TRIM_1, TRIM_2, TRIM_3,
+};
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::spi::Mock as SpiMock;
-
-// Magnetometer trim from the shared vectors (Bosch SensorAPI section).
-const TRIM_1: [u8; 2] = [0x00, 0x00];
-const TRIM_2: [u8; 4] = [0x00, 0x00, 0x1A, 0x1A];
-const TRIM_3: [u8; 10] = [0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D];
 
 #[test]
 fn accel_dima_configuration() {
@@ -56,18 +53,7 @@ fn mag_dima_configuration_powers_on_before_the_chip_id() {
 
 #[test]
 fn forced_read_polls_data_ready_and_compensates() {
-    let trim_and_config = vec![
-        write(0x4B, 0x01),
-        write(0x4B, 0x83),
-        read(0x40, &[0x32]),
-        read(0x5D, &TRIM_1),
-        read(0x62, &TRIM_2),
-        read(0x68, &TRIM_3),
-        write(0x51, 0x01),
-        write(0x52, 0x02),
-        write(0x4C, 0x02),
-    ];
-    let mut parts = trim_and_config;
+    let mut parts = vec![mag_dima_init()];
     parts.extend(vec![
         write(0x4C, 0x02),
         // Previous sample still in the registers, data-ready clear: must not be returned.
