@@ -18,6 +18,25 @@ pub(crate) struct FifoRegisters {
     pub(crate) data: u8,
 }
 
+/// The part of `out` a FIFO read fills: never more frames than are `waiting`.
+pub(crate) fn fifo_destination<T>(out: &mut [T], waiting: u8) -> &mut [T] {
+    let want = usize::from(waiting).min(out.len());
+    &mut out[..want]
+}
+
+/// Decode the whole frames of one burst (`bytes`, frames of `data.frame_len()` bytes) into
+/// `slots`, in order.
+pub(crate) fn decode_frames<T>(
+    slots: &mut [T],
+    bytes: &[u8],
+    data: FifoData,
+    decode: fn(FifoData, &[u8]) -> T,
+) {
+    for (slot, frame) in slots.iter_mut().zip(bytes.chunks_exact(data.frame_len())) {
+        *slot = decode(data, frame);
+    }
+}
+
 /// Driver-level register access on top of any [`RegisterInterface`].
 pub(crate) trait Registers: RegisterInterface {
     /// Write one register.
@@ -73,22 +92,16 @@ pub(crate) trait Registers: RegisterInterface {
         out: &mut [T],
         decode: fn(FifoData, &[u8]) -> T,
     ) -> Result<usize, Error<Self::Error>> {
-        let waiting = usize::from(FifoStatus::from_register(self.read(fifo.status)?).frames);
-        let want = waiting.min(out.len());
+        let waiting = FifoStatus::from_register(self.read(fifo.status)?).frames;
+        let out = fifo_destination(out, waiting);
         let len = data.frame_len();
         let mut buf = [0u8; FIFO_BURST_BYTES];
-        let per_burst = buf.len() / len;
-        let mut done = 0;
-        while done < want {
-            let n = (want - done).min(per_burst);
-            let bytes = &mut buf[..n * len];
+        for slots in out.chunks_mut(FIFO_BURST_BYTES / len) {
+            let bytes = &mut buf[..slots.len() * len];
             self.read_into(fifo.data, bytes)?;
-            for (slot, frame) in out[done..done + n].iter_mut().zip(bytes.chunks_exact(len)) {
-                *slot = decode(data, frame);
-            }
-            done += n;
+            decode_frames(slots, bytes, data, decode);
         }
-        Ok(done)
+        Ok(out.len())
     }
 }
 

@@ -14,6 +14,31 @@ use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 
 #[test]
+fn accel_fifo_read_splits_into_whole_frame_bursts_of_48_bytes() {
+    // 10 frames waiting (FIFO_STATUS 0x0E = 0x0A), room for 12: one burst of 8 six-byte
+    // frames (48 bytes), then one of the remaining 2; frame i holds X = i + 1 counts.
+    let frame = |i: i16| {
+        let w = ((i + 1) << 4).to_le_bytes();
+        [w[0], w[1], 0, 0, 0, 0]
+    };
+    let first: Vec<u8> = (0..8).flat_map(frame).collect();
+    let second: Vec<u8> = (8..10).flat_map(frame).collect();
+    let mut spi = SpiMock::new(&script(vec![
+        read(0x0E, &[0x0A]),
+        read(0x3F, &first),
+        read(0x3F, &second),
+    ]));
+    let mut acc = Accelerometer::new_spi(spi.clone());
+    let mut frames = [AccelRaw::default(); 12];
+    assert_eq!(acc.read_fifo(&mut frames).unwrap(), 10);
+    for (i, f) in frames.iter().enumerate() {
+        let x = if i < 10 { i as i16 + 1 } else { 0 };
+        assert_eq!(f.counts(), Xyz::new(x, 0, 0), "frame {i}");
+    }
+    spi.done();
+}
+
+#[test]
 fn accel_data_ready_on_int1_and_slope_on_int2() {
     let cfg = AccelInterruptConfig {
         data_ready: Some(InterruptPin::Int1),

@@ -1,7 +1,7 @@
 //! Async twin of the shared register access (`crate::access`): the same sequences, with
 //! the I/O awaited.
 
-use crate::access::{FifoRegisters, FIFO_BURST_BYTES};
+use crate::access::{decode_frames, fifo_destination, FifoRegisters, FIFO_BURST_BYTES};
 use crate::interface::AsyncRegisterInterface;
 use crate::types::{FifoData, FifoStatus};
 use crate::Error;
@@ -59,22 +59,16 @@ pub(crate) trait AsyncRegisters: AsyncRegisterInterface {
         out: &mut [T],
         decode: fn(FifoData, &[u8]) -> T,
     ) -> Result<usize, Error<Self::Error>> {
-        let waiting = usize::from(FifoStatus::from_register(self.read(fifo.status).await?).frames);
-        let want = waiting.min(out.len());
+        let waiting = FifoStatus::from_register(self.read(fifo.status).await?).frames;
+        let out = fifo_destination(out, waiting);
         let len = data.frame_len();
         let mut buf = [0u8; FIFO_BURST_BYTES];
-        let per_burst = buf.len() / len;
-        let mut done = 0;
-        while done < want {
-            let n = (want - done).min(per_burst);
-            let bytes = &mut buf[..n * len];
+        for slots in out.chunks_mut(FIFO_BURST_BYTES / len) {
+            let bytes = &mut buf[..slots.len() * len];
             self.read_into(fifo.data, bytes).await?;
-            for (slot, frame) in out[done..done + n].iter_mut().zip(bytes.chunks_exact(len)) {
-                *slot = decode(data, frame);
-            }
-            done += n;
+            decode_frames(slots, bytes, data, decode);
         }
-        Ok(done)
+        Ok(out.len())
     }
 }
 
