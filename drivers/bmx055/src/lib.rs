@@ -84,6 +84,7 @@
 #![deny(missing_docs)]
 
 pub mod accel;
+mod access;
 #[cfg(feature = "async")]
 pub mod asynch;
 mod error;

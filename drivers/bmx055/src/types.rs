@@ -90,6 +90,24 @@ pub enum FifoData {
     Z = 3,
 }
 
+/// Place one FIFO frame at its position in the 6-byte data-register layout (X, Y, Z LSB/MSB
+/// pairs), so the register decoders read it; single-axis frames fill only their axis, the
+/// others stay 0. Bytes beyond the frame length are ignored, missing ones stay 0.
+pub(crate) fn fifo_frame_registers(data: FifoData, frame: &[u8]) -> [u8; 6] {
+    let mut b = [0u8; 6];
+    let at = match data {
+        FifoData::Xyz | FifoData::X => 0,
+        FifoData::Y => 2,
+        FifoData::Z => 4,
+    };
+    for (i, v) in frame.iter().take(data.frame_len()).enumerate() {
+        if let Some(slot) = b.get_mut(at + i) {
+            *slot = *v;
+        }
+    }
+    b
+}
+
 impl FifoData {
     /// Bytes per FIFO frame.
     pub const fn frame_len(self) -> usize {

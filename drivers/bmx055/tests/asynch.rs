@@ -1,12 +1,17 @@
 //! The async twins produce the same bus transactions as the blocking drivers.
 #![cfg(feature = "async")]
 
+mod common;
+
 use bosch_bmx055::accel::AccelConfig;
 use bosch_bmx055::gyro::GyroConfig;
 use bosch_bmx055::mag::MagConfig;
 use bosch_bmx055::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer, Xyz};
+use common::{
+    accel_deflection, accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write,
+};
 use embedded_hal_mock::eh1::delay::NoopDelay;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 use std::future::Future;
 use std::sync::Arc;
 use std::task::{Context, Poll, Wake, Waker};
@@ -28,57 +33,15 @@ fn block_on<F: Future>(fut: F) -> F::Output {
     panic!("future did not complete");
 }
 
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
-}
-
-fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
-    parts.into_iter().flatten().collect()
-}
-
 #[test]
 fn async_dima_configuration_and_reads() {
     let mut acc_spi = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0xFA]),
-        write(0x0F, 0x03),
-        write(0x10, 0x0F),
-        write(0x11, 0x00),
+        accel_dima_init(),
         read(0x02, &[0x01, 0x40, 0x00, 0x00, 0x00, 0x00]),
     ]));
-    let mut gyro_spi = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0x0F]),
-        write(0x0F, 0x00),
-        write(0x10, 0x81),
-        write(0x11, 0x00),
-    ]));
+    let mut gyro_spi = SpiMock::new(&script(vec![gyro_dima_init()]));
     let mut mag_spi = SpiMock::new(&script(vec![
-        write(0x4B, 0x01),
-        write(0x4B, 0x83),
-        read(0x40, &[0x32]),
-        read(0x5D, &[0x00, 0x00]),
-        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
-        read(
-            0x68,
-            &[0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D],
-        ),
-        write(0x51, 0x01),
-        write(0x52, 0x02),
-        write(0x4C, 0x02),
+        mag_dima_init(),
         write(0x4C, 0x02),
         read(0x42, &[0, 0, 0, 0, 0, 0, 0x34, 0x6E]),
         // Shared vector row 2 (Bosch SensorAPI): 120, -90, -1538 µT.
@@ -138,34 +101,12 @@ fn async_i2c_gyro_and_forced_timeout() {
 fn async_facade_samples_without_waiting() {
     use bosch_bmx055::{AsyncBmx055, Bmx055Config};
     let mut acc = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0xFA]),
-        write(0x0F, 0x03),
-        write(0x10, 0x0F),
-        write(0x11, 0x00),
+        accel_dima_init(),
         read(0x02, &[0x01, 0x40, 0x00, 0x00, 0x00, 0x00]),
     ]));
-    let mut gyro = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0x0F]),
-        write(0x0F, 0x00),
-        write(0x10, 0x81),
-        write(0x11, 0x00),
-        read(0x02, &[0; 6]),
-    ]));
+    let mut gyro = SpiMock::new(&script(vec![gyro_dima_init(), read(0x02, &[0; 6])]));
     let mut mag = SpiMock::new(&script(vec![
-        write(0x4B, 0x01),
-        write(0x4B, 0x83),
-        read(0x40, &[0x32]),
-        read(0x5D, &[0x00, 0x00]),
-        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
-        read(
-            0x68,
-            &[0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D],
-        ),
-        write(0x51, 0x01),
-        write(0x52, 0x02),
-        write(0x4C, 0x02),
+        mag_dima_init(),
         read(0x42, &[0x80, 0x02, 0x20, 0xFE, 0xF4, 0xFE, 0x61, 0x6D]),
         write(0x4C, 0x02),
     ]));
@@ -187,22 +128,15 @@ fn async_accel_self_test_writes_the_documented_bytes() {
     // ±4 g (0x0F = 0x05), then per axis PMU_SELF_TEST = axis | sign (0x04) | self_test_amp
     // high (0x10), as Bosch's BMA2 SensorAPI `selftest_config` sets it; a 1000 mg deflection
     // (512 counts at ±4 g, split +-256) on every axis passes the 800/800/400 mg limits.
-    let deflect = |axis: usize, counts: i16| {
-        let mut b = [0u8; 6];
-        let w = (counts << 4).to_le_bytes();
-        b[2 * axis] = w[0];
-        b[2 * axis + 1] = w[1];
-        b
-    };
     let mut parts = vec![write(0x0F, 0x05)];
     for (axis, (pos, neg)) in [(0x15, 0x11), (0x16, 0x12), (0x17, 0x13)]
         .into_iter()
         .enumerate()
     {
         parts.push(write(0x32, pos));
-        parts.push(read(0x02, &deflect(axis, 256)));
+        parts.push(read(0x02, &accel_deflection(axis, 256)));
         parts.push(write(0x32, neg));
-        parts.push(read(0x02, &deflect(axis, -256)));
+        parts.push(read(0x02, &accel_deflection(axis, -256)));
     }
     parts.push(write(0x32, 0x00));
     parts.push(write(0x14, 0xB6));

@@ -2,48 +2,21 @@
 //! accel ±2 g / 1000 Hz / normal, gyro ±2000 °/s / 0x81 / normal, magnetometer low-power
 //! preset in forced mode, and a forced magnetometer read that polls data ready.
 
+mod common;
+
 use bosch_bmx055::accel::AccelConfig;
 use bosch_bmx055::gyro::GyroConfig;
 use bosch_bmx055::mag::MagConfig;
 use bosch_bmx055::{Accelerometer, Error, Gyroscope, Magnetometer, Xyz};
+use common::{
+    accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write, TRIM_1, TRIM_2, TRIM_3,
+};
 use embedded_hal_mock::eh1::delay::NoopDelay;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
-
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
-}
-
-fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
-    parts.into_iter().flatten().collect()
-}
-
-// Magnetometer trim from the shared vectors (Bosch SensorAPI section).
-const TRIM_1: [u8; 2] = [0x00, 0x00];
-const TRIM_2: [u8; 4] = [0x00, 0x00, 0x1A, 0x1A];
-const TRIM_3: [u8; 10] = [0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D];
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 
 #[test]
 fn accel_dima_configuration() {
-    let mut spi = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0xFA]),
-        write(0x0F, 0x03),
-        write(0x10, 0x0F),
-        write(0x11, 0x00),
-    ]));
+    let mut spi = SpiMock::new(&script(vec![accel_dima_init()]));
     let mut acc = Accelerometer::new_spi(spi.clone());
     acc.init(&mut NoopDelay, &AccelConfig::DIMA).unwrap();
     spi.done();
@@ -51,13 +24,7 @@ fn accel_dima_configuration() {
 
 #[test]
 fn gyro_dima_configuration() {
-    let mut spi = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0x0F]),
-        write(0x0F, 0x00),
-        write(0x10, 0x81),
-        write(0x11, 0x00),
-    ]));
+    let mut spi = SpiMock::new(&script(vec![gyro_dima_init()]));
     let mut gyro = Gyroscope::new_spi(spi.clone());
     gyro.init(&mut NoopDelay, &GyroConfig::DIMA).unwrap();
     spi.done();
@@ -86,18 +53,7 @@ fn mag_dima_configuration_powers_on_before_the_chip_id() {
 
 #[test]
 fn forced_read_polls_data_ready_and_compensates() {
-    let trim_and_config = vec![
-        write(0x4B, 0x01),
-        write(0x4B, 0x83),
-        read(0x40, &[0x32]),
-        read(0x5D, &TRIM_1),
-        read(0x62, &TRIM_2),
-        read(0x68, &TRIM_3),
-        write(0x51, 0x01),
-        write(0x52, 0x02),
-        write(0x4C, 0x02),
-    ];
-    let mut parts = trim_and_config;
+    let mut parts = vec![mag_dima_init()];
     parts.extend(vec![
         write(0x4C, 0x02),
         // Previous sample still in the registers, data-ready clear: must not be returned.

@@ -1,40 +1,22 @@
 //! The facade: DIMA initialisation of all three dies and non-blocking sampling.
 
+mod common;
+
 use bosch_bmx055::accel::{accel_word_to_mg, AccelRange};
 use bosch_bmx055::gyro::{gyro_word_to_dps, GyroRange};
 use bosch_bmx055::mag::{compensate_f32, MagTrim};
 use bosch_bmx055::packet::{packet_words_from_physical, ImuPhysical};
 use bosch_bmx055::{Bmx055, Bmx055Config, ImuPacketWords, Xyz};
+use common::{
+    accel_deflection, accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write, TRIM_1,
+    TRIM_2, TRIM_3,
+};
 use embedded_hal_mock::eh1::delay::NoopDelay;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 use proptest::prelude::*;
 
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
-}
-
-fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
-    parts.into_iter().flatten().collect()
-}
-
-// Trim from the shared BMM150 vectors (Bosch SensorAPI).
-const TRIM_3: [u8; 10] = [0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D];
-
 fn vector_trim() -> MagTrim {
-    MagTrim::from_bursts(&[0, 0], &[0, 0, 0x1A, 0x1A], &TRIM_3)
+    MagTrim::from_bursts(&TRIM_1, &TRIM_2, &TRIM_3)
 }
 
 #[test]
@@ -42,33 +24,17 @@ fn dima_init_then_sample_keeps_stale_mag_and_retriggers_on_fresh() {
     let acc_regs = [0x11, 0x00, 0xF1, 0xFF, 0x01, 0x40];
     let gyro_regs = [0x90, 0x02, 0x70, 0xFD, 0x00, 0x00];
     let mut acc = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0xFA]),
-        write(0x0F, 0x03),
-        write(0x10, 0x0F),
-        write(0x11, 0x00),
+        accel_dima_init(),
         read(0x02, &acc_regs),
         read(0x02, &acc_regs),
     ]));
     let mut gyro = SpiMock::new(&script(vec![
-        write(0x14, 0xB6),
-        read(0x00, &[0x0F]),
-        write(0x0F, 0x00),
-        write(0x10, 0x81),
-        write(0x11, 0x00),
+        gyro_dima_init(),
         read(0x02, &gyro_regs),
         read(0x02, &gyro_regs),
     ]));
     let mut mag = SpiMock::new(&script(vec![
-        write(0x4B, 0x01),
-        write(0x4B, 0x83),
-        read(0x40, &[0x32]),
-        read(0x5D, &[0x00, 0x00]),
-        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
-        read(0x68, &TRIM_3),
-        write(0x51, 0x01),
-        write(0x52, 0x02),
-        write(0x4C, 0x02),
+        mag_dima_init(),
         // First sample: measurement still running.
         read(0x42, &[0, 0, 0, 0, 0, 0, 0x00, 0x00]),
         // Second sample: fresh (shared vector row 1), next forced measurement started.
@@ -134,20 +100,13 @@ proptest! {
 #[test]
 fn self_test_reports_a_failing_die_and_reconfigures() {
     // Accel deflections of 1000 mg on every axis (512 counts at ±4 g) pass.
-    let deflect = |axis: usize, counts: i16| {
-        let mut b = [0u8; 6];
-        let w = (counts << 4).to_le_bytes();
-        b[2 * axis] = w[0];
-        b[2 * axis + 1] = w[1];
-        b
-    };
     let mut acc_script = vec![write(0x0F, 0x05)];
     for axis in 0..3u8 {
         // axis | sign (0x04) | self_test_amp high (0x10), Bosch BMA2 SensorAPI.
         acc_script.push(write(0x32, (axis + 1) | 0x04 | 0x10));
-        acc_script.push(read(0x02, &deflect(axis.into(), 256)));
+        acc_script.push(read(0x02, &accel_deflection(axis.into(), 256)));
         acc_script.push(write(0x32, (axis + 1) | 0x10));
-        acc_script.push(read(0x02, &deflect(axis.into(), -256)));
+        acc_script.push(read(0x02, &accel_deflection(axis.into(), -256)));
     }
     acc_script.extend([
         write(0x32, 0x00),

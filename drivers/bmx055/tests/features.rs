@@ -1,5 +1,7 @@
 //! Interrupts, FIFO, self-test and offsets as bus transactions.
 
+mod common;
+
 use bosch_bmx055::accel::{
     AccelFifoConfig, AccelInterruptConfig, AccelRaw, OffsetTarget, SlopeConfig,
 };
@@ -7,28 +9,33 @@ use bosch_bmx055::gyro::{GyroFifoConfig, GyroInterruptConfig, GyroRaw};
 use bosch_bmx055::{
     Accelerometer, Error, FifoData, FifoMode, Gyroscope, InterruptPin, Magnetometer, PinConfig, Xyz,
 };
+use common::{read, script, write};
 use embedded_hal_mock::eh1::delay::NoopDelay;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
-}
-
-fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
-    parts.into_iter().flatten().collect()
+#[test]
+fn accel_fifo_read_splits_into_whole_frame_bursts_of_48_bytes() {
+    // 10 frames waiting (FIFO_STATUS 0x0E = 0x0A), room for 12: one burst of 8 six-byte
+    // frames (48 bytes), then one of the remaining 2; frame i holds X = i + 1 counts.
+    let frame = |i: i16| {
+        let w = ((i + 1) << 4).to_le_bytes();
+        [w[0], w[1], 0, 0, 0, 0]
+    };
+    let first: Vec<u8> = (0..8).flat_map(frame).collect();
+    let second: Vec<u8> = (8..10).flat_map(frame).collect();
+    let mut spi = SpiMock::new(&script(vec![
+        read(0x0E, &[0x0A]),
+        read(0x3F, &first),
+        read(0x3F, &second),
+    ]));
+    let mut acc = Accelerometer::new_spi(spi.clone());
+    let mut frames = [AccelRaw::default(); 12];
+    assert_eq!(acc.read_fifo(&mut frames).unwrap(), 10);
+    for (i, f) in frames.iter().enumerate() {
+        let x = if i < 10 { i as i16 + 1 } else { 0 };
+        assert_eq!(f.counts(), Xyz::new(x, 0, 0), "frame {i}");
+    }
+    spi.done();
 }
 
 #[test]

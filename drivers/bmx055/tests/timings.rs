@@ -2,10 +2,13 @@
 //! published values. Waits may be longer than documented, never shorter; limits must be
 //! exactly the documented ones.
 
+mod common;
+
 use bosch_bmx055::accel::{SELF_TEST_MIN_MG, SELF_TEST_SETTLE_MS};
 use bosch_bmx055::{Accelerometer, Gyroscope, Magnetometer};
+use common::{read, write};
 use embedded_hal::delay::DelayNs;
-use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 
 /// Records every requested wait, in ns.
 #[derive(Default)]
@@ -27,23 +30,6 @@ impl Recorder {
     fn total_ns(&self) -> u64 {
         self.0.iter().sum()
     }
-}
-
-fn write(reg: u8, value: u8) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg, value]),
-        T::transaction_end(),
-    ]
-}
-
-fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
-    vec![
-        T::transaction_start(),
-        T::write_vec(vec![reg | 0x80]),
-        T::read_vec(response.to_vec()),
-        T::transaction_end(),
-    ]
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Accelerometer interrupts: data ready, slope (any-motion) and FIFO on INT1/INT2.
 
 use super::{register as reg, Accelerometer};
+use crate::access::Registers;
 use crate::interface::RegisterInterface;
 use crate::types::{InterruptPin, PinConfig, Xyz};
 use crate::Error;
@@ -154,22 +155,20 @@ impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
         &mut self,
         config: &AccelInterruptConfig,
     ) -> Result<(), Error<IFACE::Error>> {
-        for (r, v) in config.register_writes() {
-            self.write(r, v)?;
-        }
+        self.iface.write_all(config.register_writes())?;
         Ok(())
     }
 
     /// Read the interrupt flags.
     pub fn interrupt_status(&mut self) -> Result<AccelInterruptStatus, Error<IFACE::Error>> {
         let mut b = [0u8; 2];
-        self.read_into(reg::INT_STATUS_0, &mut b)?;
+        self.iface.read_into(reg::INT_STATUS_0, &mut b)?;
         Ok(AccelInterruptStatus::from_registers(b[0], b[1]))
     }
 
     /// Clear latched interrupts, keeping the latch mode given by `latched`.
     pub fn clear_latched_interrupts(&mut self, latched: bool) -> Result<(), Error<IFACE::Error>> {
         let mode = if latched { 0x0F } else { 0x00 };
-        self.write(reg::INT_RST_LATCH, reg::RESET_INT | mode)
+        self.iface.write(reg::INT_RST_LATCH, reg::RESET_INT | mode)
     }
 }

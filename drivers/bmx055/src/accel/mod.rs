@@ -10,12 +10,15 @@ pub mod register;
 mod selftest;
 mod types;
 
+#[cfg(feature = "async")]
+pub(crate) use fifo::ACCEL_FIFO_REGISTERS;
 pub use fifo::{decode_accel_fifo_frame, AccelFifoConfig, ACCEL_FIFO_FRAMES};
 pub use interrupt::{AccelInterruptConfig, AccelInterruptStatus, SlopeConfig};
 pub use offset::{offset_setting, OffsetTarget, FOC_POLL_ATTEMPTS, OFFSET_MG_PER_LSB};
 pub use selftest::{AccelSelfTest, SELF_TEST_MIN_MG, SELF_TEST_SETTLE_MS};
 pub use types::*;
 
+use crate::access::Registers;
 use crate::interface::{I2cInterface, RegisterInterface, SpiInterface};
 use crate::Error;
 use embedded_hal::delay::DelayNs;
@@ -79,19 +82,9 @@ impl<IFACE> Accelerometer<IFACE> {
 }
 
 impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
-    pub(crate) fn write(&mut self, r: u8, v: u8) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_register(r, v).map_err(Error::Comm)
-    }
-    pub(crate) fn read(&mut self, r: u8) -> Result<u8, Error<IFACE::Error>> {
-        self.iface.read_register(r).map_err(Error::Comm)
-    }
-    pub(crate) fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<IFACE::Error>> {
-        self.iface.read_registers(r, buf).map_err(Error::Comm)
-    }
-
     /// Read the chip-id register (0xFA on a healthy die).
     pub fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
-        self.read(reg::BGW_CHIPID)
+        self.iface.read(reg::BGW_CHIPID)
     }
 
     /// Read the chip id up to `attempts` times (1 ms apart) until it is 0xFA.
@@ -100,22 +93,13 @@ impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
         delay: &mut impl DelayNs,
         attempts: u8,
     ) -> Result<(), Error<IFACE::Error>> {
-        let mut found = 0;
-        for i in 0..attempts.max(1) {
-            if i > 0 {
-                delay.delay_ms(1);
-            }
-            found = self.chip_id()?;
-            if found == reg::CHIP_ID_VALUE {
-                return Ok(());
-            }
-        }
-        Err(Error::InvalidChipId { found })
+        self.iface
+            .check_chip_id(delay, reg::BGW_CHIPID, reg::CHIP_ID_VALUE, attempts)
     }
 
     /// Soft reset (all registers to their defaults), then wait until the die answers.
     pub fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD)?;
+        self.iface.write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD)?;
         delay.delay_us(SOFT_RESET_WAIT_US);
         self.range = AccelRange::G2;
         self.fifo_data = crate::types::FifoData::Xyz;
@@ -138,34 +122,32 @@ impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
 
     /// Apply range, bandwidth and power mode (three register writes).
     pub fn configure(&mut self, config: &AccelConfig) -> Result<(), Error<IFACE::Error>> {
-        for (r, v) in config.register_writes() {
-            self.write(r, v)?;
-        }
+        self.iface.write_all(config.register_writes())?;
         self.range = config.range;
         Ok(())
     }
 
     /// Change the range only.
     pub fn set_range(&mut self, range: AccelRange) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::PMU_RANGE, range.bits())?;
+        self.iface.write(reg::PMU_RANGE, range.bits())?;
         self.range = range;
         Ok(())
     }
 
     /// Change the filter bandwidth only.
     pub fn set_bandwidth(&mut self, bw: AccelBandwidth) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::PMU_BW, bw.bits())
+        self.iface.write(reg::PMU_BW, bw.bits())
     }
 
     /// Change the power mode only.
     pub fn set_power_mode(&mut self, mode: AccelPowerMode) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::PMU_LPW, mode.bits())
+        self.iface.write(reg::PMU_LPW, mode.bits())
     }
 
     /// Read X, Y, Z in one burst (shadowing keeps LSB/MSB pairs consistent).
     pub fn read_raw(&mut self) -> Result<AccelRaw, Error<IFACE::Error>> {
         let mut b = [0u8; 6];
-        self.read_into(reg::ACCD_X_LSB, &mut b)?;
+        self.iface.read_into(reg::ACCD_X_LSB, &mut b)?;
         Ok(AccelRaw::from_registers(&b))
     }
 
@@ -183,6 +165,6 @@ impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
 
     /// Die temperature in °C (0.5 K resolution).
     pub fn temperature_celsius(&mut self) -> Result<f32, Error<IFACE::Error>> {
-        Ok(accel_temperature_celsius(self.read(reg::ACCD_TEMP)?))
+        Ok(accel_temperature_celsius(self.iface.read(reg::ACCD_TEMP)?))
     }
 }

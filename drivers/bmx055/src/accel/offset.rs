@@ -1,6 +1,7 @@
 //! Accelerometer offset compensation: fast (FOC) calibration and manual offsets.
 
 use super::{register as reg, Accelerometer};
+use crate::access::Registers;
 use crate::interface::RegisterInterface;
 use crate::types::Xyz;
 use embedded_hal::delay::DelayNs;
@@ -39,13 +40,15 @@ impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
         delay: &mut impl DelayNs,
         targets: Xyz<OffsetTarget>,
     ) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::OFC_SETTING, offset_setting(targets))?;
+        self.iface
+            .write(reg::OFC_SETTING, offset_setting(targets))?;
         for axis in 1..=3u8 {
-            self.write(reg::OFC_CTRL, axis << reg::CAL_TRIGGER_SHIFT)?;
+            self.iface
+                .write(reg::OFC_CTRL, axis << reg::CAL_TRIGGER_SHIFT)?;
             let mut ready = false;
             for _ in 0..FOC_POLL_ATTEMPTS {
                 delay.delay_ms(1);
-                if self.read(reg::OFC_CTRL)? & reg::CAL_RDY != 0 {
+                if self.iface.read(reg::OFC_CTRL)? & reg::CAL_RDY != 0 {
                     ready = true;
                     break;
                 }
@@ -60,19 +63,19 @@ impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
     /// Current offsets (7.8125 mg/LSB).
     pub fn offsets(&mut self) -> Result<Xyz<i8>, Error<IFACE::Error>> {
         let mut b = [0u8; 3];
-        self.read_into(reg::OFC_OFFSET_X, &mut b)?;
+        self.iface.read_into(reg::OFC_OFFSET_X, &mut b)?;
         Ok(Xyz::new(b[0] as i8, b[1] as i8, b[2] as i8))
     }
 
     /// Write offsets (7.8125 mg/LSB), e.g. values saved from an earlier calibration.
     pub fn set_offsets(&mut self, offsets: Xyz<i8>) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::OFC_OFFSET_X, offsets.x as u8)?;
-        self.write(reg::OFC_OFFSET_Y, offsets.y as u8)?;
-        self.write(reg::OFC_OFFSET_Z, offsets.z as u8)
+        self.iface.write(reg::OFC_OFFSET_X, offsets.x as u8)?;
+        self.iface.write(reg::OFC_OFFSET_Y, offsets.y as u8)?;
+        self.iface.write(reg::OFC_OFFSET_Z, offsets.z as u8)
     }
 
     /// Set all offsets to zero.
     pub fn reset_offsets(&mut self) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::OFC_CTRL, reg::OFFSET_RESET)
+        self.iface.write(reg::OFC_CTRL, reg::OFFSET_RESET)
     }
 }

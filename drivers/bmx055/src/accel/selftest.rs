@@ -1,6 +1,7 @@
 //! Accelerometer self-test: electrostatic deflection in both directions per axis.
 
 use super::{register as reg, AccelRange, AccelRaw, Accelerometer};
+use crate::access::Registers;
 use crate::interface::RegisterInterface;
 use crate::types::Xyz;
 use crate::Error;
@@ -53,19 +54,20 @@ impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
         self.set_range(AccelRange::G4)?;
         let mut diff = [0f32; 3];
         for axis in 1..=3u8 {
-            self.write(
+            self.iface.write(
                 reg::PMU_SELF_TEST,
                 axis | reg::SELF_TEST_SIGN | reg::SELF_TEST_AMP,
             )?;
             delay.delay_ms(SELF_TEST_SETTLE_MS);
             let pos = self.read_raw()?;
-            self.write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_AMP)?;
+            self.iface
+                .write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_AMP)?;
             delay.delay_ms(SELF_TEST_SETTLE_MS);
             let neg = self.read_raw()?;
             diff[usize::from(axis - 1)] =
                 axis_mg(&pos, axis, AccelRange::G4) - axis_mg(&neg, axis, AccelRange::G4);
         }
-        self.write(reg::PMU_SELF_TEST, 0)?;
+        self.iface.write(reg::PMU_SELF_TEST, 0)?;
         self.soft_reset(delay)?;
         Ok(AccelSelfTest {
             difference_mg: Xyz::new(diff[0], diff[1], diff[2]),

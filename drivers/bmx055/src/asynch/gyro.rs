@@ -1,10 +1,11 @@
 //! Async gyroscope.
 
 use crate::accel::accel_temperature_celsius;
+use crate::asynch::access::AsyncRegisters;
 use crate::gyro::{
     decode_gyro_fifo_frame, register as reg, GyroAddress, GyroBandwidth, GyroConfig,
     GyroFifoConfig, GyroInterruptConfig, GyroInterruptStatus, GyroPowerMode, GyroRange, GyroRaw,
-    GyroSelfTest, BIST_POLL_ATTEMPTS, SOFT_RESET_WAIT_MS,
+    GyroSelfTest, BIST_POLL_ATTEMPTS, GYRO_FIFO_REGISTERS, SOFT_RESET_WAIT_MS,
 };
 use crate::interface::{AsyncRegisterInterface, I2cInterface, SpiInterface};
 use crate::types::{FifoData, FifoStatus, Xyz};
@@ -54,19 +55,9 @@ impl<IFACE> AsyncGyroscope<IFACE> {
 }
 
 impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
-    async fn write(&mut self, r: u8, v: u8) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_register(r, v).await.map_err(Error::Comm)
-    }
-    async fn read(&mut self, r: u8) -> Result<u8, Error<IFACE::Error>> {
-        self.iface.read_register(r).await.map_err(Error::Comm)
-    }
-    async fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<IFACE::Error>> {
-        self.iface.read_registers(r, buf).await.map_err(Error::Comm)
-    }
-
     /// Chip id (0x0F).
     pub async fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
-        self.read(reg::CHIP_ID).await
+        self.iface.read(reg::CHIP_ID).await
     }
 
     /// Chip id check with up to `attempts` reads 1 ms apart.
@@ -75,17 +66,9 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
         delay: &mut impl DelayNs,
         attempts: u8,
     ) -> Result<(), Error<IFACE::Error>> {
-        let mut found = 0;
-        for i in 0..attempts.max(1) {
-            if i > 0 {
-                delay.delay_ms(1).await;
-            }
-            found = self.chip_id().await?;
-            if found == reg::CHIP_ID_VALUE {
-                return Ok(());
-            }
-        }
-        Err(Error::InvalidChipId { found })
+        self.iface
+            .check_chip_id(delay, reg::CHIP_ID, reg::CHIP_ID_VALUE, attempts)
+            .await
     }
 
     /// Soft reset and wait.
@@ -93,7 +76,9 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD).await?;
+        self.iface
+            .write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD)
+            .await?;
         delay.delay_ms(SOFT_RESET_WAIT_MS).await;
         self.range = GyroRange::Dps2000;
         self.fifo_data = FifoData::Xyz;
@@ -113,9 +98,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
 
     /// Apply range, data rate / filter and power mode.
     pub async fn configure(&mut self, config: &GyroConfig) -> Result<(), Error<IFACE::Error>> {
-        for (r, v) in config.register_writes() {
-            self.write(r, v).await?;
-        }
+        self.iface.write_all(config.register_writes()).await?;
         self.range = config.range;
         Ok(())
     }
@@ -123,7 +106,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
     /// Read X, Y, Z in one burst.
     pub async fn read_raw(&mut self) -> Result<GyroRaw, Error<IFACE::Error>> {
         let mut b = [0u8; 6];
-        self.read_into(reg::RATE_X_LSB, &mut b).await?;
+        self.iface.read_into(reg::RATE_X_LSB, &mut b).await?;
         Ok(GyroRaw::from_registers(&b))
     }
 
@@ -141,7 +124,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
 
     /// Die temperature in °C.
     pub async fn temperature_celsius(&mut self) -> Result<f32, Error<IFACE::Error>> {
-        Ok(accel_temperature_celsius(self.read(reg::TEMP).await?))
+        Ok(accel_temperature_celsius(self.iface.read(reg::TEMP).await?))
     }
 
     /// Route and enable interrupts.
@@ -149,16 +132,14 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
         &mut self,
         config: &GyroInterruptConfig,
     ) -> Result<(), Error<IFACE::Error>> {
-        for (r, v) in config.register_writes() {
-            self.write(r, v).await?;
-        }
+        self.iface.write_all(config.register_writes()).await?;
         Ok(())
     }
 
     /// Interrupt flags.
     pub async fn interrupt_status(&mut self) -> Result<GyroInterruptStatus, Error<IFACE::Error>> {
         let mut b = [0u8; 2];
-        self.read_into(reg::INT_STATUS_0, &mut b).await?;
+        self.iface.read_into(reg::INT_STATUS_0, &mut b).await?;
         Ok(GyroInterruptStatus::from_registers(b[0], b[1]))
     }
 
@@ -168,9 +149,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
         config: &GyroFifoConfig,
     ) -> Result<(), Error<IFACE::Error>> {
         let writes = config.register_writes().ok_or(Error::InvalidInput)?;
-        for (r, v) in writes {
-            self.write(r, v).await?;
-        }
+        self.iface.write_all(writes).await?;
         self.fifo_data = config.data;
         Ok(())
     }
@@ -178,28 +157,20 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
     /// FIFO fill level.
     pub async fn fifo_status(&mut self) -> Result<FifoStatus, Error<IFACE::Error>> {
         Ok(FifoStatus::from_register(
-            self.read(reg::FIFO_STATUS).await?,
+            self.iface.read(reg::FIFO_STATUS).await?,
         ))
     }
 
     /// Read up to `out.len()` waiting frames; returns how many were read.
     pub async fn read_fifo(&mut self, out: &mut [GyroRaw]) -> Result<usize, Error<IFACE::Error>> {
-        let want = usize::from(self.fifo_status().await?.frames).min(out.len());
-        let data = self.fifo_data;
-        let len = data.frame_len();
-        let mut buf = [0u8; 48];
-        let per_burst = buf.len() / len;
-        let mut done = 0;
-        while done < want {
-            let n = (want - done).min(per_burst);
-            let bytes = &mut buf[..n * len];
-            self.read_into(reg::FIFO_DATA, bytes).await?;
-            for (slot, frame) in out[done..done + n].iter_mut().zip(bytes.chunks_exact(len)) {
-                *slot = decode_gyro_fifo_frame(data, frame);
-            }
-            done += n;
-        }
-        Ok(done)
+        self.iface
+            .read_fifo(
+                GYRO_FIFO_REGISTERS,
+                self.fifo_data,
+                out,
+                decode_gyro_fifo_frame,
+            )
+            .await
     }
 
     /// Built-in self-test (bounded polling of `bist_rdy`).
@@ -207,11 +178,11 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<GyroSelfTest, Error<IFACE::Error>> {
-        let rate_ok = self.read(reg::BIST).await? & reg::RATE_OK != 0;
-        self.write(reg::BIST, reg::TRIG_BIST).await?;
+        let rate_ok = self.iface.read(reg::BIST).await? & reg::RATE_OK != 0;
+        self.iface.write(reg::BIST, reg::TRIG_BIST).await?;
         for _ in 0..BIST_POLL_ATTEMPTS {
             delay.delay_ms(1).await;
-            let bist = self.read(reg::BIST).await?;
+            let bist = self.iface.read(reg::BIST).await?;
             if bist & reg::BIST_RDY != 0 {
                 return Ok(GyroSelfTest {
                     rate_ok,
@@ -224,19 +195,19 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
 
     /// Change the range only.
     pub async fn set_range(&mut self, range: GyroRange) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::RANGE, range.bits()).await?;
+        self.iface.write(reg::RANGE, range.bits()).await?;
         self.range = range;
         Ok(())
     }
 
     /// Change the data rate / filter only.
     pub async fn set_bandwidth(&mut self, bw: GyroBandwidth) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::BW, bw.bits()).await
+        self.iface.write(reg::BW, bw.bits()).await
     }
 
     /// Change the power mode only.
     pub async fn set_power_mode(&mut self, mode: GyroPowerMode) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::LPM1, mode.bits()).await
+        self.iface.write(reg::LPM1, mode.bits()).await
     }
 
     /// Clear latched interrupts, keeping the latch mode given by `latched`.
@@ -245,6 +216,8 @@ impl<IFACE: AsyncRegisterInterface> AsyncGyroscope<IFACE> {
         latched: bool,
     ) -> Result<(), Error<IFACE::Error>> {
         let mode = if latched { 0x0F } else { 0x00 };
-        self.write(reg::INT_RST_LATCH, reg::RESET_INT | mode).await
+        self.iface
+            .write(reg::INT_RST_LATCH, reg::RESET_INT | mode)
+            .await
     }
 }

@@ -1,5 +1,6 @@
 //! Async magnetometer.
 
+use crate::asynch::access::AsyncRegisters;
 use crate::interface::{AsyncRegisterInterface, I2cInterface, SpiInterface};
 use crate::mag::{
     compensate, compensate_f32, measurement_time_us, op_mode_bits, register as reg, MagAddress,
@@ -66,26 +67,16 @@ impl<IFACE> AsyncMagnetometer<IFACE> {
 }
 
 impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
-    async fn write(&mut self, r: u8, v: u8) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_register(r, v).await.map_err(Error::Comm)
-    }
-    async fn read(&mut self, r: u8) -> Result<u8, Error<IFACE::Error>> {
-        self.iface.read_register(r).await.map_err(Error::Comm)
-    }
-    async fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<IFACE::Error>> {
-        self.iface.read_registers(r, buf).await.map_err(Error::Comm)
-    }
-
     /// Leave suspend and wait for the die to answer.
     pub async fn power_on(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::POWER_CONTROL, reg::POWER_ON).await?;
+        self.iface.write(reg::POWER_CONTROL, reg::POWER_ON).await?;
         delay.delay_us(POWER_ON_WAIT_US).await;
         Ok(())
     }
 
     /// Back to suspend.
     pub async fn suspend(&mut self) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::POWER_CONTROL, 0x00).await
+        self.iface.write(reg::POWER_CONTROL, 0x00).await
     }
 
     /// Soft reset keeping power, then wait.
@@ -93,7 +84,8 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::POWER_CONTROL, reg::SOFT_RESET | reg::POWER_ON)
+        self.iface
+            .write(reg::POWER_CONTROL, reg::SOFT_RESET | reg::POWER_ON)
             .await?;
         delay.delay_us(SOFT_RESET_WAIT_US).await;
         Ok(())
@@ -101,7 +93,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
 
     /// Chip id (0x32 once powered on).
     pub async fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
-        self.read(reg::CHIP_ID).await
+        self.iface.read(reg::CHIP_ID).await
     }
 
     /// Chip id check with up to `attempts` reads 1 ms apart.
@@ -110,17 +102,9 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
         delay: &mut impl DelayNs,
         attempts: u8,
     ) -> Result<(), Error<IFACE::Error>> {
-        let mut found = 0;
-        for i in 0..attempts.max(1) {
-            if i > 0 {
-                delay.delay_ms(1).await;
-            }
-            found = self.chip_id().await?;
-            if found == reg::CHIP_ID_VALUE {
-                return Ok(());
-            }
-        }
-        Err(Error::InvalidChipId { found })
+        self.iface
+            .check_chip_id(delay, reg::CHIP_ID, reg::CHIP_ID_VALUE, attempts)
+            .await
     }
 
     /// Read the trim in three bursts and keep it.
@@ -128,9 +112,9 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
         let mut b1 = [0u8; 2];
         let mut b2 = [0u8; 4];
         let mut b3 = [0u8; 10];
-        self.read_into(TRIM_BURST_1.0, &mut b1).await?;
-        self.read_into(TRIM_BURST_2.0, &mut b2).await?;
-        self.read_into(TRIM_BURST_3.0, &mut b3).await?;
+        self.iface.read_into(TRIM_BURST_1.0, &mut b1).await?;
+        self.iface.read_into(TRIM_BURST_2.0, &mut b2).await?;
+        self.iface.read_into(TRIM_BURST_3.0, &mut b3).await?;
         self.trim = MagTrim::from_bursts(&b1, &b2, &b3);
         Ok(self.trim)
     }
@@ -151,30 +135,29 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
 
     /// Write repetitions and operation mode.
     pub async fn configure(&mut self, config: &MagConfig) -> Result<(), Error<IFACE::Error>> {
-        for (r, v) in config.register_writes() {
-            self.write(r, v).await?;
-        }
+        self.iface.write_all(config.register_writes()).await?;
         self.config = *config;
         Ok(())
     }
 
     /// Set the operation mode, keeping the data rate.
     pub async fn set_op_mode(&mut self, mode: MagOpMode) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::OP_MODE, op_mode_bits(mode, self.config.data_rate))
+        self.iface
+            .write(reg::OP_MODE, op_mode_bits(mode, self.config.data_rate))
             .await
     }
 
     /// Read the eight data registers.
     pub async fn read_raw(&mut self) -> Result<MagRaw, Error<IFACE::Error>> {
         let mut b = [0u8; 8];
-        self.read_into(reg::DATA_X_LSB, &mut b).await?;
+        self.iface.read_into(reg::DATA_X_LSB, &mut b).await?;
         Ok(MagRaw::from_registers(&b))
     }
 
     /// Read the data registers as DIMA packet words.
     pub async fn read_packet_words(&mut self) -> Result<MagPacketWords, Error<IFACE::Error>> {
         let mut b = [0u8; 8];
-        self.read_into(reg::DATA_X_LSB, &mut b).await?;
+        self.iface.read_into(reg::DATA_X_LSB, &mut b).await?;
         Ok(MagPacketWords::from_registers(&b))
     }
 
@@ -225,7 +208,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
 
     /// Overflow and overrun flags.
     pub async fn status(&mut self) -> Result<MagStatus, Error<IFACE::Error>> {
-        let s = self.read(reg::INT_STATUS).await?;
+        let s = self.iface.read(reg::INT_STATUS).await?;
         Ok(MagStatus {
             overflow: s & reg::STATUS_OVERFLOW != 0,
             overrun: s & reg::STATUS_OVERRUN != 0,
@@ -245,7 +228,7 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
         if enable {
             v |= reg::DR_PIN_EN;
         }
-        self.write(reg::INT_CONTROL, v).await
+        self.iface.write(reg::INT_CONTROL, v).await
     }
 
     /// Normal self-test (bounded polling); leaves the die in sleep mode.
@@ -254,13 +237,13 @@ impl<IFACE: AsyncRegisterInterface> AsyncMagnetometer<IFACE> {
         delay: &mut impl DelayNs,
     ) -> Result<MagSelfTest, Error<IFACE::Error>> {
         let sleep = op_mode_bits(MagOpMode::Sleep, self.config.data_rate);
-        self.write(reg::OP_MODE, sleep).await?;
-        self.write(reg::OP_MODE, sleep | 0x01).await?;
+        self.iface.write(reg::OP_MODE, sleep).await?;
+        self.iface.write(reg::OP_MODE, sleep | 0x01).await?;
         for _ in 0..SELF_TEST_POLL_ATTEMPTS {
             delay.delay_ms(1).await;
-            if self.read(reg::OP_MODE).await? & 0x01 == 0 {
+            if self.iface.read(reg::OP_MODE).await? & 0x01 == 0 {
                 let mut b = [0u8; 6];
-                self.read_into(reg::DATA_X_LSB, &mut b).await?;
+                self.iface.read_into(reg::DATA_X_LSB, &mut b).await?;
                 return Ok(Xyz::new(b[0] & 1 != 0, b[2] & 1 != 0, b[4] & 1 != 0));
             }
         }

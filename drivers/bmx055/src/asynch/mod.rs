@@ -5,6 +5,7 @@
 //! only the I/O awaits. Separate types keep the blocking API intact when both are in use.
 
 mod accel;
+mod access;
 mod facade;
 mod gyro;
 mod mag;

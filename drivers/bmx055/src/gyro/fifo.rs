@@ -1,9 +1,16 @@
 //! Gyroscope FIFO: 100 frames, bypass / FIFO / stream, watermark, frame reads.
 
 use super::{register as reg, GyroRaw, Gyroscope};
+use crate::access::{FifoRegisters, Registers};
 use crate::interface::RegisterInterface;
-use crate::types::{FifoData, FifoMode, FifoStatus};
+use crate::types::{fifo_frame_registers, FifoData, FifoMode, FifoStatus};
 use crate::Error;
+
+/// The FIFO's status and data registers, for the shared frame reader.
+pub(crate) const GYRO_FIFO_REGISTERS: FifoRegisters = FifoRegisters {
+    status: reg::FIFO_STATUS,
+    data: reg::FIFO_DATA,
+};
 
 /// FIFO depth in frames.
 pub const GYRO_FIFO_FRAMES: u8 = 100;
@@ -39,55 +46,30 @@ impl GyroFifoConfig {
 
 /// Decode one FIFO frame; single-axis frames fill only their axis.
 pub fn decode_gyro_fifo_frame(data: FifoData, frame: &[u8]) -> GyroRaw {
-    let mut b = [0u8; 6];
-    let at = match data {
-        FifoData::Xyz | FifoData::X => 0,
-        FifoData::Y => 2,
-        FifoData::Z => 4,
-    };
-    for (i, v) in frame.iter().take(data.frame_len()).enumerate() {
-        if let Some(slot) = b.get_mut(at + i) {
-            *slot = *v;
-        }
-    }
-    GyroRaw::from_registers(&b)
+    GyroRaw::from_registers(&fifo_frame_registers(data, frame))
 }
 
 impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
     /// Configure the FIFO. `Error::InvalidInput` if the watermark is above 99.
     pub fn configure_fifo(&mut self, config: &GyroFifoConfig) -> Result<(), Error<IFACE::Error>> {
         let writes = config.register_writes().ok_or(Error::InvalidInput)?;
-        for (r, v) in writes {
-            self.write(r, v)?;
-        }
+        self.iface.write_all(writes)?;
         self.fifo_data = config.data;
         Ok(())
     }
 
     /// Frames waiting and the overrun flag.
     pub fn fifo_status(&mut self) -> Result<FifoStatus, Error<IFACE::Error>> {
-        Ok(FifoStatus::from_register(self.read(reg::FIFO_STATUS)?))
+        Ok(FifoStatus::from_register(
+            self.iface.read(reg::FIFO_STATUS)?,
+        ))
     }
 
     /// Read up to `out.len()` frames (never more than are waiting), whole frames per burst.
     /// Returns the number of frames written to `out`.
     pub fn read_fifo(&mut self, out: &mut [GyroRaw]) -> Result<usize, Error<IFACE::Error>> {
-        let waiting = usize::from(self.fifo_status()?.frames);
-        let want = waiting.min(out.len());
         let data = self.fifo_data;
-        let len = data.frame_len();
-        let mut buf = [0u8; 48];
-        let per_burst = buf.len() / len;
-        let mut done = 0;
-        while done < want {
-            let n = (want - done).min(per_burst);
-            let bytes = &mut buf[..n * len];
-            self.read_into(reg::FIFO_DATA, bytes)?;
-            for (slot, frame) in out[done..done + n].iter_mut().zip(bytes.chunks_exact(len)) {
-                *slot = decode_gyro_fifo_frame(data, frame);
-            }
-            done += n;
-        }
-        Ok(done)
+        self.iface
+            .read_fifo(GYRO_FIFO_REGISTERS, data, out, decode_gyro_fifo_frame)
     }
 }

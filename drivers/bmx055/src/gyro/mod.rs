@@ -6,11 +6,14 @@ pub mod register;
 mod selftest;
 mod types;
 
+#[cfg(feature = "async")]
+pub(crate) use fifo::GYRO_FIFO_REGISTERS;
 pub use fifo::{decode_gyro_fifo_frame, GyroFifoConfig, GYRO_FIFO_FRAMES};
 pub use interrupt::{GyroInterruptConfig, GyroInterruptStatus};
 pub use selftest::{GyroSelfTest, BIST_POLL_ATTEMPTS};
 pub use types::*;
 
+use crate::access::Registers;
 use crate::interface::{I2cInterface, RegisterInterface, SpiInterface};
 use crate::types::FifoData;
 use crate::Error;
@@ -74,19 +77,9 @@ impl<IFACE> Gyroscope<IFACE> {
 }
 
 impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
-    pub(crate) fn write(&mut self, r: u8, v: u8) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_register(r, v).map_err(Error::Comm)
-    }
-    pub(crate) fn read(&mut self, r: u8) -> Result<u8, Error<IFACE::Error>> {
-        self.iface.read_register(r).map_err(Error::Comm)
-    }
-    pub(crate) fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<IFACE::Error>> {
-        self.iface.read_registers(r, buf).map_err(Error::Comm)
-    }
-
     /// Read the chip-id register (0x0F on a healthy die).
     pub fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
-        self.read(reg::CHIP_ID)
+        self.iface.read(reg::CHIP_ID)
     }
 
     /// Read the chip id up to `attempts` times (1 ms apart) until it is 0x0F.
@@ -95,22 +88,13 @@ impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
         delay: &mut impl DelayNs,
         attempts: u8,
     ) -> Result<(), Error<IFACE::Error>> {
-        let mut found = 0;
-        for i in 0..attempts.max(1) {
-            if i > 0 {
-                delay.delay_ms(1);
-            }
-            found = self.chip_id()?;
-            if found == reg::CHIP_ID_VALUE {
-                return Ok(());
-            }
-        }
-        Err(Error::InvalidChipId { found })
+        self.iface
+            .check_chip_id(delay, reg::CHIP_ID, reg::CHIP_ID_VALUE, attempts)
     }
 
     /// Soft reset, then wait [`SOFT_RESET_WAIT_MS`].
     pub fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD)?;
+        self.iface.write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD)?;
         delay.delay_ms(SOFT_RESET_WAIT_MS);
         self.range = GyroRange::Dps2000;
         self.fifo_data = FifoData::Xyz;
@@ -133,34 +117,32 @@ impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
 
     /// Apply range, data rate / filter and power mode (three register writes).
     pub fn configure(&mut self, config: &GyroConfig) -> Result<(), Error<IFACE::Error>> {
-        for (r, v) in config.register_writes() {
-            self.write(r, v)?;
-        }
+        self.iface.write_all(config.register_writes())?;
         self.range = config.range;
         Ok(())
     }
 
     /// Change the range only.
     pub fn set_range(&mut self, range: GyroRange) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::RANGE, range.bits())?;
+        self.iface.write(reg::RANGE, range.bits())?;
         self.range = range;
         Ok(())
     }
 
     /// Change the data rate / filter only.
     pub fn set_bandwidth(&mut self, bw: GyroBandwidth) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::BW, bw.bits())
+        self.iface.write(reg::BW, bw.bits())
     }
 
     /// Change the power mode only.
     pub fn set_power_mode(&mut self, mode: GyroPowerMode) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::LPM1, mode.bits())
+        self.iface.write(reg::LPM1, mode.bits())
     }
 
     /// Read X, Y, Z in one burst.
     pub fn read_raw(&mut self) -> Result<GyroRaw, Error<IFACE::Error>> {
         let mut b = [0u8; 6];
-        self.read_into(reg::RATE_X_LSB, &mut b)?;
+        self.iface.read_into(reg::RATE_X_LSB, &mut b)?;
         Ok(GyroRaw::from_registers(&b))
     }
 
@@ -179,7 +161,7 @@ impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
     /// Die temperature in °C (0.5 K resolution).
     pub fn temperature_celsius(&mut self) -> Result<f32, Error<IFACE::Error>> {
         Ok(crate::accel::accel_temperature_celsius(
-            self.read(reg::TEMP)?,
+            self.iface.read(reg::TEMP)?,
         ))
     }
 }

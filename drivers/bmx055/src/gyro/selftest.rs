@@ -1,6 +1,7 @@
 //! Gyroscope built-in self-test (BIST).
 
 use super::{register as reg, Gyroscope};
+use crate::access::Registers;
 use crate::interface::RegisterInterface;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
@@ -32,11 +33,11 @@ impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<GyroSelfTest, Error<IFACE::Error>> {
-        let rate_ok = self.read(reg::BIST)? & reg::RATE_OK != 0;
-        self.write(reg::BIST, reg::TRIG_BIST)?;
+        let rate_ok = self.iface.read(reg::BIST)? & reg::RATE_OK != 0;
+        self.iface.write(reg::BIST, reg::TRIG_BIST)?;
         for _ in 0..BIST_POLL_ATTEMPTS {
             delay.delay_ms(1);
-            let bist = self.read(reg::BIST)?;
+            let bist = self.iface.read(reg::BIST)?;
             if bist & reg::BIST_RDY != 0 {
                 return Ok(GyroSelfTest {
                     rate_ok,

@@ -17,6 +17,7 @@ pub use inverse::{raw_x_for_ut, raw_y_for_ut, raw_z_for_ut};
 pub use trim::{MagTrim, TRIM_BURST_1, TRIM_BURST_2, TRIM_BURST_3};
 pub use types::*;
 
+use crate::access::Registers;
 use crate::interface::{I2cInterface, RegisterInterface, SpiInterface};
 use crate::types::Xyz;
 use crate::Error;
@@ -120,40 +121,31 @@ impl<IFACE> Magnetometer<IFACE> {
 }
 
 impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
-    pub(crate) fn write(&mut self, r: u8, v: u8) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_register(r, v).map_err(Error::Comm)
-    }
-    pub(crate) fn read(&mut self, r: u8) -> Result<u8, Error<IFACE::Error>> {
-        self.iface.read_register(r).map_err(Error::Comm)
-    }
-    pub(crate) fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<IFACE::Error>> {
-        self.iface.read_registers(r, buf).map_err(Error::Comm)
-    }
-
     /// Leave suspend (set the power-control bit) and wait [`POWER_ON_WAIT_US`]; the die is
     /// then in sleep mode and its registers answer.
     pub fn power_on(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::POWER_CONTROL, reg::POWER_ON)?;
+        self.iface.write(reg::POWER_CONTROL, reg::POWER_ON)?;
         delay.delay_us(POWER_ON_WAIT_US);
         Ok(())
     }
 
     /// Back to suspend (lowest current; configuration lost).
     pub fn suspend(&mut self) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::POWER_CONTROL, 0x00)
+        self.iface.write(reg::POWER_CONTROL, 0x00)
     }
 
     /// Soft reset, keeping the die powered (writes 0x83), then wait [`SOFT_RESET_WAIT_US`].
     /// The die comes back in sleep mode with default registers.
     pub fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::POWER_CONTROL, reg::SOFT_RESET | reg::POWER_ON)?;
+        self.iface
+            .write(reg::POWER_CONTROL, reg::SOFT_RESET | reg::POWER_ON)?;
         delay.delay_us(SOFT_RESET_WAIT_US);
         Ok(())
     }
 
     /// Read the chip-id register (0x32 once powered on; 0x00 in suspend).
     pub fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
-        self.read(reg::CHIP_ID)
+        self.iface.read(reg::CHIP_ID)
     }
 
     /// Read the chip id up to `attempts` times (1 ms apart) until it is 0x32.
@@ -162,17 +154,8 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
         delay: &mut impl DelayNs,
         attempts: u8,
     ) -> Result<(), Error<IFACE::Error>> {
-        let mut found = 0;
-        for i in 0..attempts.max(1) {
-            if i > 0 {
-                delay.delay_ms(1);
-            }
-            found = self.chip_id()?;
-            if found == reg::CHIP_ID_VALUE {
-                return Ok(());
-            }
-        }
-        Err(Error::InvalidChipId { found })
+        self.iface
+            .check_chip_id(delay, reg::CHIP_ID, reg::CHIP_ID_VALUE, attempts)
     }
 
     /// Read the trim registers in three bursts and keep them for compensation.
@@ -180,9 +163,9 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
         let mut b1 = [0u8; 2];
         let mut b2 = [0u8; 4];
         let mut b3 = [0u8; 10];
-        self.read_into(TRIM_BURST_1.0, &mut b1)?;
-        self.read_into(TRIM_BURST_2.0, &mut b2)?;
-        self.read_into(TRIM_BURST_3.0, &mut b3)?;
+        self.iface.read_into(TRIM_BURST_1.0, &mut b1)?;
+        self.iface.read_into(TRIM_BURST_2.0, &mut b2)?;
+        self.iface.read_into(TRIM_BURST_3.0, &mut b3)?;
         self.trim = MagTrim::from_bursts(&b1, &b2, &b3);
         Ok(self.trim)
     }
@@ -207,16 +190,15 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
 
     /// Write repetitions and operation mode (three register writes).
     pub fn configure(&mut self, config: &MagConfig) -> Result<(), Error<IFACE::Error>> {
-        for (r, v) in config.register_writes() {
-            self.write(r, v)?;
-        }
+        self.iface.write_all(config.register_writes())?;
         self.config = *config;
         Ok(())
     }
 
     /// Set the operation mode, keeping the configured data rate.
     pub fn set_op_mode(&mut self, mode: MagOpMode) -> Result<(), Error<IFACE::Error>> {
-        self.write(reg::OP_MODE, op_mode_bits(mode, self.config.data_rate))
+        self.iface
+            .write(reg::OP_MODE, op_mode_bits(mode, self.config.data_rate))
     }
 
     /// Start one forced measurement; poll with [`poll_data`](Self::poll_data).
@@ -262,14 +244,14 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
     /// Read the eight data registers as they are (data-ready flag included).
     pub fn read_raw(&mut self) -> Result<MagRaw, Error<IFACE::Error>> {
         let mut b = [0u8; 8];
-        self.read_into(reg::DATA_X_LSB, &mut b)?;
+        self.iface.read_into(reg::DATA_X_LSB, &mut b)?;
         Ok(MagRaw::from_registers(&b))
     }
 
     /// Read the data registers as DIMA packet words (status bits masked).
     pub fn read_packet_words(&mut self) -> Result<MagPacketWords, Error<IFACE::Error>> {
         let mut b = [0u8; 8];
-        self.read_into(reg::DATA_X_LSB, &mut b)?;
+        self.iface.read_into(reg::DATA_X_LSB, &mut b)?;
         Ok(MagPacketWords::from_registers(&b))
     }
 
@@ -293,7 +275,7 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
 
     /// Overflow and overrun flags.
     pub fn status(&mut self) -> Result<MagStatus, Error<IFACE::Error>> {
-        let s = self.read(reg::INT_STATUS)?;
+        let s = self.iface.read(reg::INT_STATUS)?;
         Ok(MagStatus {
             overflow: s & reg::STATUS_OVERFLOW != 0,
             overrun: s & reg::STATUS_OVERRUN != 0,
@@ -314,7 +296,7 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
         if enable {
             v |= reg::DR_PIN_EN;
         }
-        self.write(reg::INT_CONTROL, v)
+        self.iface.write(reg::INT_CONTROL, v)
     }
 
     /// Normal self-test: in sleep mode set the self-test bit, poll until the die clears it
@@ -325,13 +307,13 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
         delay: &mut impl DelayNs,
     ) -> Result<MagSelfTest, Error<IFACE::Error>> {
         let sleep = op_mode_bits(MagOpMode::Sleep, self.config.data_rate);
-        self.write(reg::OP_MODE, sleep)?;
-        self.write(reg::OP_MODE, sleep | 0x01)?;
+        self.iface.write(reg::OP_MODE, sleep)?;
+        self.iface.write(reg::OP_MODE, sleep | 0x01)?;
         for _ in 0..SELF_TEST_POLL_ATTEMPTS {
             delay.delay_ms(1);
-            if self.read(reg::OP_MODE)? & 0x01 == 0 {
+            if self.iface.read(reg::OP_MODE)? & 0x01 == 0 {
                 let mut b = [0u8; 6];
-                self.read_into(reg::DATA_X_LSB, &mut b)?;
+                self.iface.read_into(reg::DATA_X_LSB, &mut b)?;
                 return Ok(Xyz::new(b[0] & 1 != 0, b[2] & 1 != 0, b[4] & 1 != 0));
             }
         }
