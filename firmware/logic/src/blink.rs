@@ -7,7 +7,8 @@
 //!
 //! A second group follows with the outcome of the NEO-M8T configuration at boot ([`gnss`]):
 //! nothing while it runs, one short blink when the receiver acknowledged everything, one long
-//! blink for an ACK-NAK, two long blinks for a timeout or a failed port, then a pause.
+//! blink for an ACK-NAK, two long blinks for a timeout or a failed port, then a pause (nothing
+//! at all when the firmware was built without boot-time configuration).
 
 /// Status bit of the accelerometer (bit 0 of the info frame's status byte).
 pub const ACCEL_OK: u8 = 1 << 0;
@@ -68,7 +69,7 @@ pub fn gnss(outcome: crate::gnss_setup::Outcome) -> [Blink; 2] {
         off_ms: PAUSE_MS,
     };
     match outcome {
-        Outcome::Pending => [NONE, NONE],
+        Outcome::Pending | Outcome::Skipped => [NONE, NONE],
         Outcome::Configured => [last(SHORT_MS), NONE],
         Outcome::Nak => [last(LONG_MS), NONE],
         Outcome::Timeout | Outcome::Failed => [
@@ -125,6 +126,7 @@ mod tests {
                 .collect::<heapless::Vec<u32, 2>>()
         };
         assert!(shown(Outcome::Pending).is_empty());
+        assert!(shown(Outcome::Skipped).is_empty());
         assert_eq!(shown(Outcome::Configured).as_slice(), &[SHORT_MS]);
         assert_eq!(shown(Outcome::Nak).as_slice(), &[LONG_MS]);
         assert_eq!(shown(Outcome::Timeout).as_slice(), &[LONG_MS, LONG_MS]);

@@ -35,6 +35,9 @@ pub enum Outcome {
     Timeout = 3,
     /// The serial port failed, or the baud-rate switch failed.
     Failed = 4,
+    /// Not attempted: the firmware was built without boot-time configuration and relies on
+    /// the configuration stored in the receiver.
+    Skipped = 5,
 }
 
 impl Outcome {
@@ -56,6 +59,7 @@ impl Outcome {
             1 => Self::Configured,
             2 => Self::Nak,
             3 => Self::Timeout,
+            5 => Self::Skipped,
             _ => Self::Failed,
         }
     }
@@ -235,6 +239,7 @@ mod tests {
             Outcome::Nak,
             Outcome::Timeout,
             Outcome::Failed,
+            Outcome::Skipped,
         ] {
             assert_eq!(Outcome::from_code(outcome as u8), outcome);
         }
