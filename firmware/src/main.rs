@@ -6,6 +6,9 @@
 //! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
 //! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
 //!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog.
+//! - `gnss_setup` (software task, once at boot): configures the NEO-M8T through USART1 TX
+//!   (PB6) with `neo_m8t::Configurator`, polled every millisecond; its replies come from
+//!   `gnss_bytes` through a byte queue. Never blocks; ends configured, NAK'd or timed out.
 //! - `status_led` (software task): the status LED pattern on PD12. DESIGN names no LED pin;
 //!   PD12 is the STM32F4-Discovery's green LED.
 //!
@@ -33,9 +36,11 @@ mod app {
     use super::*;
     use crate::board::*;
     use crate::delay::CycleDelay;
-    use core::sync::atomic::{AtomicBool, Ordering};
+    use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+    use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
     use dima_firmware_logic::{
-        blink as led_pattern, AfterTransfer, Answer, LatestPacket, RequestHandler,
+        blink as led_pattern, AfterTransfer, Answer, GnssSetupOutcome, LatestPacket, ReplyPort,
+        ReplyTap, RequestHandler, SetupStatus,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::gnss::GNSS_FRAME_LEN;
@@ -54,6 +59,23 @@ mod app {
 
     /// Set once the first checksum-valid NAV-PVT frame has arrived (info frame status bit 4).
     static GNSS_SEEN: AtomicBool = AtomicBool::new(false);
+
+    /// Outcome of the NEO-M8T configuration at boot (a `GnssSetupOutcome` code: 0 running,
+    /// 1 configured, 2 ACK-NAK, 3 timeout, 4 port failure). The info frame has no bit for it;
+    /// it shows on the status LED and can be read with a debugger.
+    static GNSS_SETUP: SetupStatus = SetupStatus::new();
+    /// Receiver protocol version from MON-VER's `PROTVER` (major << 8 | minor; 0 = unknown).
+    #[cfg(feature = "gnss-setup")]
+    static GNSS_PROTVER: core::sync::atomic::AtomicU16 = core::sync::atomic::AtomicU16::new(0);
+    /// Receiver software version from MON-VER (ASCII, zero-padded; all zeros = no answer).
+    #[cfg(feature = "gnss-setup")]
+    static GNSS_SOFTWARE: [core::sync::atomic::AtomicU8; 30] =
+        [const { core::sync::atomic::AtomicU8::new(0) }; 30];
+    /// Resends the configurator needed (an unanswered message is sent again, up to 3 times).
+    #[cfg(feature = "gnss-setup")]
+    static GNSS_SETUP_RETRIES: AtomicU32 = AtomicU32::new(0);
+    /// Received bytes the configurator's reply queue had no room for.
+    static GNSS_REPLY_DROPPED: AtomicU32 = AtomicU32::new(0);
 
     /// SPI1, shared by the four chip selects.
     type SensorBus = Spi<SPI1>;
@@ -83,6 +105,9 @@ mod app {
     /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects.
     type GnssReader = neo_m8t::GnssStream<256>;
 
+    /// The configurator's serial port: USART1 TX, replies from the receive task's queue.
+    type GnssPort = ReplyPort<'static, serial::Tx<pac::USART1>>;
+
     /// The latest checksum-valid NAV-PVT frame (all zeros until the first one).
     pub struct GnssLatest {
         frame: [u8; GNSS_FRAME_LEN],
@@ -110,6 +135,8 @@ mod app {
         sampler: Sampler,
         gnss_rx: gnss::GnssRx,
         reader: GnssReader,
+        reply_tap: ReplyTap<'static>,
+        gnss_port: GnssPort,
         led: gpio::PD12<Output<PushPull>>,
         #[cfg(feature = "qemu")]
         host_rx: serial::Rx<pac::USART3>,
@@ -121,6 +148,7 @@ mod app {
         info_buffer: [u8; dima_sensorboard::INFO_V1_LEN] = [0; dima_sensorboard::INFO_V1_LEN],
         gnss_a: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
         gnss_b: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
+        gnss_replies: heapless::spsc::Queue<u8, REPLY_QUEUE_LEN> = heapless::spsc::Queue::new(),
         spi_cell: Option<AtomicCell<SensorBus>> = None,
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
@@ -213,20 +241,20 @@ mod app {
             (link::Link::new(tx), rx)
         };
 
-        // GNSS: USART1 RX on PB7 (PB6 is its TX).
+        // GNSS: USART1 RX on PB7, TX on PB6 (configuration messages only).
         let gnss_config = serial::Config::default().baudrate(GNSS_BAUD.bps());
         #[cfg(not(feature = "qemu"))]
-        let gnss_rx = {
+        let (gnss_rx, gnss_tx) = {
             use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
-            let _ = gpiob.pb6;
-            let mut rx = dp
+            let (gnss_tx, mut rx) = dp
                 .USART1
-                .rx(
-                    gpiob.pb7,
+                .serial(
+                    (gpiob.pb6, gpiob.pb7),
                     gnss_config.dma(serial::config::DmaConfig::Rx),
                     &mut rcc,
                 )
-                .unwrap_or_else(|_| fault());
+                .unwrap_or_else(|_| fault())
+                .split();
             rx.listen_idle();
             let streams = StreamsTuple::new(dp.DMA2, &mut rcc);
             let mut transfer = Transfer::init_peripheral_to_memory(
@@ -239,18 +267,20 @@ mod app {
                     .transfer_complete_interrupt(true),
             );
             transfer.start(|_| {});
-            gnss::GnssRx::new(transfer, cx.local.gnss_b)
+            (gnss::GnssRx::new(transfer, cx.local.gnss_b), gnss_tx)
         };
         #[cfg(feature = "qemu")]
-        let gnss_rx = {
-            let _ = (gpiob.pb6, cx.local.gnss_a, cx.local.gnss_b);
-            let mut rx = dp
+        let (gnss_rx, gnss_tx) = {
+            let _ = (cx.local.gnss_a, cx.local.gnss_b);
+            let (gnss_tx, mut rx) = dp
                 .USART1
-                .rx(gpiob.pb7, gnss_config, &mut rcc)
-                .unwrap_or_else(|_| fault());
+                .serial((gpiob.pb6, gpiob.pb7), gnss_config, &mut rcc)
+                .unwrap_or_else(|_| fault())
+                .split();
             rx.listen();
-            gnss::GnssRx::new(rx)
+            (gnss::GnssRx::new(rx), gnss_tx)
         };
+        let (reply_producer, reply_consumer) = cx.local.gnss_replies.split();
 
         // Request line: PD10, rising edge.
         let mut syscfg = dp.SYSCFG.constrain(&mut rcc);
@@ -294,6 +324,7 @@ mod app {
 
         let led = gpiod.pd12.into_push_pull_output();
         status_led::spawn(status.bits()).ok();
+        gnss_setup::spawn().ok();
 
         #[cfg(feature = "qemu")]
         cortex_m_semihosting::hprintln!("ready");
@@ -324,6 +355,8 @@ mod app {
                 },
                 gnss_rx,
                 reader: GnssReader::new(),
+                reply_tap: ReplyTap::new(reply_producer),
+                gnss_port: ReplyPort::new(gnss_tx, reply_consumer),
                 led,
                 #[cfg(feature = "qemu")]
                 host_rx,
@@ -399,11 +432,17 @@ mod app {
     }
 
     /// GNSS bytes (idle line, or under QEMU a received byte).
-    #[task(binds = USART1, priority = 2, local = [gnss_rx, reader], shared = [gnss_latest])]
+    /// While the receiver is being configured, the same bytes also go to the configurator.
+    #[task(binds = USART1, priority = 2, local = [gnss_rx, reader, reply_tap], shared = [gnss_latest])]
     fn gnss_bytes(mut cx: gnss_bytes::Context) {
         let reader = cx.local.reader;
+        let tap = cx.local.reply_tap;
         cx.local.gnss_rx.drain(|bytes| {
             reader.push_slice(bytes);
+            if GNSS_SETUP.is_pending() {
+                tap.push_slice(bytes);
+                GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
+            }
         });
         if let Some(frame) = reader.take_nav_pvt() {
             cx.shared.gnss_latest.lock(|gnss| {
@@ -442,15 +481,82 @@ mod app {
         cx.shared.latest.lock(|latest| latest.publish(packet));
     }
 
-    /// The status LED: see `dima_firmware_logic::blink`.
+    /// With the `gnss-setup` feature: configures the NEO-M8T once at boot (10 Hz NAV-PVT on UART1, UBX only, automotive
+    /// model: `neo_m8t::Config::default()`), one poll per millisecond, then ends. The baud
+    /// rate stays `GNSS_BAUD`, so the configurator never asks for a switch. Without a receiver
+    /// (or under QEMU) the MON-VER poll times out after its retries (about 2 s); sampling and
+    /// requests carry on meanwhile. Without the feature it only records `Skipped`.
+    #[task(priority = 1, local = [gnss_port])]
+    async fn gnss_setup(cx: gnss_setup::Context) {
+        #[cfg(not(feature = "gnss-setup"))]
+        {
+            // Built without boot-time configuration: the receiver keeps what it has stored.
+            let _ = cx.local.gnss_port;
+            GNSS_SETUP.set(GnssSetupOutcome::Skipped);
+        }
+        #[cfg(feature = "gnss-setup")]
+        {
+            let port = cx.local.gnss_port;
+            let mut configurator =
+                neo_m8t::Configurator::<512>::new(gnss_receiver_config(), GNSS_BAUD);
+            let outcome = loop {
+                match configurator.poll(port, Mono::now().ticks()) {
+                    Ok(neo_m8t::Progress::Pending) => {}
+                    Ok(neo_m8t::Progress::Done) => break GnssSetupOutcome::Configured,
+                    // Only asked for when the configured rate differs from GNSS_BAUD.
+                    Ok(neo_m8t::Progress::SetBaudRate(_)) => break GnssSetupOutcome::Failed,
+                    Err(error) => break GnssSetupOutcome::from_error(&error),
+                }
+                Mono::delay(1.millis()).await;
+            };
+            if let Some(version) = configurator.version() {
+                for (slot, byte) in GNSS_SOFTWARE.iter().zip(version.software.bytes()) {
+                    slot.store(byte, Ordering::Relaxed);
+                }
+                if let Some(protocol) = version.protocol {
+                    GNSS_PROTVER.store(
+                        u16::from(protocol.major) << 8 | u16::from(protocol.minor),
+                        Ordering::Relaxed,
+                    );
+                }
+            }
+            GNSS_SETUP_RETRIES.store(configurator.retries(), Ordering::Relaxed);
+            GNSS_SETUP.set(outcome);
+            #[cfg(feature = "qemu")]
+            cortex_m_semihosting::hprintln!(
+                "gnss setup: {:?}, {} retries, PROTVER {:#06x}",
+                outcome,
+                configurator.retries(),
+                GNSS_PROTVER.load(Ordering::Relaxed)
+            );
+        }
+    }
+
+    /// What the board needs from the receiver: 10 Hz NAV-PVT on UART1, UBX only, automotive
+    /// model, at `GNSS_BAUD`. TIMEPULSE (CFG-TP5) and the timing mode (CFG-TMODE2) are left as
+    /// stored in the receiver: the board does not use them.
+    #[cfg(feature = "gnss-setup")]
+    fn gnss_receiver_config() -> neo_m8t::Config {
+        neo_m8t::Config::default()
+            .with_baud_rate(GNSS_BAUD)
+            .with_time_pulse(None)
+            .with_time_mode(None)
+    }
+
+    /// The status LED: see `dima_firmware_logic::blink` (sensor group, then GNSS group).
     #[task(priority = 1, local = [led])]
     async fn status_led(cx: status_led::Context, status: u8) {
         loop {
-            for step in led_pattern::pattern(status) {
-                cx.local.led.set_high();
-                Mono::delay(step.on_ms.millis()).await;
-                cx.local.led.set_low();
-                Mono::delay(step.off_ms.millis()).await;
+            let gnss = led_pattern::gnss(GNSS_SETUP.get());
+            for step in led_pattern::pattern(status).into_iter().chain(gnss) {
+                if step.on_ms > 0 {
+                    cx.local.led.set_high();
+                    Mono::delay(step.on_ms.millis()).await;
+                    cx.local.led.set_low();
+                }
+                if step.off_ms > 0 {
+                    Mono::delay(step.off_ms.millis()).await;
+                }
             }
         }
     }

@@ -4,6 +4,11 @@
 //! frame's status bits and on the status LED. The pattern repeats forever: one blink per sensor
 //! in the order accelerometer, gyroscope, magnetometer, BMP280, short if the sensor answered and
 //! long if it did not, then a pause. With every sensor present the LED gives four short blinks.
+//!
+//! A second group follows with the outcome of the NEO-M8T configuration at boot ([`gnss`]):
+//! nothing while it runs, one short blink when the receiver acknowledged everything, one long
+//! blink for an ACK-NAK, two long blinks for a timeout or a failed port, then a pause (nothing
+//! at all when the firmware was built without boot-time configuration).
 
 /// Status bit of the accelerometer (bit 0 of the info frame's status byte).
 pub const ACCEL_OK: u8 = 1 << 0;
@@ -50,6 +55,33 @@ pub fn pattern(status: u8) -> [Blink; 4] {
     })
 }
 
+/// The blinks after the sensor group for the GNSS configuration outcome. A blink with
+/// `on_ms == 0` is not shown (and takes no time when its `off_ms` is 0 too).
+#[must_use]
+pub fn gnss(outcome: crate::gnss_setup::Outcome) -> [Blink; 2] {
+    use crate::gnss_setup::Outcome;
+    const NONE: Blink = Blink {
+        on_ms: 0,
+        off_ms: 0,
+    };
+    let last = |on_ms| Blink {
+        on_ms,
+        off_ms: PAUSE_MS,
+    };
+    match outcome {
+        Outcome::Pending | Outcome::Skipped => [NONE, NONE],
+        Outcome::Configured => [last(SHORT_MS), NONE],
+        Outcome::Nak => [last(LONG_MS), NONE],
+        Outcome::Timeout | Outcome::Failed => [
+            Blink {
+                on_ms: LONG_MS,
+                off_ms: GAP_MS,
+            },
+            last(LONG_MS),
+        ],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -81,5 +113,35 @@ mod tests {
     fn a_missing_magnetometer_gives_a_long_third_blink() {
         let on: [u32; 4] = pattern(ACCEL_OK | GYRO_OK | BARO_OK | GNSS_SEEN).map(|b| b.on_ms);
         assert_eq!(on, [SHORT_MS, SHORT_MS, LONG_MS, SHORT_MS]);
+    }
+
+    #[test]
+    fn gnss_outcome_blinks() {
+        use crate::gnss_setup::Outcome;
+        let shown = |outcome| {
+            gnss(outcome)
+                .iter()
+                .filter(|b| b.on_ms > 0)
+                .map(|b| b.on_ms)
+                .collect::<heapless::Vec<u32, 2>>()
+        };
+        assert!(shown(Outcome::Pending).is_empty());
+        assert!(shown(Outcome::Skipped).is_empty());
+        assert_eq!(shown(Outcome::Configured).as_slice(), &[SHORT_MS]);
+        assert_eq!(shown(Outcome::Nak).as_slice(), &[LONG_MS]);
+        assert_eq!(shown(Outcome::Timeout).as_slice(), &[LONG_MS, LONG_MS]);
+        assert_eq!(shown(Outcome::Failed).as_slice(), &[LONG_MS, LONG_MS]);
+        assert_eq!(
+            gnss(Outcome::Pending),
+            [Blink {
+                on_ms: 0,
+                off_ms: 0
+            }; 2]
+        );
+        // A group that shows anything ends in the pause.
+        for outcome in [Outcome::Configured, Outcome::Nak, Outcome::Timeout] {
+            let total_off: u32 = gnss(outcome).iter().map(|b| b.off_ms).sum();
+            assert!(total_off >= PAUSE_MS);
+        }
     }
 }

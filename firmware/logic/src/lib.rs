@@ -18,11 +18,13 @@
 #![deny(missing_docs)]
 
 pub mod blink;
+pub mod gnss_setup;
 pub mod latest;
 pub mod request;
 pub mod schedule;
 pub mod sensors;
 
+pub use gnss_setup::{Outcome as GnssSetupOutcome, ReplyPort, ReplyTap, SetupStatus};
 pub use latest::LatestPacket;
 pub use request::{AfterTransfer, Answer, RequestHandler, INFO_GAP_MS};
 pub use schedule::{MagAction, Schedule, ScheduleConfig, TickPlan};
