@@ -1,0 +1,106 @@
+//! Driver for the Bosch BMX055 9-axis IMU: accelerometer, gyroscope and magnetometer, over
+//! embedded-hal 1.0 SPI or I2C, `no_std` and without allocation.
+//!
+//! The BMX055 is three dies in one package, each with its own chip select (or I2C address):
+//! so this crate has three drivers, each owning its own [`SpiDevice`] or [`I2c`] bus handle,
+//! and an optional [`Bmx055`] facade that owns all three. Share one SPI bus between the dies
+//! with `embedded-hal-bus`; this crate never drives a chip-select pin.
+//!
+//! [`SpiDevice`]: embedded_hal::spi::SpiDevice
+//! [`I2c`]: embedded_hal::i2c::I2c
+//!
+//! ## Features
+//! - [`Accelerometer`] (chip id 0xFA): [`init`](Accelerometer::init),
+//!   [`configure`](Accelerometer::configure) range ±2..±16 g, bandwidth 7.81..1000 Hz and
+//!   power mode, [`read_raw`](Accelerometer::read_raw) (packet words with new-data flags),
+//!   [`read_mg`](Accelerometer::read_mg), [`read_m_s2`](Accelerometer::read_m_s2),
+//!   [`temperature_celsius`](Accelerometer::temperature_celsius), data-ready and slope
+//!   interrupts ([`configure_interrupts`](Accelerometer::configure_interrupts)), FIFO
+//!   ([`configure_fifo`](Accelerometer::configure_fifo), [`read_fifo`](Accelerometer::read_fifo)),
+//!   [`self_test`](Accelerometer::self_test),
+//!   [`fast_offset_compensation`](Accelerometer::fast_offset_compensation) and manual offsets.
+//! - [`Gyroscope`] (chip id 0x0F): [`init`](Gyroscope::init), range ±125..±2000 °/s, data
+//!   rate / filter (including 0x81 = 2000 Hz / 230 Hz), power modes,
+//!   [`read_raw`](Gyroscope::read_raw), [`read_dps`](Gyroscope::read_dps),
+//!   [`read_rad_s`](Gyroscope::read_rad_s), data-ready and FIFO interrupts, FIFO, built-in
+//!   [`self_test`](Gyroscope::self_test).
+//! - [`Magnetometer`] (chip id 0x32): [`power_on`](Magnetometer::power_on) from suspend with
+//!   the start-up wait, [`init`](Magnetometer::init), trim read in three bursts
+//!   ([`MagTrim`](mag::MagTrim) with Bosch's exact types), the four Bosch presets, normal and
+//!   forced mode, [`read_forced`](Magnetometer::read_forced) which waits (bounded) for data
+//!   ready instead of returning the previous sample, [`poll_data`](Magnetometer::poll_data)
+//!   (`nb`), overflow detection, normal [`self_test`](Magnetometer::self_test).
+//! - Bosch's compensation as pure functions of raw values
+//!   ([`mag::compensate`] integer µT with -32768 for overflow, [`mag::compensate_f32`]),
+//!   reproducing C's narrowing casts with wrapping arithmetic: no input panics. Golden
+//!   vectors from Bosch's SensorAPI are in the tests.
+//! - The DIMA sensor-packet words ([`ImuPacketWords`]): left-justified, status bits masked,
+//!   in both directions, plus the simulator direction (physical values to raw words,
+//!   including a best-effort inverse of the magnetometer compensation, [`mag::inverse`]).
+//! - `async` feature: `AsyncAccelerometer`, `AsyncGyroscope`, `AsyncMagnetometer` and
+//!   `AsyncBmx055` over
+//!   embedded-hal-async, next to the blocking API. `defmt` feature: `defmt::Format` on the
+//!   public types.
+//!
+//! Every wait is bounded (a number of polls with a delay) or left to the caller (`nb`).
+//!
+//! ## Usage
+//! ```
+//! # use embedded_hal_mock::eh1::{delay::NoopDelay, spi::{Mock, Transaction as T}};
+//! # let w = |r: u8, v: u8| vec![T::transaction_start(), T::write_vec(vec![r, v]), T::transaction_end()];
+//! # let rd = |r: u8, d: &[u8]| vec![T::transaction_start(), T::write_vec(vec![r | 0x80]),
+//! #     T::read_vec(d.to_vec()), T::transaction_end()];
+//! # let script = [w(0x14, 0xB6), rd(0x00, &[0xFA]), w(0x0F, 0x03), w(0x10, 0x0F), w(0x11, 0x00),
+//! #     rd(0x02, &[0x00, 0x00, 0x00, 0x00, 0x00, 0x40])].concat();
+//! # let spi = Mock::new(&script);
+//! # let mut delay = NoopDelay;
+//! use bosch_bmx055::{accel::AccelConfig, Accelerometer};
+//!
+//! // `spi` is the accelerometer's own `SpiDevice` (chip select CSB1).
+//! let mut accel = Accelerometer::new_spi(spi);
+//! accel.init(&mut delay, &AccelConfig::DIMA)?; // ±2 g, 1000 Hz, normal mode
+//! let raw = accel.read_raw()?;
+//! let mg = raw.mg(accel.range());
+//! assert_eq!(raw.words.z, 0x4000); // the packet word, status bits masked
+//! assert!((mg.z - 1000.0).abs() < 1.0);
+//! # accel.release().release().done();
+//! # Ok::<(), bosch_bmx055::Error<embedded_hal::spi::ErrorKind>>(())
+//! ```
+//!
+//! Compensating packet data on the host needs only the trim and the raw words:
+//! ```
+//! use bosch_bmx055::mag::{compensate, MagPacketWords, MagTrim};
+//! let trim = MagTrim::from_bursts(
+//!     &[0x00, 0x00],
+//!     &[0x00, 0x00, 0x1A, 0x1A],
+//!     &[0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D],
+//! );
+//! let words = MagPacketWords::from_registers(&[0x80, 0x02, 0x20, 0xFE, 0xF4, 0xFE, 0x61, 0x6D]);
+//! let ut = compensate(&words.to_raw(), &trim);
+//! assert_eq!((ut.x, ut.y, ut.z), (29, -21, -45));
+//! ```
+#![no_std]
+#![deny(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod accel;
+#[cfg(feature = "async")]
+pub mod asynch;
+mod error;
+mod facade;
+pub mod gyro;
+pub mod interface;
+pub mod mag;
+mod maths;
+pub mod packet;
+mod types;
+
+pub use accel::Accelerometer;
+#[cfg(feature = "async")]
+pub use asynch::{AsyncAccelerometer, AsyncBmx055, AsyncGyroscope, AsyncMagnetometer};
+pub use error::Error;
+pub use facade::{Bmx055, Bmx055Config, ImuSample};
+pub use gyro::Gyroscope;
+pub use mag::Magnetometer;
+pub use packet::ImuPacketWords;
+pub use types::{FifoData, FifoMode, FifoStatus, InterruptPin, PinConfig, Xyz};

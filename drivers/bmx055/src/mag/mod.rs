@@ -1,0 +1,338 @@
+//! Magnetometer die (BMM150-class, chip id 0x32) with Bosch's trim compensation.
+//!
+//! The die powers up in suspend, where only the power-control register answers: call
+//! [`Magnetometer::power_on`] (or [`Magnetometer::init`]) before anything else.
+
+pub mod compensation;
+pub mod inverse;
+pub mod register;
+mod trim;
+mod types;
+
+pub use compensation::{
+    compensate, compensate_f32, compensate_x, compensate_x_f32, compensate_y, compensate_y_f32,
+    compensate_z, compensate_z_f32, OVERFLOW_OUTPUT, OVERFLOW_OUTPUT_F32,
+};
+pub use inverse::{raw_x_for_ut, raw_y_for_ut, raw_z_for_ut};
+pub use trim::{MagTrim, TRIM_BURST_1, TRIM_BURST_2, TRIM_BURST_3};
+pub use types::*;
+
+use crate::interface::{I2cInterface, RegisterInterface, SpiInterface};
+use crate::types::Xyz;
+use crate::Error;
+use embedded_hal::delay::DelayNs;
+use register as reg;
+
+/// Wait after leaving suspend before the chip id is readable (datasheet start-up: 3 ms).
+pub const POWER_ON_WAIT_US: u32 = 3_000;
+/// Wait after a soft reset (Bosch SensorAPI: 1 ms).
+pub const SOFT_RESET_WAIT_US: u32 = 1_000;
+/// Polling interval for data ready after the expected measurement time.
+pub const FORCED_POLL_INTERVAL_US: u32 = 200;
+/// Polls of data ready after the expected measurement time before `Timeout` (10 ms grace).
+pub const FORCED_POLL_ATTEMPTS: u32 = 50;
+/// Polls of the normal self-test bit (1 ms apart) before `Timeout`.
+pub const SELF_TEST_POLL_ATTEMPTS: u32 = 20;
+
+/// I2C address of the magnetometer, set by the CSB3 and SDO3 straps.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum MagAddress {
+    /// CSB3 low, SDO3 low: 0x10.
+    #[default]
+    Csb3LowSdo3Low = 0x10,
+    /// CSB3 low, SDO3 high: 0x11.
+    Csb3LowSdo3High = 0x11,
+    /// CSB3 high, SDO3 low: 0x12.
+    Csb3HighSdo3Low = 0x12,
+    /// CSB3 high, SDO3 high: 0x13.
+    Csb3HighSdo3High = 0x13,
+}
+
+/// Interrupt status flags of the magnetometer (`INT_STATUS`, 0x4A).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MagStatus {
+    /// A measurement overflowed.
+    pub overflow: bool,
+    /// A sample was overwritten before it was read.
+    pub overrun: bool,
+}
+
+/// Per-axis result of the normal self-test (`true` = pass).
+pub type MagSelfTest = Xyz<bool>;
+
+/// BMX055 magnetometer driver. Holds the trim read at [`init`](Self::init) so it can return
+/// compensated µT.
+#[derive(Debug)]
+pub struct Magnetometer<IFACE> {
+    pub(crate) iface: IFACE,
+    pub(crate) trim: MagTrim,
+    pub(crate) config: MagConfig,
+}
+
+impl<SPI> Magnetometer<SpiInterface<SPI>> {
+    /// Driver over the magnetometer's own SPI device (chip select CSB3).
+    pub fn new_spi(spi: SPI) -> Self {
+        Self::new(SpiInterface::new(spi))
+    }
+}
+
+impl<I2C> Magnetometer<I2cInterface<I2C>> {
+    /// Driver over I2C at the strapped address.
+    pub fn new_i2c(i2c: I2C, address: MagAddress) -> Self {
+        Self::new(I2cInterface::new(i2c, address as u8))
+    }
+}
+
+impl<IFACE> Magnetometer<IFACE> {
+    /// Driver over any register interface. The trim is all zero (compensation reports
+    /// overflow) until [`read_trim`](Self::read_trim) or [`set_trim`](Self::set_trim).
+    pub fn new(iface: IFACE) -> Self {
+        Self {
+            iface,
+            trim: MagTrim::default(),
+            config: MagConfig::DIMA,
+        }
+    }
+    /// Give the interface back.
+    pub fn release(self) -> IFACE {
+        self.iface
+    }
+    /// The trim in use.
+    pub fn trim(&self) -> &MagTrim {
+        &self.trim
+    }
+    /// Use trim obtained elsewhere (e.g. a simulator or a stored copy).
+    pub fn set_trim(&mut self, trim: MagTrim) {
+        self.trim = trim;
+    }
+    /// The configuration last applied.
+    pub fn config(&self) -> &MagConfig {
+        &self.config
+    }
+    /// Longest time one measurement of the current preset takes, in µs.
+    pub fn measurement_time_us(&self) -> u32 {
+        measurement_time_us(self.config.preset.rep_xy(), self.config.preset.rep_z())
+    }
+}
+
+impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
+    pub(crate) fn write(&mut self, r: u8, v: u8) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write_register(r, v).map_err(Error::Comm)
+    }
+    pub(crate) fn read(&mut self, r: u8) -> Result<u8, Error<IFACE::Error>> {
+        self.iface.read_register(r).map_err(Error::Comm)
+    }
+    pub(crate) fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<IFACE::Error>> {
+        self.iface.read_registers(r, buf).map_err(Error::Comm)
+    }
+
+    /// Leave suspend (set the power-control bit) and wait [`POWER_ON_WAIT_US`]; the die is
+    /// then in sleep mode and its registers answer.
+    pub fn power_on(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::POWER_CONTROL, reg::POWER_ON)?;
+        delay.delay_us(POWER_ON_WAIT_US);
+        Ok(())
+    }
+
+    /// Back to suspend (lowest current; configuration lost).
+    pub fn suspend(&mut self) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::POWER_CONTROL, 0x00)
+    }
+
+    /// Soft reset, keeping the die powered (writes 0x83), then wait [`SOFT_RESET_WAIT_US`].
+    /// The die comes back in sleep mode with default registers.
+    pub fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::POWER_CONTROL, reg::SOFT_RESET | reg::POWER_ON)?;
+        delay.delay_us(SOFT_RESET_WAIT_US);
+        Ok(())
+    }
+
+    /// Read the chip-id register (0x32 once powered on; 0x00 in suspend).
+    pub fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
+        self.read(reg::CHIP_ID)
+    }
+
+    /// Read the chip id up to `attempts` times (1 ms apart) until it is 0x32.
+    pub fn check_chip_id(
+        &mut self,
+        delay: &mut impl DelayNs,
+        attempts: u8,
+    ) -> Result<(), Error<IFACE::Error>> {
+        let mut found = 0;
+        for i in 0..attempts.max(1) {
+            if i > 0 {
+                delay.delay_ms(1);
+            }
+            found = self.chip_id()?;
+            if found == reg::CHIP_ID_VALUE {
+                return Ok(());
+            }
+        }
+        Err(Error::InvalidChipId { found })
+    }
+
+    /// Read the trim registers in three bursts and keep them for compensation.
+    pub fn read_trim(&mut self) -> Result<MagTrim, Error<IFACE::Error>> {
+        let mut b1 = [0u8; 2];
+        let mut b2 = [0u8; 4];
+        let mut b3 = [0u8; 10];
+        self.read_into(TRIM_BURST_1.0, &mut b1)?;
+        self.read_into(TRIM_BURST_2.0, &mut b2)?;
+        self.read_into(TRIM_BURST_3.0, &mut b3)?;
+        self.trim = MagTrim::from_bursts(&b1, &b2, &b3);
+        Ok(self.trim)
+    }
+
+    /// Power on, soft reset, check the chip id (up to 3 attempts), read trim, apply `config`.
+    ///
+    /// With [`MagConfig::DIMA`] the bus sees exactly: write 0x4B = 0x01, write 0x4B = 0x83,
+    /// read 0x40, read 0x5D (2), read 0x62 (4), read 0x68 (10), write 0x51 = 0x01,
+    /// write 0x52 = 0x02, write 0x4C = 0x02 (forced: the first measurement starts).
+    pub fn init(
+        &mut self,
+        delay: &mut impl DelayNs,
+        config: &MagConfig,
+    ) -> Result<MagTrim, Error<IFACE::Error>> {
+        self.power_on(delay)?;
+        self.soft_reset(delay)?;
+        self.check_chip_id(delay, 3)?;
+        let trim = self.read_trim()?;
+        self.configure(config)?;
+        Ok(trim)
+    }
+
+    /// Write repetitions and operation mode (three register writes).
+    pub fn configure(&mut self, config: &MagConfig) -> Result<(), Error<IFACE::Error>> {
+        for (r, v) in config.register_writes() {
+            self.write(r, v)?;
+        }
+        self.config = *config;
+        Ok(())
+    }
+
+    /// Set the operation mode, keeping the configured data rate.
+    pub fn set_op_mode(&mut self, mode: MagOpMode) -> Result<(), Error<IFACE::Error>> {
+        self.write(reg::OP_MODE, op_mode_bits(mode, self.config.data_rate))
+    }
+
+    /// Start one forced measurement; poll with [`poll_data`](Self::poll_data).
+    pub fn start_forced(&mut self) -> Result<(), Error<IFACE::Error>> {
+        self.set_op_mode(MagOpMode::Forced)
+    }
+
+    /// Read the data registers; `WouldBlock` until the data-ready bit (0x48 bit 0) is set,
+    /// so a forced read never returns the previous sample. Reading clears the bit.
+    pub fn poll_data(&mut self) -> nb::Result<MagRaw, Error<IFACE::Error>> {
+        let raw = self.read_raw()?;
+        if raw.data_ready {
+            Ok(raw)
+        } else {
+            Err(nb::Error::WouldBlock)
+        }
+    }
+
+    /// Start a forced measurement, wait the preset's measurement time, then poll data ready
+    /// every [`FORCED_POLL_INTERVAL_US`] at most [`FORCED_POLL_ATTEMPTS`] times.
+    pub fn read_forced(&mut self, delay: &mut impl DelayNs) -> Result<MagRaw, Error<IFACE::Error>> {
+        self.start_forced()?;
+        self.wait_data(delay)
+    }
+
+    /// Wait (bounded) for a measurement already started (forced mode configured by
+    /// [`init`](Self::init), or normal mode).
+    pub fn wait_data(&mut self, delay: &mut impl DelayNs) -> Result<MagRaw, Error<IFACE::Error>> {
+        delay.delay_us(self.measurement_time_us());
+        for attempt in 0..FORCED_POLL_ATTEMPTS {
+            if attempt > 0 {
+                delay.delay_us(FORCED_POLL_INTERVAL_US);
+            }
+            match self.poll_data() {
+                Ok(raw) => return Ok(raw),
+                Err(nb::Error::WouldBlock) => {}
+                Err(nb::Error::Other(e)) => return Err(e),
+            }
+        }
+        Err(Error::Timeout)
+    }
+
+    /// Read the eight data registers as they are (data-ready flag included).
+    pub fn read_raw(&mut self) -> Result<MagRaw, Error<IFACE::Error>> {
+        let mut b = [0u8; 8];
+        self.read_into(reg::DATA_X_LSB, &mut b)?;
+        Ok(MagRaw::from_registers(&b))
+    }
+
+    /// Read the data registers as DIMA packet words (status bits masked).
+    pub fn read_packet_words(&mut self) -> Result<MagPacketWords, Error<IFACE::Error>> {
+        let mut b = [0u8; 8];
+        self.read_into(reg::DATA_X_LSB, &mut b)?;
+        Ok(MagPacketWords::from_registers(&b))
+    }
+
+    /// Forced measurement compensated to µT (integer path; -32768 marks overflow).
+    pub fn read_forced_ut(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<Xyz<i16>, Error<IFACE::Error>> {
+        let raw = self.read_forced(delay)?;
+        Ok(compensate(&raw, &self.trim))
+    }
+
+    /// Forced measurement compensated to µT (float path; 0.0 marks overflow).
+    pub fn read_forced_ut_f32(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<Xyz<f32>, Error<IFACE::Error>> {
+        let raw = self.read_forced(delay)?;
+        Ok(compensate_f32(&raw, &self.trim))
+    }
+
+    /// Overflow and overrun flags.
+    pub fn status(&mut self) -> Result<MagStatus, Error<IFACE::Error>> {
+        let s = self.read(reg::INT_STATUS)?;
+        Ok(MagStatus {
+            overflow: s & reg::STATUS_OVERFLOW != 0,
+            overrun: s & reg::STATUS_OVERRUN != 0,
+        })
+    }
+
+    /// Drive the DRDY pin on new data (`active_high` selects its polarity); `false` for
+    /// `enable` restores the reset state of `INT_CONTROL`.
+    pub fn set_data_ready_pin(
+        &mut self,
+        enable: bool,
+        active_high: bool,
+    ) -> Result<(), Error<IFACE::Error>> {
+        let mut v = reg::INT_CONTROL_RESET & !reg::DR_POLARITY;
+        if active_high {
+            v |= reg::DR_POLARITY;
+        }
+        if enable {
+            v |= reg::DR_PIN_EN;
+        }
+        self.write(reg::INT_CONTROL, v)
+    }
+
+    /// Normal self-test: in sleep mode set the self-test bit, poll until the die clears it
+    /// (bounded), read the per-axis result bits (bit 0 of the X, Y and Z LSB registers).
+    /// Leaves the die in sleep mode.
+    pub fn self_test(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<MagSelfTest, Error<IFACE::Error>> {
+        let sleep = op_mode_bits(MagOpMode::Sleep, self.config.data_rate);
+        self.write(reg::OP_MODE, sleep)?;
+        self.write(reg::OP_MODE, sleep | 0x01)?;
+        for _ in 0..SELF_TEST_POLL_ATTEMPTS {
+            delay.delay_ms(1);
+            if self.read(reg::OP_MODE)? & 0x01 == 0 {
+                let mut b = [0u8; 6];
+                self.read_into(reg::DATA_X_LSB, &mut b)?;
+                return Ok(Xyz::new(b[0] & 1 != 0, b[2] & 1 != 0, b[4] & 1 != 0));
+            }
+        }
+        Err(Error::Timeout)
+    }
+}

@@ -1,0 +1,183 @@
+//! The facade: DIMA initialisation of all three dies and non-blocking sampling.
+
+use bosch_bmx055::accel::{accel_word_to_mg, AccelRange};
+use bosch_bmx055::gyro::{gyro_word_to_dps, GyroRange};
+use bosch_bmx055::mag::{compensate_f32, MagTrim};
+use bosch_bmx055::packet::{packet_words_from_physical, ImuPhysical};
+use bosch_bmx055::{Bmx055, Bmx055Config, ImuPacketWords, Xyz};
+use embedded_hal_mock::eh1::delay::NoopDelay;
+use embedded_hal_mock::eh1::spi::{Mock as SpiMock, Transaction as T};
+use proptest::prelude::*;
+
+fn write(reg: u8, value: u8) -> Vec<T<u8>> {
+    vec![
+        T::transaction_start(),
+        T::write_vec(vec![reg, value]),
+        T::transaction_end(),
+    ]
+}
+
+fn read(reg: u8, response: &[u8]) -> Vec<T<u8>> {
+    vec![
+        T::transaction_start(),
+        T::write_vec(vec![reg | 0x80]),
+        T::read_vec(response.to_vec()),
+        T::transaction_end(),
+    ]
+}
+
+fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
+    parts.into_iter().flatten().collect()
+}
+
+// Trim from the shared BMM150 vectors (Bosch SensorAPI).
+const TRIM_3: [u8; 10] = [0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D];
+
+fn vector_trim() -> MagTrim {
+    MagTrim::from_bursts(&[0, 0], &[0, 0, 0x1A, 0x1A], &TRIM_3)
+}
+
+#[test]
+fn dima_init_then_sample_keeps_stale_mag_and_retriggers_on_fresh() {
+    let acc_regs = [0x11, 0x00, 0xF1, 0xFF, 0x01, 0x40];
+    let gyro_regs = [0x90, 0x02, 0x70, 0xFD, 0x00, 0x00];
+    let mut acc = SpiMock::new(&script(vec![
+        write(0x14, 0xB6),
+        read(0x00, &[0xFA]),
+        write(0x0F, 0x03),
+        write(0x10, 0x0F),
+        write(0x11, 0x00),
+        read(0x02, &acc_regs),
+        read(0x02, &acc_regs),
+    ]));
+    let mut gyro = SpiMock::new(&script(vec![
+        write(0x14, 0xB6),
+        read(0x00, &[0x0F]),
+        write(0x0F, 0x00),
+        write(0x10, 0x81),
+        write(0x11, 0x00),
+        read(0x02, &gyro_regs),
+        read(0x02, &gyro_regs),
+    ]));
+    let mut mag = SpiMock::new(&script(vec![
+        write(0x4B, 0x01),
+        write(0x4B, 0x83),
+        read(0x40, &[0x32]),
+        read(0x5D, &[0x00, 0x00]),
+        read(0x62, &[0x00, 0x00, 0x1A, 0x1A]),
+        read(0x68, &TRIM_3),
+        write(0x51, 0x01),
+        write(0x52, 0x02),
+        write(0x4C, 0x02),
+        // First sample: measurement still running.
+        read(0x42, &[0, 0, 0, 0, 0, 0, 0x00, 0x00]),
+        // Second sample: fresh (shared vector row 1), next forced measurement started.
+        read(0x42, &[0x80, 0x02, 0x20, 0xFE, 0xF4, 0xFE, 0x61, 0x6D]),
+        write(0x4C, 0x02),
+    ]));
+    let mut imu = Bmx055::new_spi(acc.clone(), gyro.clone(), mag.clone());
+    let trim = imu.init(&mut NoopDelay, &Bmx055Config::DIMA).unwrap();
+    assert_eq!(trim, vector_trim());
+
+    let first = imu.sample().unwrap();
+    assert!(!first.mag_fresh);
+    assert_eq!(first.mag.xyz, Xyz::new(0, 0, 0));
+
+    let second = imu.sample().unwrap();
+    assert!(second.mag_fresh);
+    let bytes = second.packet_words().to_le_bytes();
+    assert_eq!(
+        bytes,
+        [
+            0x10, 0x00, 0xF0, 0xFF, 0x00, 0x40, // accel, status nibble masked
+            0x90, 0x02, 0x70, 0xFD, 0x00, 0x00, // gyro
+            0x80, 0x02, 0x20, 0xFE, 0xF4, 0xFE, 0x60, 0x6D, // mag, DRDY masked
+        ]
+    );
+    let raw = ImuPacketWords::from_le_bytes(&bytes).mag_raw();
+    assert_eq!(compensate_f32(&raw, &trim).x.round(), 29.0);
+    acc.done();
+    gyro.done();
+    mag.done();
+}
+
+proptest! {
+    #[test]
+    fn packet_bytes_round_trip(b: [u8; 20]) {
+        let words = ImuPacketWords::from_le_bytes(&b);
+        prop_assert_eq!(ImuPacketWords::from_le_bytes(&words.to_le_bytes()), words);
+    }
+
+    #[test]
+    fn physical_values_survive_the_packet(
+        ax in -1900f32..1900f32, gz in -1900f32..1900f32,
+        mx in -500f32..500f32, mz in -1000f32..1000f32,
+    ) {
+        let trim = vector_trim();
+        let phys = ImuPhysical {
+            accel_mg: Xyz::new(ax, 0.0, 1000.0),
+            gyro_dps: Xyz::new(0.0, 0.0, gz),
+            mag_ut: Xyz::new(mx, 0.0, mz),
+        };
+        let words = packet_words_from_physical(
+            &phys, AccelRange::G2, GyroRange::Dps2000, &trim, 7053,
+        ).unwrap();
+        let decoded = ImuPacketWords::from_le_bytes(&words.to_le_bytes());
+        prop_assert!((accel_word_to_mg(decoded.accel.x, AccelRange::G2) - ax).abs() <= 0.5);
+        prop_assert!((gyro_word_to_dps(decoded.gyro.z, GyroRange::Dps2000) - gz).abs() <= 0.031);
+        let ut = compensate_f32(&decoded.mag_raw(), &trim);
+        prop_assert!((ut.x - mx).abs() <= 0.2, "x {} vs {}", ut.x, mx);
+        prop_assert!((ut.z - mz).abs() <= 0.2, "z {} vs {}", ut.z, mz);
+    }
+}
+
+#[test]
+fn self_test_reports_a_failing_die_and_reconfigures() {
+    // Accel deflections of 1000 mg on every axis (512 counts at ±4 g) pass.
+    let deflect = |axis: usize, counts: i16| {
+        let mut b = [0u8; 6];
+        let w = (counts << 4).to_le_bytes();
+        b[2 * axis] = w[0];
+        b[2 * axis + 1] = w[1];
+        b
+    };
+    let mut acc_script = vec![write(0x0F, 0x05)];
+    for axis in 0..3u8 {
+        acc_script.push(write(0x32, (axis + 1) | 0x04));
+        acc_script.push(read(0x02, &deflect(axis.into(), 256)));
+        acc_script.push(write(0x32, axis + 1));
+        acc_script.push(read(0x02, &deflect(axis.into(), -256)));
+    }
+    acc_script.extend([
+        write(0x32, 0x00),
+        write(0x14, 0xB6),
+        write(0x0F, 0x03),
+        write(0x10, 0x0F),
+        write(0x11, 0x00),
+    ]);
+    let mut acc = SpiMock::new(&script(acc_script));
+    // Gyro BIST passes.
+    let mut gyro = SpiMock::new(&script(vec![
+        read(0x3C, &[0x10]),
+        write(0x3C, 0x01),
+        read(0x3C, &[0x12]),
+    ]));
+    // Magnetometer self-test: Z axis fails.
+    let mut mag = SpiMock::new(&script(vec![
+        write(0x4C, 0x06),
+        write(0x4C, 0x07),
+        read(0x4C, &[0x06]),
+        read(0x42, &[0x01, 0x00, 0x01, 0x00, 0x00, 0x00]),
+        write(0x51, 0x01),
+        write(0x52, 0x02),
+        write(0x4C, 0x02),
+    ]));
+    let mut imu = Bmx055::new_spi(acc.clone(), gyro.clone(), mag.clone());
+    assert_eq!(
+        imu.self_test(&mut NoopDelay, &Bmx055Config::DIMA),
+        Err(bosch_bmx055::Error::SelfTestFailed)
+    );
+    acc.done();
+    gyro.done();
+    mag.done();
+}
