@@ -356,19 +356,19 @@ impl NavPvt {
     /// Latitude in degrees.
     #[must_use]
     pub fn lat_deg(&self) -> f64 {
-        f64::from(self.lat_deg_e7) * 1e-7
+        f64::from(self.lat_deg_e7) / 1e7
     }
 
     /// Longitude in degrees.
     #[must_use]
     pub fn lon_deg(&self) -> f64 {
-        f64::from(self.lon_deg_e7) * 1e-7
+        f64::from(self.lon_deg_e7) / 1e7
     }
 
     /// Heading of motion in degrees.
     #[must_use]
     pub fn head_mot_deg(&self) -> f64 {
-        f64::from(self.head_mot_deg_e5) * 1e-5
+        f64::from(self.head_mot_deg_e5) / 1e5
     }
 
     /// Whether the receiver flags the fix as valid (`gnssFixOK`, bit 0 of `flags`): position

@@ -76,6 +76,11 @@ pub use builder::PacketBuilder;
 pub use crc::{SensorCrc, Stm32Crc};
 pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
 pub use gnss::{FixType, GnssFrame, NavPvt, ValidFlags, GNSS_FRAME_LEN};
-pub use info::{InfoError, InfoFrame, SensorStatus, INFO_V1_LEN};
+pub use info::{InfoError, InfoFrame, SensorStatus, INFO_V1_LEN, INFO_VERSION};
 pub use packet::{PacketError, RawPacket, SensorPacket, PACKET_LEN};
 pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};
+
+/// Compiles and runs the README's examples as doctests, so the quick start stays true.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

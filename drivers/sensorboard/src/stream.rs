@@ -7,7 +7,7 @@
 //! frame right behind a torn one is still found.
 
 use crate::crc::Stm32Crc;
-use crate::info::{info_frame_len, InfoFrame, INFO_MAX_LEN, INFO_START};
+use crate::info::{info_frame_len, InfoFrame, INFO_MAX_LEN, INFO_START, INFO_V1_LEN};
 use crate::packet::{RawPacket, PACKET_LEN, PACKET_START};
 
 /// One complete, CRC-checked frame from the sensor board.
@@ -42,6 +42,12 @@ const BUFFER_LEN: usize = if INFO_MAX_LEN > PACKET_LEN {
 };
 
 const DOLLAR: u8 = b'$';
+
+/// The shortest frame: a version 1 info frame.
+const MIN_FRAME_LEN: usize = INFO_V1_LEN;
+
+/// Info candidates after the front that the decoder keeps track of at once.
+const PENDING_INFO: usize = 4;
 
 /// What the bytes at the front of the buffer are.
 enum Step {
@@ -81,6 +87,12 @@ enum Step {
 pub struct StreamDecoder {
     buf: [u8; BUFFER_LEN],
     len: usize,
+    /// Candidates after the front that end at or before this length were already checked.
+    nested_checked: usize,
+    /// Starts of info candidates after the front whose header is valid but whose last byte has
+    /// not arrived yet.
+    pending_info: [usize; PENDING_INFO],
+    pending_len: usize,
     stats: DecoderStats,
 }
 
@@ -100,6 +112,9 @@ impl StreamDecoder {
         Self {
             buf: [0; BUFFER_LEN],
             len: 0,
+            nested_checked: 0,
+            pending_info: [0; PENDING_INFO],
+            pending_len: 0,
             stats: DecoderStats {
                 packets: 0,
                 info_frames: 0,
@@ -133,22 +148,17 @@ impl StreamDecoder {
     pub fn feed(&mut self, input: &mut &[u8]) -> Option<Frame> {
         loop {
             match self.examine() {
-                Step::Frame(frame, len) => {
-                    self.drain(len);
-                    match frame {
-                        Frame::Packet(_) => self.stats.packets = self.stats.packets.wrapping_add(1),
-                        Frame::Info(_) => {
-                            self.stats.info_frames = self.stats.info_frames.wrapping_add(1);
-                        }
-                    }
-                    return Some(frame);
-                }
+                Step::Frame(frame, len) => return Some(self.take_frame(frame, len)),
                 Step::Reject(count) => self.skip(count),
                 Step::CrcError => {
                     self.stats.crc_errors = self.stats.crc_errors.wrapping_add(1);
                     self.skip(1);
                 }
                 Step::NeedMore(count) => {
+                    if let Some((start, frame, len)) = self.nested_frame() {
+                        self.skip(start);
+                        return Some(self.take_frame(frame, len));
+                    }
                     if input.is_empty() {
                         return None;
                     }
@@ -165,6 +175,12 @@ impl StreamDecoder {
                         }
                     }
                     let take = count.min(input.len()).min(BUFFER_LEN - self.len);
+                    if take == 0 {
+                        // Cannot happen (a candidate never needs more than the buffer holds),
+                        // but progress must not depend on that: drop the front byte.
+                        self.skip(1);
+                        continue;
+                    }
                     let (head, rest) = input.split_at(take);
                     self.buf[self.len..self.len + take].copy_from_slice(head);
                     self.len += take;
@@ -179,6 +195,10 @@ impl StreamDecoder {
     /// The byte is always consumed. Rarely (after a rejected candidate) more than one frame can
     /// become complete at once; the next call, or [`StreamDecoder::next_buffered`], returns it.
     pub fn push(&mut self, byte: u8) -> Option<Frame> {
+        // A complete frame can only be waiting if at least the shortest frame is buffered.
+        if self.len < MIN_FRAME_LEN {
+            return self.feed(&mut core::slice::from_ref(&byte));
+        }
         if let Some(frame) = self.next_buffered() {
             // Keep the byte: the buffer has room, since a frame was just taken out of it.
             self.append_one(byte);
@@ -212,6 +232,110 @@ impl StreamDecoder {
         }
     }
 
+    fn take_frame(&mut self, frame: Frame, len: usize) -> Frame {
+        self.drain(len);
+        match frame {
+            Frame::Packet(_) => self.stats.packets = self.stats.packets.wrapping_add(1),
+            Frame::Info(_) => self.stats.info_frames = self.stats.info_frames.wrapping_add(1),
+        }
+        frame
+    }
+
+    /// While the candidate at the front is still incomplete, looks for a complete, valid frame
+    /// that starts later in the buffer (its start, the frame and its length).
+    ///
+    /// A false start in noise (a stray `$$`, or `$I` with a large length) would otherwise hold
+    /// a real frame behind it until enough further bytes arrive to reject it: with a board that
+    /// only answers requests, that is a whole request period late. A valid CRC inside the
+    /// buffer settles it at once.
+    ///
+    /// The work is incremental: only candidates whose last byte arrived since the previous
+    /// call are checked. A packet candidate ending at `end` starts at `end - 132`; an info
+    /// candidate is noted in `pending_info` once its header is in, and checked when its
+    /// announced length is. Of the frames found, the one that starts first wins.
+    fn nested_frame(&mut self) -> Option<(usize, Frame, usize)> {
+        let from = self.nested_checked;
+        let len = self.len;
+        if from >= len {
+            return None;
+        }
+        let mut best: Option<(usize, Frame, usize)> = None;
+        let mut consider = |decoder: &Self, start: usize| {
+            if best.as_ref().is_some_and(|(s, _, _)| *s <= start) {
+                return;
+            }
+            if let Some(candidate) = decoder.buf.get(start..len) {
+                if let Step::Frame(frame, frame_len) = Self::examine_candidate(candidate) {
+                    best = Some((start, frame, frame_len));
+                }
+            }
+        };
+
+        // Packet candidates whose 132nd byte arrived.
+        for end in (from + 1).max(PACKET_LEN + 1)..=len {
+            let start = end - PACKET_LEN;
+            if self.buf[start] == DOLLAR && self.buf[start + 1] == PACKET_START[1] {
+                consider(self, start);
+            }
+        }
+        // Info candidates noted earlier whose last byte arrived.
+        for &start in &self.pending_info[..self.pending_len] {
+            if self.info_end(start).is_some_and(|end| end <= len) {
+                consider(self, start);
+            }
+        }
+        // Info headers whose fourth byte arrived.
+        let mut new_pending = [0usize; PENDING_INFO];
+        let mut new_count = 0;
+        for start in (from + 1).saturating_sub(4).max(1)..=len.saturating_sub(4) {
+            match self.info_end(start) {
+                Some(end) if end <= len => consider(self, start),
+                Some(_) if new_count < PENDING_INFO => {
+                    new_pending[new_count] = start;
+                    new_count += 1;
+                }
+                _ => {}
+            }
+        }
+
+        if best.is_some() {
+            // Candidates after the frame are looked at again once it is taken out.
+            return best;
+        }
+        // Nothing found: forget the info candidates that turned out invalid, keep the rest,
+        // and add the new ones (oldest dropped first when full: only a delay, never a loss).
+        let mut kept = [0usize; PENDING_INFO];
+        let mut kept_count = 0;
+        let still_waiting = self.pending_info[..self.pending_len]
+            .iter()
+            .chain(&new_pending[..new_count])
+            .filter(|&&start| self.info_end(start).is_some_and(|end| end > len));
+        for &start in still_waiting {
+            if kept_count == PENDING_INFO {
+                kept.copy_within(1.., 0);
+                kept_count -= 1;
+            }
+            kept[kept_count] = start;
+            kept_count += 1;
+        }
+        self.pending_info = kept;
+        self.pending_len = kept_count;
+        self.nested_checked = len;
+        None
+    }
+
+    /// Where the info candidate starting at `start` ends, if it has a valid header.
+    fn info_end(&self, start: usize) -> Option<usize> {
+        match self.buf.get(start..start + 4)? {
+            &[DOLLAR, second, version, payload_len] if second == INFO_START[1] => {
+                info_frame_len([DOLLAR, second, version, payload_len])
+                    .ok()
+                    .map(|total| start + total)
+            }
+            _ => None,
+        }
+    }
+
     fn examine(&self) -> Step {
         let buf = &self.buf[..self.len];
         match buf {
@@ -220,6 +344,13 @@ impl StreamDecoder {
                 Step::Reject(1 + rest.iter().position(|&b| b == DOLLAR).unwrap_or(rest.len()))
             }
             [_] => Step::NeedMore(1),
+            _ => Self::examine_candidate(buf),
+        }
+    }
+
+    /// Examines a candidate that starts with `$` and has at least two bytes.
+    fn examine_candidate(buf: &[u8]) -> Step {
+        match buf {
             [_, second, ..] if *second == PACKET_START[1] => Self::examine_packet(buf),
             [_, second, ..] if *second == INFO_START[1] => Self::examine_info(buf),
             _ => Step::Reject(1),
@@ -270,6 +401,18 @@ impl StreamDecoder {
         let count = count.min(self.len);
         self.buf.copy_within(count..self.len, 0);
         self.len -= count;
+        self.nested_checked = self.nested_checked.saturating_sub(count);
+        // Info candidates move with the bytes; those at or before the new front are gone (the
+        // front is examined on its own).
+        let mut kept = 0;
+        for i in 0..self.pending_len {
+            let start = self.pending_info[i];
+            if start > count {
+                self.pending_info[kept] = start - count;
+                kept += 1;
+            }
+        }
+        self.pending_len = kept;
     }
 }
 

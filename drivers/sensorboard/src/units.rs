@@ -37,3 +37,28 @@ pub fn gyro_dps_2000(count: i16) -> f32 {
 pub fn gyro_rad_s_2000(count: i16) -> f32 {
     gyro_dps_2000(count).to_radians()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: f32, b: f32) -> bool {
+        (a - b).abs() < 1e-4 * b.abs().max(1.0)
+    }
+
+    #[test]
+    fn accelerometer_scale() {
+        // BMX055 datasheet: ±2 g range, 0.98 mg/LSB.
+        assert!(close(accel_mg_2g(1000), 980.0));
+        assert!(close(accel_mg_2g(-2048), -2007.04));
+        assert!(close(accel_m_s2_2g(1000), 0.98 * 9.806_65));
+    }
+
+    #[test]
+    fn gyroscope_scale() {
+        // BMX055 datasheet: ±2000 °/s range, 16.4 LSB per °/s.
+        assert!(close(gyro_dps_2000(164), 10.0));
+        assert!(close(gyro_dps_2000(-32768), -1998.049));
+        assert!(close(gyro_rad_s_2000(164), 10.0f32.to_radians()));
+    }
+}
