@@ -125,6 +125,13 @@ impl<const N: usize> core::fmt::Debug for Bytes<N> {
     }
 }
 
+#[cfg(feature = "defmt")]
+impl<const N: usize> defmt::Format for Bytes<N> {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(f, "{=[u8]:02X}", self.as_bytes())
+    }
+}
+
 /// One encoded command packet.
 pub type Packet = Bytes<MAX_PACKET_LEN>;
 

@@ -1,7 +1,5 @@
 //! The Maestro command set: command bytes and the typed [`Command`].
 
-use heapless::Vec;
-
 use crate::error::InvalidInput;
 use crate::types::{
     Acceleration, Channel, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros, ScriptParameter,
@@ -65,9 +63,12 @@ pub(crate) const fn data_len(command: u8) -> Option<usize> {
 /// Targets for consecutive channels, for Set Multiple Targets: between 1 and 24 targets, the
 /// last channel below 24.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MultiTargets {
     first: Channel,
-    targets: Vec<QuarterMicros, { MAX_CHANNELS as usize }>,
+    /// Slots past `len` stay [`QuarterMicros::OFF`], so the derived equality is exact.
+    targets: [QuarterMicros; MAX_CHANNELS as usize],
+    len: u8,
 }
 
 impl MultiTargets {
@@ -77,8 +78,15 @@ impl MultiTargets {
         if targets.is_empty() || first.index() as usize + targets.len() > MAX_CHANNELS as usize {
             return Err(InvalidInput);
         }
-        let targets = Vec::from_slice(targets).map_err(|_| InvalidInput)?;
-        Ok(Self { first, targets })
+        let mut slots = [QuarterMicros::OFF; MAX_CHANNELS as usize];
+        for (slot, target) in slots.iter_mut().zip(targets) {
+            *slot = *target;
+        }
+        Ok(Self {
+            first,
+            targets: slots,
+            len: targets.len() as u8,
+        })
     }
 
     /// The first channel.
@@ -88,12 +96,12 @@ impl MultiTargets {
 
     /// The targets, in channel order from [`first`](Self::first).
     pub fn targets(&self) -> &[QuarterMicros] {
-        &self.targets
+        self.targets.get(..usize::from(self.len)).unwrap_or(&[])
     }
 
     /// `(channel, target)` pairs.
     pub fn iter(&self) -> impl Iterator<Item = (u8, QuarterMicros)> + '_ {
-        self.targets
+        self.targets()
             .iter()
             .enumerate()
             .map(|(i, t)| (self.first.index() + i as u8, *t))
@@ -105,6 +113,7 @@ impl MultiTargets {
 /// Encode it with [`encode`](crate::encode); the device-side
 /// [`CommandDecoder`](crate::CommandDecoder) produces the same values.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Command {
     /// Set Target: pulse width of a servo channel (0 stops pulses).
     SetTarget {

@@ -1,20 +1,4 @@
 //! Device-side streaming decoder: the bytes a host sends in, typed [`Command`]s out.
-//!
-//! Sans-IO and total: any byte sequence is accepted, nothing panics, and every byte that does
-//! not end up in a command is counted. It follows the Maestro's own framing rules, so a
-//! simulator built on it reacts like the real device:
-//!
-//! - a byte with bit 7 set starts a packet; one arriving inside an unfinished packet abandons
-//!   that packet (a protocol error) and starts the new one, so one lost byte costs at most one
-//!   command;
-//! - data bytes outside a packet are dropped;
-//! - Pololu protocol packets for another device number are skipped up to the next command
-//!   byte, as a daisy-chained Maestro does;
-//! - in CRC mode, a packet whose CRC-7 byte does not match is dropped (a CRC error);
-//! - Mini SSC packets (0xFF, servo, value) carry 8-bit data, so only 0xFF restarts them.
-//!
-//! The serial error bits the real Maestro would set are collected for a simulated Get Errors
-//! ([`CommandDecoder::take_errors`]).
 
 use crate::codec::{join_14, MAX_PACKET_LEN};
 use crate::command::{data_len, opcode, Command, MultiTargets};
@@ -67,7 +51,38 @@ enum State {
     OtherDevice,
 }
 
-/// Streaming decoder of host-to-Maestro bytes. See the [module docs](self).
+/// Device-side streaming decoder: the bytes a host sends in, typed [`Command`]s out.
+///
+/// Sans-IO and total: any byte sequence is accepted, nothing panics, and every byte that does
+/// not end up in a command is counted. It follows the Maestro's own framing rules, so a
+/// simulator built on it reacts like the real device:
+///
+/// - a byte with bit 7 set starts a packet; one arriving inside an unfinished packet abandons
+///   that packet (a protocol error) and starts the new one, so one lost byte costs at most one
+///   command;
+/// - data bytes outside a packet are dropped;
+/// - Pololu protocol packets for another device number are skipped up to the next command
+///   byte, as a daisy-chained Maestro does;
+/// - in CRC mode, a packet whose CRC-7 byte does not match is dropped (a CRC error);
+/// - Mini SSC packets (0xFF, servo, value) carry 8-bit data, so only 0xFF restarts them.
+///
+/// The serial error bits the real Maestro would set are collected for a simulated Get Errors
+/// ([`CommandDecoder::take_errors`]).
+///
+/// ```
+/// use pololu_maestro::{Command, CommandDecoder, DecoderConfig, QuarterMicros};
+///
+/// let mut maestro = CommandDecoder::new(DecoderConfig::default());
+/// // A stray data byte, then Set Target channel 2 = 1500 µs (Pololu guide example).
+/// let commands: Vec<Command> = maestro.decode(&[0x2E, 0x84, 0x02, 0x70, 0x2E]).collect();
+/// match &commands[..] {
+///     [Command::SetTarget { channel, target }] => {
+///         assert_eq!((channel.index(), *target), (2, QuarterMicros::NEUTRAL));
+///     }
+///     other => panic!("unexpected {other:?}"),
+/// }
+/// assert_eq!(maestro.stats().dropped_bytes, 1);
+/// ```
 #[derive(Debug, Clone)]
 pub struct CommandDecoder {
     config: DecoderConfig,

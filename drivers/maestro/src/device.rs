@@ -1,15 +1,14 @@
 //! The blocking driver: checked commands in, one transport write per command.
 
-use core::marker::PhantomData;
-
-use crate::codec::{encode, encode_set_target, encode_set_targets, Framing, TargetFrame};
-use crate::command::{Command, MultiTargets};
+use crate::codec::{encode, Framing, Packet, TargetFrame};
+use crate::command::Command;
 use crate::error::Error;
 use crate::interface::{Deadline, NbSerial, ReadInterface, WriteInterface};
-use crate::limits::{LimitViolation, Limits};
+use crate::limits::Limits;
 use crate::model::{MiniModel, Model};
 use crate::reply;
 use crate::status::DeviceErrors;
+use crate::targets::TargetEncoder;
 use crate::types::{
     Acceleration, Channel, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros, ScriptParameter,
     ScriptStatus, Speed, Subroutine,
@@ -21,15 +20,13 @@ const MAX_STALE_BYTES: usize = 64;
 /// A Pololu Maestro of model `M` on transport `I`.
 ///
 /// Every command is encoded completely before one [`WriteInterface::write_all`] call. Targets
-/// are checked against the model's channel count and the configured [`Limits`] before anything
-/// is sent.
+/// are checked by a [`TargetEncoder`] (the model's channel count and the configured
+/// [`Limits`]) before anything is sent.
 #[derive(Debug)]
 pub struct Maestro<I, M> {
     iface: I,
-    framing: Framing,
-    limits: Limits,
+    encoder: TargetEncoder<M>,
     stale_bytes: u32,
-    _model: PhantomData<M>,
 }
 
 impl<S, M: Model> Maestro<NbSerial<S>, M>
@@ -56,40 +53,50 @@ where
 
 impl<I: WriteInterface, M: Model> Maestro<I, M> {
     /// A driver on any transport, without limits.
-    pub fn new(iface: I, _model: M, framing: Framing) -> Self {
+    pub fn new(iface: I, model: M, framing: Framing) -> Self {
         Self {
             iface,
-            framing,
-            limits: Limits::new(),
+            encoder: TargetEncoder::new(model, framing),
             stale_bytes: 0,
-            _model: PhantomData,
         }
     }
 
     /// The same driver with per-channel `limits` (builder style).
     pub fn with_limits(mut self, limits: Limits) -> Self {
-        self.limits = limits;
+        self.encoder.set_limits(limits);
         self
     }
 
     /// Replace the per-channel limits.
     pub fn set_limits(&mut self, limits: Limits) {
-        self.limits = limits;
+        self.encoder.set_limits(limits);
     }
 
     /// The per-channel limits.
     pub fn limits(&self) -> &Limits {
-        &self.limits
+        self.encoder.limits()
     }
 
     /// The framing in use.
     pub fn framing(&self) -> Framing {
-        self.framing
+        self.encoder.framing()
+    }
+
+    /// The checked target encoder the driver uses; a copy of it lets an application encode
+    /// targets without owning the driver.
+    pub fn encoder(&self) -> &TargetEncoder<M> {
+        &self.encoder
     }
 
     /// Bytes discarded before queries because they arrived unasked (late replies, noise).
     pub fn stale_bytes(&self) -> u32 {
         self.stale_bytes
+    }
+
+    /// Wait until the transport has sent everything written so far (bounded like writes).
+    /// Not needed between commands; useful before closing the port or cutting power.
+    pub fn flush(&mut self) -> Result<(), Error<I::Error>> {
+        self.iface.flush()
     }
 
     /// The transport.
@@ -102,27 +109,12 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         self.iface
     }
 
-    fn check_channel(channel: Channel) -> Result<(), Error<I::Error>> {
-        if channel.index() < M::CHANNELS {
-            Ok(())
-        } else {
-            Err(Error::InvalidChannel {
-                channel: channel.index(),
-                channels: M::CHANNELS,
-            })
-        }
-    }
-
-    fn check_target(&self, channel: Channel, target: QuarterMicros) -> Result<(), Error<I::Error>> {
-        Self::check_channel(channel)?;
-        self.limits
-            .check(channel, target)
-            .map(|_| ())
-            .map_err(violation_error)
+    fn check_channel(&self, channel: Channel) -> Result<(), Error<I::Error>> {
+        Ok(self.encoder.check_channel(channel)?)
     }
 
     fn send(&mut self, command: &Command) -> Result<(), Error<I::Error>> {
-        let packet = encode(command, self.framing);
+        let packet = encode(command, self.encoder.framing());
         self.iface.write_all(&packet)
     }
 
@@ -133,10 +125,7 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         &self,
         targets: &[(Channel, QuarterMicros)],
     ) -> Result<TargetFrame, Error<I::Error>> {
-        for &(channel, target) in targets {
-            self.check_target(channel, target)?;
-        }
-        encode_set_targets(self.framing, targets).ok_or(Error::InvalidInput)
+        Ok(self.encoder.encode_targets(targets)?)
     }
 
     /// Set the target of `channel` (pulse width in quarter-microseconds).
@@ -148,8 +137,7 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         channel: Channel,
         target: QuarterMicros,
     ) -> Result<(), Error<I::Error>> {
-        self.check_target(channel, target)?;
-        let packet = encode_set_target(self.framing, channel, target);
+        let packet = self.encoder.encode_target(channel, target)?;
         self.iface.write_all(&packet)
     }
 
@@ -166,21 +154,20 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
     /// Set `channel` to its configured neutral target; [`Error::InvalidInput`] if it has no
     /// limits (and so no neutral).
     pub fn set_neutral(&mut self, channel: Channel) -> Result<(), Error<I::Error>> {
-        let neutral = self.limits.neutral(channel).ok_or(Error::InvalidInput)?;
+        let neutral = self.limits().neutral(channel).ok_or(Error::InvalidInput)?;
         self.set_target(channel, neutral)
     }
 
     /// Stop sending pulses on `channel` (target 0), regardless of limits. Most ESCs treat a
     /// missing pulse as failsafe; send the neutral first if the ESC needs to see it.
     pub fn stop_pulses(&mut self, channel: Channel) -> Result<(), Error<I::Error>> {
-        Self::check_channel(channel)?;
-        let packet = encode_set_target(self.framing, channel, QuarterMicros::OFF);
+        let packet = self.encoder.encode_stop_pulses(channel)?;
         self.iface.write_all(&packet)
     }
 
     /// Set the speed limit of `channel`.
     pub fn set_speed(&mut self, channel: Channel, speed: Speed) -> Result<(), Error<I::Error>> {
-        Self::check_channel(channel)?;
+        self.check_channel(channel)?;
         self.send(&Command::SetSpeed { channel, speed })
     }
 
@@ -190,7 +177,7 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         channel: Channel,
         acceleration: Acceleration,
     ) -> Result<(), Error<I::Error>> {
-        Self::check_channel(channel)?;
+        self.check_channel(channel)?;
         self.send(&Command::SetAcceleration {
             channel,
             acceleration,
@@ -237,19 +224,26 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
 }
 
 impl<I: WriteInterface, M: MiniModel> Maestro<I, M> {
+    /// Encode Set Multiple Targets for consecutive channels from `first` without sending it,
+    /// after checking every channel and limit (Mini Maestro only): the shortest per-cycle frame
+    /// (2 bytes per channel plus 3), for an application that writes it with its own deadline.
+    pub fn encode_multiple_targets(
+        &self,
+        first: Channel,
+        targets: &[QuarterMicros],
+    ) -> Result<Packet, Error<I::Error>> {
+        Ok(self.encoder.encode_multiple_targets(first, targets)?)
+    }
+
     /// Set Multiple Targets (Mini Maestro only): targets for consecutive channels in one
-    /// packet, each checked against the model and the limits first.
+    /// packet and one write, each checked against the model and the limits first.
     pub fn set_multiple_targets(
         &mut self,
         first: Channel,
         targets: &[QuarterMicros],
     ) -> Result<(), Error<I::Error>> {
-        let multi = MultiTargets::new(first, targets)?;
-        for (index, target) in multi.iter() {
-            let channel = Channel::any_model(index)?;
-            self.check_target(channel, target)?;
-        }
-        self.send(&Command::SetMultipleTargets(multi))
+        let packet = self.encode_multiple_targets(first, targets)?;
+        self.iface.write_all(&packet)
     }
 
     /// Set the PWM output (Mini Maestro only).
@@ -263,7 +257,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
     ///
     /// Bytes waiting before the command is sent are discarded first (counted in
     /// [`stale_bytes`](Self::stale_bytes)), so a late answer to an earlier query is never
-    /// taken for this one.
+    /// taken for this one; if more than 64 are waiting, [`Error::UnexpectedData`].
     fn query(
         &mut self,
         command: &Command,
@@ -299,7 +293,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
                 Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
             }
         }
-        Ok(())
+        Err(Error::UnexpectedData)
     }
 
     /// Get Position: the pulse width `channel` outputs now, in quarter-microseconds (for an
@@ -309,7 +303,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
         channel: Channel,
         deadline: &mut impl Deadline,
     ) -> Result<u16, Error<I::Error>> {
-        Self::check_channel(channel)?;
+        self.check_channel(channel)?;
         let mut reply = [0u8; 2];
         self.query(&Command::GetPosition { channel }, &mut reply, deadline)?;
         Ok(reply::decode_position(reply))
@@ -346,14 +340,5 @@ impl<I: ReadInterface, M: MiniModel> Maestro<I, M> {
         let mut reply = [0u8; 1];
         self.query(&Command::GetMovingState, &mut reply, deadline)?;
         reply::decode_moving_state(reply[0]).map_err(Error::InvalidReply)
-    }
-}
-
-fn violation_error<E>(v: LimitViolation) -> Error<E> {
-    Error::OutOfRange {
-        channel: v.channel.index(),
-        target: v.target.get(),
-        min: v.limits.min().get(),
-        max: v.limits.max().get(),
     }
 }

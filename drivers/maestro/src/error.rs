@@ -24,6 +24,7 @@ impl core::error::Error for InvalidInput {}
 /// `E` is the error of the serial transport.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum Error<E> {
     /// The serial transport failed.
     Comm(E),
@@ -54,6 +55,9 @@ pub enum Error<E> {
     /// The Maestro answered with a byte the protocol does not define (e.g. a moving state other
     /// than 0 or 1).
     InvalidReply(u8),
+    /// Bytes kept arriving unasked before a query (more than the driver discards), so a reply
+    /// could not be told apart from them; the query was not sent.
+    UnexpectedData,
 }
 
 impl<E> From<InvalidInput> for Error<E> {
@@ -82,6 +86,9 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
                 "target {target} (quarter-µs) on channel {channel} is outside the configured limits {min}..={max}"
             ),
             Error::InvalidReply(b) => write!(f, "Maestro sent an undefined reply byte 0x{b:02X}"),
+            Error::UnexpectedData => {
+                f.write_str("unexpected bytes keep arriving from the Maestro; query not sent")
+            }
         }
     }
 }

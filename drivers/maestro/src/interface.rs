@@ -13,6 +13,12 @@ pub trait WriteInterface {
 
     /// Write all of `bytes`, in order. Implementations bound every wait (see [`NbSerial`]).
     fn write_all(&mut self, bytes: &[u8]) -> Result<(), Error<Self::Error>>;
+
+    /// Wait until everything written has left the transport, within a bounded wait.
+    /// The default does nothing (for transports without a transmit buffer).
+    fn flush(&mut self) -> Result<(), Error<Self::Error>> {
+        Ok(())
+    }
 }
 
 /// Reading reply bytes without blocking.
@@ -36,7 +42,8 @@ impl<F: FnMut() -> bool> Deadline for F {
     }
 }
 
-/// A deadline counted in polls: expires after `n` empty polls of the transport.
+/// A deadline counted in polls: tolerates `n` empty polls of the transport; the next one ends
+/// the wait.
 ///
 /// Without a clock this is the only honest bound; pick `n` from the poll cost of your
 /// transport (or use [`DelayDeadline`]).
@@ -95,8 +102,8 @@ pub const DEFAULT_WRITE_POLLS_PER_BYTE: u32 = 1_000_000;
 
 /// Transport over embedded-hal-nb 1.0 serial.
 ///
-/// A byte the transmitter refuses (`WouldBlock`) is retried at most `write_polls_per_byte`
-/// times, so a wedged UART ends in [`Error::Timeout`] instead of a hang.
+/// A byte the transmitter refuses (`WouldBlock`) `write_polls_per_byte` times in a row ends
+/// the write with [`Error::Timeout`], so a wedged UART cannot hang the caller.
 #[derive(Debug)]
 pub struct NbSerial<S> {
     serial: S,
@@ -149,6 +156,22 @@ impl<S: embedded_hal_nb::serial::Write<u8>> WriteInterface for NbSerial<S> {
             }
         }
         Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), Error<S::Error>> {
+        let mut polls = self.write_polls_per_byte;
+        loop {
+            match self.serial.flush() {
+                Ok(()) => return Ok(()),
+                Err(nb::Error::WouldBlock) => {
+                    polls = polls.saturating_sub(1);
+                    if polls == 0 {
+                        return Err(Error::Timeout);
+                    }
+                }
+                Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
+            }
+        }
     }
 }
 
@@ -216,6 +239,10 @@ mod io {
                 }
             }
             Ok(())
+        }
+
+        fn flush(&mut self) -> Result<(), Error<T::Error>> {
+            self.io.flush().map_err(Error::Comm)
         }
     }
 

@@ -14,16 +14,19 @@
 //!   channels, one write), [`encode_targets`](Maestro::encode_targets) (the same bytes, checked,
 //!   without I/O), [`stop_pulses`](Maestro::stop_pulses), [`set_neutral`](Maestro::set_neutral),
 //!   [`set_speed`](Maestro::set_speed), [`set_acceleration`](Maestro::set_acceleration),
-//!   [`set_multiple_targets`](Maestro::set_multiple_targets), [`set_pwm`](Maestro::set_pwm),
-//!   [`go_home`](Maestro::go_home), [`stop_script`](Maestro::stop_script),
+//!   [`set_multiple_targets`](Maestro::set_multiple_targets) and
+//!   [`encode_multiple_targets`](Maestro::encode_multiple_targets) (Mini Maestros),
+//!   [`set_pwm`](Maestro::set_pwm) (Mini Maestros), [`go_home`](Maestro::go_home), [`stop_script`](Maestro::stop_script),
 //!   [`restart_script`](Maestro::restart_script),
 //!   [`restart_script_with_parameter`](Maestro::restart_script_with_parameter),
-//!   [`mini_ssc_set`](Maestro::mini_ssc_set), and the queries
+//!   [`mini_ssc_set`](Maestro::mini_ssc_set), [`flush`](Maestro::flush), and the queries
 //!   [`get_position`](Maestro::get_position), [`get_errors`](Maestro::get_errors),
 //!   [`get_moving_state`](Maestro::get_moving_state),
 //!   [`get_script_status`](Maestro::get_script_status).
 //! - A device-side streaming [`CommandDecoder`] (sans-IO, resynchronising, CRC-checking,
 //!   counting what it drops) for simulating a Maestro.
+//! - A sans-IO [`TargetEncoder`]: the checked per-cycle target bytes without a driver, for an
+//!   application that writes them itself with its own deadline.
 //! - Per-channel [`Limits`]: an out-of-range target is an error ([`Error::OutOfRange`]) and
 //!   nothing is sent; clamping is a separate, explicit call ([`Limits::clamp`]).
 //! - Replies are read against a caller-given [`Deadline`] ([`PollBudget`], [`DelayDeadline`] or a
@@ -86,6 +89,7 @@ mod limits;
 mod model;
 pub mod reply;
 mod status;
+mod targets;
 mod types;
 
 pub use codec::{
@@ -106,7 +110,13 @@ pub use interface::{
 pub use limits::{ChannelLimits, LimitViolation, Limits};
 pub use model::{Micro6, Mini12, Mini18, Mini24, MiniModel, Model};
 pub use status::DeviceErrors;
+pub use targets::{TargetEncoder, TargetError};
 pub use types::{
     Acceleration, Channel, DeviceNumber, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros,
     ScriptParameter, ScriptStatus, Speed, Subroutine, MAX_14_BIT, MAX_CHANNELS,
 };
+
+/// The README's examples, compiled as doctests so they keep matching the API.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;

@@ -1,7 +1,8 @@
 //! Sans-IO replies: the bytes the Maestro answers to queries, both directions.
 //!
 //! The host decodes them; a simulated Maestro encodes them. Replies are raw bytes (8 bits each,
-//! low byte first) without framing or CRC.
+//! low byte first) without framing, and without CRC even in CRC mode (the user's guide: the
+//! Maestro does not append a CRC byte to its responses).
 
 use crate::status::DeviceErrors;
 use crate::types::ScriptStatus;

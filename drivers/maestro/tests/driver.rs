@@ -313,3 +313,48 @@ fn speed_and_acceleration() {
         .unwrap();
     s.done();
 }
+
+#[test]
+fn encode_multiple_targets_is_checked_and_sans_io() {
+    let ch = |n| Channel::new::<Mini12>(n).unwrap();
+    let (m, mut s) = mini(&[], Framing::COMPACT);
+    let m = m.with_limits(
+        Limits::new().with(ch(1), ChannelLimits::from_micros(1250, 1840, 1545).unwrap()),
+    );
+    // DIMA throttle, steering, tail in one Set Multiple Targets packet.
+    let packet = m
+        .encode_multiple_targets(ch(0), &[us(1500), us(1840), us(2000)])
+        .unwrap();
+    assert_eq!(
+        &*packet,
+        &[0x9F, 0x03, 0x00, 0x70, 0x2E, 0x40, 0x39, 0x40, 0x3E]
+    );
+    assert!(matches!(
+        m.encode_multiple_targets(ch(0), &[us(1500), us(1900)]),
+        Err(Error::OutOfRange { channel: 1, .. })
+    ));
+    s.done();
+}
+
+#[test]
+fn endless_unasked_data_fails_the_query() {
+    let (mut m, mut s) = micro(&[Tx::read_many([0x55; 64])]);
+    assert_eq!(
+        m.get_errors(&mut PollBudget(10)),
+        Err(Error::UnexpectedData)
+    );
+    assert_eq!(m.stale_bytes(), 64);
+    s.done();
+}
+
+#[test]
+fn flush_is_passed_through() {
+    let (mut m, mut s) = micro(&[
+        Tx::write_many([0xA2]),
+        Tx::flush_error(nb::Error::WouldBlock),
+        Tx::flush(),
+    ]);
+    m.go_home().unwrap();
+    m.flush().unwrap();
+    s.done();
+}
