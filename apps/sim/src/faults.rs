@@ -114,9 +114,11 @@ impl FaultSpec {
             "jitter" => self.jitter_ms = number(value)?,
             "silence" => self.silences.push(value.parse()?),
             "disconnect" => self.disconnects.push(value.parse()?),
-            other => return Err(FaultParseError(format!(
+            other => {
+                return Err(FaultParseError(format!(
                 "unknown fault `{other}` (ber, drop, insert, delay, jitter, silence, disconnect)"
-            ))),
+            )))
+            }
         }
         Ok(())
     }

@@ -3,8 +3,14 @@
 #![deny(missing_docs)]
 
 pub mod board;
+pub mod cli;
+pub mod devices;
 pub mod faults;
+pub mod logcheck;
 pub mod model;
 pub mod pty;
 pub mod request;
 pub mod rng;
+pub mod runner;
+pub mod scenario;
+pub mod world;

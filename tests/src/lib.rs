@@ -1,0 +1,89 @@
+//! End-to-end tests of the DIMA application: the real application (threads, loop, drivers,
+//! decoders, logger) against the simulated devices of `dima-sim` on pseudo-terminals.
+//!
+//! [`run_app`] starts the application for a simulation exactly as `dima sim` does: the
+//! configuration's device ports replaced by the simulation's pty links, the sensor board opened
+//! with the production serial code and the simulated request line.
+
+use std::time::Duration;
+
+use anyhow::Context;
+use dima::app::{self, Devices, RunOptions};
+use dima::config::Config;
+use dima::devices::sensor::{open_sensor_port, SensorDevice};
+use dima_sim::runner::{AppCounters, AppLaunch, AppOutcome};
+
+/// The application's configuration for a simulation run.
+pub fn sim_config(launch: &AppLaunch) -> anyhow::Result<Config> {
+    let mut config = match &launch.config {
+        Some(path) => Config::load(path)?,
+        None => Config::default(),
+    };
+    config.sensor.port = launch.sensor_port.clone();
+    config.maestro.port = launch.maestro_port.clone();
+    config.xbee.port = launch.xbee_port.clone();
+    config.realtime.loop_rate_hz = launch.loop_rate_hz;
+    let period_us = 1_000_000 / launch.loop_rate_hz.max(1);
+    config.sensor.packet_deadline_us = config.sensor.packet_deadline_us.min(period_us * 9 / 10);
+    config.maestro.servo_refresh_hz = config.maestro.servo_refresh_hz.min(launch.loop_rate_hz);
+    for interval in [
+        &mut config.sensor.reopen_interval_ms,
+        &mut config.maestro.reopen_interval_ms,
+        &mut config.xbee.reopen_interval_ms,
+    ] {
+        *interval = (*interval).min(200);
+    }
+    if !launch.realtime {
+        // SCHED_FIFO where the system allows it (it falls back by itself), nothing that needs
+        // a dedicated machine.
+        config.realtime.cpus = Vec::new();
+        config.realtime.lock_memory = false;
+        config.realtime.cpu_dma_latency = false;
+    }
+    config.log.enabled = true;
+    config.log.directory = launch.log_dir.clone();
+    config.validate()?;
+    Ok(config)
+}
+
+/// Runs the application against the simulation until `launch.stop` is set.
+pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
+    let config = sim_config(&launch)?;
+    let hardware = app::hardware_devices(&config);
+    let sensor = config.sensor.clone();
+    let pin = launch.request.clone();
+    let devices = Devices {
+        sensor: Box::new(move || {
+            let port = open_sensor_port(&sensor)?;
+            SensorDevice::new(port, pin.clone()).context("sensor board: duplicating the port")
+        }),
+        servo: hardware.servo,
+        ground: hardware.ground,
+    };
+    let summary = app::run(
+        &config,
+        devices,
+        &RunOptions { duration: None },
+        launch.stop.clone(),
+    )?;
+    let c = &summary.metrics.counters;
+    Ok(AppOutcome {
+        log_path: summary.log_path,
+        summary: summary.metrics.summary(),
+        counters: AppCounters {
+            cycles: c.cycles,
+            missed_periods: c.missed_periods,
+            packets_ok: c.packets_ok,
+            packets_missing: c.packets_missing,
+            packet_crc_errors: c.packet_crc_errors,
+            packet_bytes_skipped: c.packet_bytes_skipped,
+            info_frames: c.info_frames,
+            failsafes: c.failsafes,
+            device_connects: c.device_connects,
+            commands: c.commands,
+        },
+    })
+}
+
+/// Time the application needs to stop after the stop flag.
+pub const STOP_GRACE: Duration = Duration::from_secs(2);
