@@ -81,6 +81,8 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
             failsafes: c.failsafes,
             device_connects: c.device_connects,
             commands: c.commands,
+            ground_frames: u64::from(summary.telemetry.commands.frames),
+            ground_rejected: u64::from(summary.telemetry.commands.rejected()),
         },
     })
 }

@@ -158,15 +158,17 @@ pub fn spawn_board(
                     std::thread::sleep(delay);
                 }
                 wire.clear();
-                let intact = injector.mangle(&answer.packet, &mut out);
+                injector.mangle(&answer.packet, &mut out);
                 wire.extend_from_slice(&out);
-                let fp = fingerprint(&out);
+                // Intact: the packet's bytes arrive unchanged and in one piece (garbage
+                // inserted before its first byte does not damage it).
+                let intact = out.windows(answer.packet.len()).any(|w| w == answer.packet);
                 if intact {
                     stats.packets_intact.fetch_add(1, Ordering::Relaxed);
-                    lock(&stats.intact).insert(fp);
+                    lock(&stats.intact).insert(fingerprint(&answer.packet));
                 } else {
                     stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
-                    lock(&stats.damaged).insert(fp);
+                    lock(&stats.damaged).insert(fingerprint(&out));
                 }
                 if let Some(info) = answer.info {
                     injector.mangle(&info, &mut out);
@@ -283,7 +285,12 @@ pub fn spawn_maestro(
                 let connected = port.update(&spec, t).is_some();
                 if port.opens != opens {
                     opens = port.opens;
+                    // A Maestro that was unplugged lost its targets: the host must send them again.
                     decoder.reset();
+                    for t in &stats.targets {
+                        t.store(0xFFFF, Ordering::Relaxed);
+                    }
+                    last = [0xFFFF; 3];
                     stats.opens.store(opens, Ordering::Relaxed);
                     stats.commands_since_open.store(0, Ordering::Relaxed);
                 }
@@ -345,6 +352,8 @@ pub enum GroundAction {
     Silence,
     /// Resume heartbeats.
     Resume,
+    /// Send these exact bytes (a frame captured from another ground station).
+    Raw([u8; 10]),
 }
 
 /// A ground-station action at a time of the run.
@@ -379,10 +388,12 @@ pub struct GroundStats {
 pub const GROUND_PERIOD_S: f64 = 0.1;
 
 /// Runs the scripted ground station until `stop`.
+#[allow(clippy::too_many_arguments)]
 pub fn spawn_ground(
     world: Arc<World>,
     mut port: LinkPort,
     script: Vec<ScriptStep>,
+    heartbeat: [u8; 10],
     spec: FaultSpec,
     rng: SimRng,
     stats: Arc<GroundStats>,
@@ -432,10 +443,11 @@ pub fn spawn_ground(
                 }
                 lock(&stats.truth).push(world.state());
                 // Everything due now, in script order.
-                let mut frames: Vec<Command> = Vec::new();
+                let mut frames: Vec<(Option<Command>, [u8; 10])> = Vec::new();
                 while let Some(s) = script.get(step).filter(|s| s.at_s <= t) {
                     match s.action {
-                        GroundAction::Send(c) => frames.push(c),
+                        GroundAction::Send(c) => frames.push((Some(c), c.encode())),
+                        GroundAction::Raw(bytes) => frames.push((None, bytes)),
                         GroundAction::Silence => sending = false,
                         GroundAction::Resume => sending = true,
                     }
@@ -445,11 +457,11 @@ pub fn spawn_ground(
                     continue;
                 }
                 if frames.is_empty() {
-                    frames.push(Command::Heartbeat);
+                    frames.push((None, heartbeat));
                 }
                 wire.clear();
-                for c in &frames {
-                    injector.mangle(&c.encode(), &mut out);
+                for (_, bytes) in &frames {
+                    injector.mangle(bytes, &mut out);
                     wire.extend_from_slice(&out);
                 }
                 let delay = injector.delay();
@@ -464,8 +476,8 @@ pub fn spawn_ground(
                             .fetch_add(frames.len() as u64, Ordering::Relaxed);
                         *lock(&stats.last_sent_s) = Some(sent_at);
                         let mut log = lock(&stats.commands);
-                        for c in frames.iter().filter(|c| **c != Command::Heartbeat) {
-                            log.push((sent_at, *c));
+                        for c in frames.iter().filter_map(|(c, _)| *c) {
+                            log.push((sent_at, c));
                         }
                     }
                 }

@@ -76,6 +76,10 @@ pub struct AppCounters {
     pub device_connects: u64,
     /// Command frames applied.
     pub commands: u64,
+    /// Command frames the telemetry thread decoded.
+    pub ground_frames: u64,
+    /// Command frames it rejected (CRC, range, unknown type).
+    pub ground_rejected: u64,
 }
 
 /// What the application reports after its run.
@@ -188,6 +192,8 @@ pub struct DeviceCounts {
     pub maestro_commands_since_open: u64,
     /// Ground frames sent.
     pub ground_frames: u64,
+    /// Outputs at the Maestro at the end, µs (None: never set).
+    pub final_outputs_us: Option<[u16; 3]>,
     /// Display frames received intact.
     pub displays: u64,
     /// Display frames rejected.
@@ -245,6 +251,15 @@ impl SimReport {
             d.ground_frames,
             d.displays,
         );
+        if let Some(o) = d.final_outputs_us {
+            s.push_str(&format!(
+                "final outputs at the Maestro: {}/{}/{} µs{}\n",
+                o[0],
+                o[1],
+                o[2],
+                if o == SAFE_US { " (safe)" } else { "" }
+            ));
+        }
         for (name, result) in &self.checks {
             let mark = match result {
                 None => "skip".to_owned(),
@@ -356,6 +371,7 @@ where
             world.clone(),
             xbee,
             o.scenario.script.clone(),
+            o.scenario.heartbeat,
             o.faults.ground.clone(),
             rng.fork(13),
             ground_stats.clone(),
@@ -507,6 +523,9 @@ where
         maestro_opens: load(&maestro_stats.opens),
         maestro_commands_since_open: load(&maestro_stats.commands_since_open),
         ground_frames: load(&ground_stats.frames_sent),
+        final_outputs_us: Some(maestro_stats.targets_of([0, 1, 2]))
+            .filter(|t| !t.contains(&0xFFFF))
+            .map(|t| t.map(|q| q / 4)),
         displays: load(&ground_stats.displays),
         display_errors: load(&ground_stats.display_errors),
     };

@@ -88,17 +88,21 @@ pub struct Scenario {
     pub start_heading_deg: f64,
     /// The ground station's script.
     pub script: Vec<ScriptStep>,
+    /// The heartbeat frame the ground station sends in idle slots.
+    pub heartbeat: [u8; 10],
     /// Phase names shown in the status line, from their start time.
     pub phases: Vec<(f64, &'static str)>,
     /// What must hold.
     pub checks: Vec<Check>,
 }
 
-fn pct(v: u8) -> Percent {
+/// A percentage (clamped to 100).
+pub fn pct(v: u8) -> Percent {
     Percent::new(v.min(100)).unwrap_or(Percent::HALF)
 }
 
-fn send(at_s: f64, c: Command) -> ScriptStep {
+/// A script step sending `c` at `at_s`.
+pub fn send(at_s: f64, c: Command) -> ScriptStep {
     ScriptStep {
         at_s,
         action: GroundAction::Send(c),
@@ -125,6 +129,7 @@ impl Scenario {
             name: "default",
             duration_s: 20.0,
             start_heading_deg: 0.0,
+            heartbeat: Command::Heartbeat.encode(),
             script: vec![
                 send(1.0, Command::Revive),
                 send(1.5, Command::Throttle(pct(60))),
@@ -214,6 +219,7 @@ impl Scenario {
             name: "manual",
             duration_s,
             start_heading_deg: 0.0,
+            heartbeat: Command::Heartbeat.encode(),
             script: vec![
                 send(0.5, Command::Revive),
                 send(1.0, Command::Throttle(pct(60))),
@@ -233,6 +239,19 @@ impl Scenario {
                 },
                 Check::Failsafes(0),
             ],
+        }
+    }
+
+    /// An empty scenario of `duration_s` (build the script and checks yourself).
+    pub fn custom(name: &'static str, duration_s: f64) -> Scenario {
+        Scenario {
+            name,
+            duration_s,
+            start_heading_deg: 0.0,
+            heartbeat: Command::Heartbeat.encode(),
+            script: Vec::new(),
+            phases: vec![(0.0, name)],
+            checks: Vec::new(),
         }
     }
 
