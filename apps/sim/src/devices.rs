@@ -89,6 +89,9 @@ pub struct BoardStats {
     pub packets_damaged: AtomicU64,
     /// Info frames sent.
     pub info_frames: AtomicU64,
+    /// Answers that were complete later than [`LATE_ANSWER`] after their request (the board
+    /// thread was held up by the machine): the application may count them missing.
+    pub late_answers: AtomicU64,
     /// Requests not answered: silent window, unplugged, or a request while busy.
     pub unanswered: AtomicU64,
     /// Fingerprints of the packets sent unchanged.
@@ -100,6 +103,10 @@ pub struct BoardStats {
     /// Times the pty was (re)opened.
     pub opens: AtomicU64,
 }
+
+/// An answer written this long after its request edge misses the application's default packet
+/// deadline (3.7 ms).
+pub const LATE_ANSWER: Duration = Duration::from_micros(3_700);
 
 /// Runs the simulated sensor board until `stop`.
 #[allow(clippy::too_many_arguments)]
@@ -177,6 +184,9 @@ pub fn spawn_board(
                 }
                 if let Some(pty) = port.pty() {
                     let _ = pty.write(&wire, Duration::from_millis(50));
+                }
+                if line.since_last_edge() > LATE_ANSWER && line.edges() == seen {
+                    stats.late_answers.fetch_add(1, Ordering::Relaxed);
                 }
                 stats.answers.fetch_add(1, Ordering::Relaxed);
                 *lock(&stats.faults) = injector.stats();

@@ -7,21 +7,34 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::thread::Thread;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use embedded_hal::digital::{ErrorType, OutputPin};
 
-/// The shared line: an edge counter and the board thread to wake.
-#[derive(Debug, Default)]
+/// The shared line: an edge counter, the time of the last edge and the board thread to wake.
+#[derive(Debug)]
 pub struct RequestLine {
     edges: AtomicU64,
+    base: Instant,
+    last_edge_ns: AtomicU64,
     board: OnceLock<Thread>,
 }
 
 impl RequestLine {
     /// A line nobody listens to yet.
     pub fn new() -> Arc<RequestLine> {
-        Arc::new(RequestLine::default())
+        Arc::new(RequestLine {
+            edges: AtomicU64::new(0),
+            base: Instant::now(),
+            last_edge_ns: AtomicU64::new(0),
+            board: OnceLock::new(),
+        })
+    }
+
+    /// Time since the last rising edge (since creation before the first).
+    pub fn since_last_edge(&self) -> Duration {
+        let now = self.base.elapsed().as_nanos() as u64;
+        Duration::from_nanos(now.saturating_sub(self.last_edge_ns.load(Ordering::Acquire)))
     }
 
     /// Makes the calling thread the one woken by rising edges (the board's thread).
@@ -46,6 +59,8 @@ impl RequestLine {
     }
 
     fn rise(&self) {
+        self.last_edge_ns
+            .store(self.base.elapsed().as_nanos() as u64, Ordering::Release);
         self.edges.fetch_add(1, Ordering::AcqRel);
         if let Some(t) = self.board.get() {
             t.unpark();

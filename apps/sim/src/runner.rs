@@ -182,6 +182,8 @@ pub struct DeviceCounts {
     pub unanswered: u64,
     /// Info frames sent.
     pub info_frames: u64,
+    /// Answers complete later than the default packet deadline after their request.
+    pub late_answers: u64,
     /// Sensor pty opens.
     pub sensor_opens: u64,
     /// Maestro commands decoded.
@@ -233,7 +235,7 @@ impl SimReport {
         let mut s =
             format!(
             "ran {:.1} s{}: {} cycles, {} packets ok, {} CRC errors, {} missing, {} failsafe(s)\n\
-             board: {} requests, {} answers ({} damaged by faults), {} info frames; \
+             board: {} requests, {} answers ({} damaged by faults, {} late), {} info frames; \
              maestro: {} commands, {} opens; ground: {} frames sent, {} display frames back\n",
             self.ran_s,
             if self.interrupted { " (interrupted)" } else { "" },
@@ -245,6 +247,7 @@ impl SimReport {
             d.requests,
             d.answers,
             d.packets_damaged,
+            d.late_answers,
             d.info_frames,
             d.maestro_commands,
             d.maestro_opens,
@@ -518,6 +521,7 @@ where
         packets_damaged: load(&board_stats.packets_damaged),
         unanswered: load(&board_stats.unanswered),
         info_frames: load(&board_stats.info_frames),
+        late_answers: load(&board_stats.late_answers),
         sensor_opens: load(&board_stats.opens),
         maestro_commands: load(&maestro_stats.commands),
         maestro_opens: load(&maestro_stats.opens),
