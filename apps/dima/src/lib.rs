@@ -2,7 +2,15 @@
 //!
 //! `main` only parses the command line and the configuration and wires the parts together:
 //! - [`config`]: the TOML configuration with documented defaults;
-
+//! - [`control`]: the safety state machine, the AUTO controllers and the output mapping, as
+//!   pure functions (inputs and time in, outputs out);
+//! - [`rt`]: realtime thread setup with its read-back report, and the absolute-deadline clock;
+//! - [`metrics`]: the wake-up latency histogram (cyclictest format) and counters;
+//! - [`devices`]: raw termios serial ports, the sensor board and Maestro as the loop sees them,
+//!   and the supervisor that opens and reopens devices off the realtime thread;
+//! - [`app`]: the realtime loop, the fixed-size records it hands over, and [`app::run()`], which
+//!   starts every thread for a given set of device openers;
+//! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread.
 #![deny(missing_docs)]
 
 pub mod app;

@@ -385,6 +385,7 @@ pub fn spawn_logger(
     rt_reports: mpsc::Receiver<RtSetupReport>,
     settings: LoggerSettings,
     stop: Arc<AtomicBool>,
+    mut observer: Option<crate::app::run::Observer>,
 ) -> std::io::Result<std::thread::JoinHandle<LoggerOutcome>> {
     std::thread::Builder::new()
         .name("dima-logger".into())
@@ -405,6 +406,9 @@ pub fn spawn_logger(
                 let mut n = 0;
                 while let Ok(r) = records.pop() {
                     report_events(&r, &mut last_mode);
+                    if let Some(observe) = observer.as_mut() {
+                        observe(&r);
+                    }
                     if let Some(l) = log.as_mut() {
                         let decoded = r.cycle % decoded_every == 0 || r.events != 0;
                         if let Err(e) = l.record(&r, decoded) {

@@ -53,10 +53,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             app::install_signal_handlers(&stop)?;
             let options = app::RunOptions {
                 duration: args.overrides.duration.map(Duration::from_secs_f64),
+                observer: None,
             };
             tracing::info!("starting: KILLED until a revive from the ground station");
-            let summary = app::run(&config, app::hardware_devices(&config), &options, stop)?;
+            let summary = app::run(&config, app::hardware_devices(&config), options, stop)?;
             tracing::info!("outputs safe; {}", summary.metrics.summary());
+            tracing::info!("{}", summary.telemetry.summary());
             if let Some(path) = summary.log_path {
                 tracing::info!("log: {}", path.display());
             }

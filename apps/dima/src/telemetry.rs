@@ -13,6 +13,8 @@ use std::time::{Duration, Instant};
 
 use dima_groundlink::{Command, CommandDecoder, CommandStats, DisplayFrame};
 use dima_sensorboard::SensorPacket;
+use embedded_hal_nb::serial::{Read, Write};
+use xbee_driver::Transparent;
 
 use crate::app::record::Snapshot;
 use crate::devices::serial::SerialPort;
@@ -48,6 +50,53 @@ pub fn display_frame(packet: Option<&SensorPacket>) -> DisplayFrame {
     frame
 }
 
+/// Why a radio operation failed: the port is then reopened.
+#[derive(Debug)]
+struct RadioFailed;
+
+/// Reads what the radio has (bounded) into the decoder.
+fn receive(
+    radio: &mut Transparent<SerialPort>,
+    decoder: &mut CommandDecoder,
+    mut deliver: impl FnMut(Command),
+) -> Result<(), RadioFailed> {
+    for _ in 0..1024 {
+        match radio.read() {
+            Ok(byte) => match decoder.push(byte) {
+                Some(Ok(command)) => deliver(command),
+                Some(Err(e)) => tracing::debug!("ground link: rejected: {e}"),
+                None => {}
+            },
+            Err(nb::Error::WouldBlock) => return Ok(()),
+            Err(nb::Error::Other(_)) => return Err(RadioFailed),
+        }
+    }
+    Ok(())
+}
+
+/// Sends `bytes` through the radio, waiting for room until `deadline_ns`; `Ok(false)` when the
+/// deadline passed first (the rest of the frame is not sent; the receiver resynchronises).
+fn send(
+    radio: &mut Transparent<SerialPort>,
+    bytes: &[u8],
+    deadline_ns: u64,
+) -> Result<bool, RadioFailed> {
+    for &b in bytes {
+        loop {
+            match radio.write(b) {
+                Ok(()) => break,
+                Err(nb::Error::WouldBlock) => match radio.serial_mut().wait_output(deadline_ns) {
+                    Ok(true) => {}
+                    Ok(false) => return Ok(false),
+                    Err(_) => return Err(RadioFailed),
+                },
+                Err(nb::Error::Other(_)) => return Err(RadioFailed),
+            }
+        }
+    }
+    Ok(true)
+}
+
 /// Telemetry settings.
 pub struct TelemetrySettings {
     /// Time between display frames.
@@ -69,6 +118,24 @@ pub struct TelemetryStats {
     pub port_errors: u64,
 }
 
+impl TelemetryStats {
+    /// One line for the exit summary.
+    pub fn summary(&self) -> String {
+        let c = &self.commands;
+        format!(
+            "ground link: frames {} crc-errors {} unknown-type {} out-of-range {} skipped-bytes {} \
+             | display frames {} | port errors {}",
+            c.frames,
+            c.crc_errors,
+            c.unknown_type,
+            c.out_of_range,
+            c.skipped_bytes,
+            self.display_frames,
+            self.port_errors
+        )
+    }
+}
+
 /// Spawns the telemetry thread.
 pub fn spawn_telemetry(
     mut open: Opener<SerialPort>,
@@ -87,24 +154,24 @@ pub fn spawn_telemetry(
                 );
             }
             let mut stats = TelemetryStats::default();
-            let mut port: Option<SerialPort> = None;
+            let mut radio: Option<Transparent<SerialPort>> = None;
             let mut decoder = CommandDecoder::new();
             let mut pending: VecDeque<Command> = VecDeque::new();
             let mut last_open: Option<Instant> = None;
             let mut failures = 0u64;
             let mut next_display = Instant::now() + settings.display_period;
-            let mut buf = [0u8; 256];
             while !stop.load(Ordering::Relaxed) {
                 let now = Instant::now();
-                if port.is_none() && last_open.map_or(true, |t| now - t >= settings.reopen_interval)
+                if radio.is_none()
+                    && last_open.map_or(true, |t| now - t >= settings.reopen_interval)
                 {
                     last_open = Some(now);
                     match open() {
-                        Ok(p) => {
+                        Ok(port) => {
                             tracing::info!("XBee: connected");
                             failures = 0;
                             decoder.reset();
-                            port = Some(p);
+                            radio = Some(Transparent::new(port));
                         }
                         Err(e) => {
                             failures += 1;
@@ -121,56 +188,50 @@ pub fn spawn_telemetry(
                     }
                     pending.pop_front();
                 }
-                let Some(p) = port.as_mut() else {
+                let Some(r) = radio.as_mut() else {
                     std::thread::sleep(Duration::from_millis(20));
                     continue;
                 };
-                let wait_until = monotonic_ns()
-                    + (next_display.saturating_duration_since(now))
-                        .min(Duration::from_millis(20))
-                        .as_nanos() as u64;
-                let mut failed = false;
-                match p.wait_input(wait_until) {
-                    Ok(true) => match p.read_available(&mut buf) {
-                        Ok(n) => {
-                            for result in decoder.feed(&buf[..n]) {
-                                match result {
-                                    Ok(c) => {
-                                        if matches!(c, Command::Kill | Command::Revive) {
-                                            tracing::info!("ground link: {c:?}");
-                                        }
-                                        if !pending.is_empty() || commands.push(c).is_err() {
-                                            pending.push_back(c);
-                                        }
-                                    }
-                                    Err(e) => tracing::debug!("ground link: rejected: {e}"),
-                                }
-                            }
+                let wait = next_display
+                    .saturating_duration_since(now)
+                    .min(Duration::from_millis(20));
+                let mut result = match r
+                    .serial_mut()
+                    .wait_input(monotonic_ns() + wait.as_nanos() as u64)
+                {
+                    Ok(_) => receive(r, &mut decoder, |c| {
+                        if matches!(c, Command::Kill | Command::Revive) {
+                            tracing::info!("ground link: {c:?}");
                         }
-                        Err(_) => failed = true,
-                    },
-                    Ok(false) => {}
-                    Err(_) => failed = true,
-                }
-                if !failed && Instant::now() >= next_display {
+                        if !pending.is_empty() || commands.push(c).is_err() {
+                            pending.push_back(c);
+                        }
+                    }),
+                    Err(_) => Err(RadioFailed),
+                };
+                if result.is_ok() && Instant::now() >= next_display {
                     next_display += settings.display_period;
                     if next_display < Instant::now() {
                         next_display = Instant::now() + settings.display_period;
                     }
                     let snap = *snapshot.read();
                     let frame = display_frame(snap.packet.as_ref()).encode();
-                    match p.write_all(&frame, monotonic_ns() + 200_000_000) {
-                        Ok(()) => stats.display_frames += 1,
-                        Err(crate::devices::serial::SerialError::Timeout) => {
-                            tracing::debug!("XBee: display frame not sent in time")
+                    result = match send(r, &frame, monotonic_ns() + 200_000_000) {
+                        Ok(true) => {
+                            stats.display_frames += 1;
+                            Ok(())
                         }
-                        Err(_) => failed = true,
-                    }
+                        Ok(false) => {
+                            tracing::debug!("XBee: display frame not sent in time");
+                            Ok(())
+                        }
+                        Err(e) => Err(e),
+                    };
                 }
-                if failed {
+                if result.is_err() {
                     stats.port_errors += 1;
                     tracing::warn!("XBee: port failed; reopening");
-                    port = None;
+                    radio = None;
                     decoder.reset();
                 }
             }

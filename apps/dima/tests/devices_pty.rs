@@ -51,7 +51,7 @@ fn sensor_unplugged_and_back_maestro_late() {
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
     let runner = std::thread::spawn(move || {
-        app::run(&config, devices, &RunOptions::default(), s).expect("run")
+        app::run(&config, devices, RunOptions::default(), s).expect("run")
     });
     let ground = FakeGround::spawn(ground_pty.master);
 

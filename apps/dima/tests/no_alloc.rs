@@ -122,6 +122,7 @@ fn realtime_thread_never_allocates() {
             decoded_every: 1,
         },
         logger_stop.clone(),
+        None,
     )
     .unwrap();
     let telemetry = spawn_telemetry(

@@ -32,8 +32,9 @@ fn request_ahead_reads_the_previous_cycles_answer() {
     };
     let options = RunOptions {
         duration: Some(Duration::from_millis(1_500)),
+        observer: None,
     };
-    let summary = app::run(&config, devices, &options, Arc::new(AtomicBool::new(false))).unwrap();
+    let summary = app::run(&config, devices, options, Arc::new(AtomicBool::new(false))).unwrap();
     let m = &summary.metrics;
     let c = m.counters;
     assert!(c.cycles > 50, "{c:?}");

@@ -7,4 +7,6 @@ pub use record::{CycleRecord, Snapshot};
 pub use rt_loop::{LoopEnds, LoopParams, RealtimeLoop};
 pub mod run;
 
-pub use run::{hardware_devices, install_signal_handlers, run, Devices, RunOptions, RunSummary};
+pub use run::{
+    hardware_devices, install_signal_handlers, run, Devices, Observer, RunOptions, RunSummary,
+};

@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use dima_groundlink::Command;
-use dima_sensorboard::{units, Frame, InfoFrame, RawPacket, SensorPacket};
+use dima_sensorboard::{units, DecoderStats, Frame, InfoFrame, RawPacket, SensorPacket};
 use embedded_hal::digital::OutputPin;
 
 use super::record::{events, CycleRecord, Snapshot};
@@ -97,6 +97,7 @@ pub struct RealtimeLoop<P, S> {
     pending_request_ns: Option<Nanos>,
     last_step_ns: Option<Nanos>,
     info: Option<InfoFrame>,
+    decoder_base: DecoderStats,
     cycle: u64,
     metrics: LoopMetrics,
 }
@@ -140,6 +141,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             pending_request_ns: None,
             last_step_ns: None,
             info: None,
+            decoder_base: DecoderStats::default(),
             cycle: 0,
             metrics: LoopMetrics::new(HISTOGRAM_US),
         }
@@ -209,6 +211,13 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
 
     fn sensor_failed(&mut self, events: &mut u16) {
         self.metrics.counters.sensor_errors += 1;
+        let c = &self.metrics.counters;
+        self.decoder_base = DecoderStats {
+            packets: 0,
+            info_frames: c.info_frames,
+            crc_errors: c.packet_crc_errors,
+            bytes_skipped: c.packet_bytes_skipped,
+        };
         self.sensor.fail();
         self.pending_request_ns = None;
         *events |= events::SENSOR_LOST;
@@ -217,9 +226,8 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
     /// One cycle after the clock woke the thread.
     pub fn cycle(&mut self, tick: Tick) {
         let mut ev = 0u16;
-        let c = &mut self.metrics.counters;
-        c.cycles += 1;
-        c.missed_periods += u64::from(tick.missed);
+        self.metrics.counters.cycles += 1;
+        self.metrics.counters.missed_periods += u64::from(tick.missed);
         self.metrics.wake_latency.record(tick.latency_ns);
 
         if self.sensor.refresh() == LinkEvent::Connected {
@@ -270,13 +278,12 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
                 (None, 0)
             }
         };
-        if self.sensor.is_connected() || packet.is_some() {
-            let stats = self.sensor.get().map(|d| d.board.stats());
-            if let Some(s) = stats {
-                self.metrics.counters.packet_crc_errors = s.crc_errors;
-                self.metrics.counters.packet_bytes_skipped = s.bytes_skipped;
-                self.metrics.counters.info_frames = s.info_frames;
-            }
+        if let Some(s) = self.sensor.get().map(|d| d.board.stats()) {
+            // The decoder's counters restart with each (re)opened device; keep totals.
+            let c = &mut self.metrics.counters;
+            c.packet_crc_errors = self.decoder_base.crc_errors + s.crc_errors;
+            c.packet_bytes_skipped = self.decoder_base.bytes_skipped + s.bytes_skipped;
+            c.info_frames = self.decoder_base.info_frames + s.info_frames;
         }
         if let Some(raw) = &packet {
             self.metrics.counters.packets_ok += 1;

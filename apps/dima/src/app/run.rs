@@ -13,6 +13,7 @@ use anyhow::Context;
 use embedded_hal::digital::OutputPin;
 use linux_embedded_hal::CdevPin;
 
+use super::record::CycleRecord;
 use super::rt_loop::{LoopEnds, LoopParams, RealtimeLoop};
 use crate::config::Config;
 use crate::devices::sensor::{open_hardware_sensor, SensorDevice};
@@ -61,11 +62,17 @@ pub fn hardware_devices(config: &Config) -> Devices<CdevPin, MaestroPort> {
     }
 }
 
-/// How a run ends.
-#[derive(Debug, Clone, Default)]
+/// Called on the logger thread with every cycle record, in order (never on the realtime
+/// thread): for a live status display.
+pub type Observer = Box<dyn FnMut(&CycleRecord) + Send>;
+
+/// How a run ends, and who watches it.
+#[derive(Default)]
 pub struct RunOptions {
     /// Stop after this long (None: at SIGINT/SIGTERM or when `stop` is set).
     pub duration: Option<Duration>,
+    /// Sees every cycle record (e.g. a simulation's status line).
+    pub observer: Option<Observer>,
 }
 
 /// What a run did.
@@ -96,7 +103,7 @@ pub fn install_signal_handlers(stop: &Arc<AtomicBool>) -> anyhow::Result<()> {
 pub fn run<P, S>(
     config: &Config,
     devices: Devices<P, S>,
-    options: &RunOptions,
+    options: RunOptions,
     stop: Arc<AtomicBool>,
 ) -> anyhow::Result<RunSummary>
 where
@@ -161,6 +168,7 @@ where
             decoded_every: u64::from(config.log.decoded_every),
         },
         Arc::clone(&logger_stop),
+        options.observer,
     )?;
 
     // Telemetry.
@@ -226,7 +234,14 @@ where
     let histogram = metrics.wake_latency.cyclictest_format();
     let log_path = match outcome.log {
         Some(mut log) => {
-            log.metadata("summary", &[("summary", summary.clone())])?;
+            log.metadata(
+                "summary",
+                &[
+                    ("summary", summary.clone()),
+                    ("ground_link", telemetry.summary()),
+                    ("counters", serde_json::to_string(&metrics.counters)?),
+                ],
+            )?;
             log.attach(
                 "wake_latency_histogram.txt",
                 "text/plain",

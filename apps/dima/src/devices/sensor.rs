@@ -82,3 +82,29 @@ pub fn open_hardware_sensor(config: &SensorConfig) -> anyhow::Result<SensorDevic
     let pin = open_request_line(&config.request_chip, config.request_line)?;
     SensorDevice::new(port, pin).context("sensor board: duplicating the port descriptor")
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn missing_gpio_chip_names_the_device() {
+        let err = open_request_line(Path::new("/dev/gpiochip-absent"), 216)
+            .err()
+            .unwrap();
+        let text = format!("{err:#}");
+        assert!(text.contains("/dev/gpiochip-absent"), "{text}");
+        assert!(text.contains("request line"), "{text}");
+    }
+
+    #[test]
+    fn missing_sensor_port_names_the_device() {
+        let config = SensorConfig {
+            port: "/dev/ttyTHS-absent".into(),
+            ..SensorConfig::default()
+        };
+        let text = format!("{:#}", open_hardware_sensor(&config).err().unwrap());
+        assert!(text.contains("/dev/ttyTHS-absent"), "{text}");
+        assert!(text.contains("460800"), "{text}");
+    }
+}

@@ -141,6 +141,11 @@ impl SerialPort {
         wait(self.fd.as_fd(), PollFlags::POLLIN, deadline_ns)
     }
 
+    /// Waits until this port can take more bytes or `deadline_ns` passes (`Ok(false)`).
+    pub fn wait_output(&self, deadline_ns: Nanos) -> Result<bool, SerialError> {
+        wait(self.fd.as_fd(), PollFlags::POLLOUT, deadline_ns)
+    }
+
     /// Reads whatever is available into `buf` without waiting (`Ok(0)`: nothing there).
     pub fn read_available(&mut self, buf: &mut [u8]) -> Result<usize, SerialError> {
         let buffered = self.rx_len - self.rx_pos;
