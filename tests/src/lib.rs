@@ -5,6 +5,7 @@
 //! configuration's device ports replaced by the simulation's pty links, the sensor board opened
 //! with the production serial code and the simulated request line.
 
+use std::sync::atomic::Ordering;
 use std::time::Duration;
 
 use anyhow::Context;
@@ -60,12 +61,25 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
         servo: hardware.servo,
         ground: hardware.ground,
     };
-    let summary = app::run(
-        &config,
-        devices,
-        &RunOptions { duration: None },
-        launch.stop.clone(),
-    )?;
+    let status = launch.status.clone();
+    let observer: dima::app::run::Observer = Box::new(move |r| {
+        status.mode.store(r.safety.mode.code(), Ordering::Relaxed);
+        status.cycles.store(r.counters.cycles, Ordering::Relaxed);
+        status
+            .packets_ok
+            .store(r.counters.packets_ok, Ordering::Relaxed);
+        status
+            .crc_errors
+            .store(r.counters.packet_crc_errors, Ordering::Relaxed);
+        status
+            .packets_missing
+            .store(r.counters.packets_missing, Ordering::Relaxed);
+    });
+    let options = RunOptions {
+        duration: None,
+        observer: Some(observer),
+    };
+    let summary = app::run(&config, devices, options, launch.stop.clone())?;
     let c = &summary.metrics.counters;
     Ok(AppOutcome {
         log_path: summary.log_path,

@@ -8,7 +8,7 @@
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
@@ -27,6 +27,46 @@ use crate::request::{RequestLine, RequestPin};
 use crate::rng::SimRng;
 use crate::scenario::{evaluate, Evidence, Scenario, SAFE_US};
 use crate::world::World;
+
+/// The application's live state as its logger thread sees it, for the status line.
+#[derive(Debug)]
+pub struct AppStatus {
+    /// Mode code: 0 KILLED, 1 MANUAL, 2 AUTO, 3 FAILSAFE; 255 before the first cycle.
+    pub mode: AtomicU8,
+    /// Cycles run.
+    pub cycles: AtomicU64,
+    /// Valid packets.
+    pub packets_ok: AtomicU64,
+    /// Packets rejected by the CRC.
+    pub crc_errors: AtomicU64,
+    /// Cycles without a valid packet.
+    pub packets_missing: AtomicU64,
+}
+
+impl Default for AppStatus {
+    fn default() -> Self {
+        AppStatus {
+            mode: AtomicU8::new(u8::MAX),
+            cycles: AtomicU64::new(0),
+            packets_ok: AtomicU64::new(0),
+            crc_errors: AtomicU64::new(0),
+            packets_missing: AtomicU64::new(0),
+        }
+    }
+}
+
+impl AppStatus {
+    /// The mode's name.
+    pub fn mode_name(&self) -> &'static str {
+        match self.mode.load(Ordering::Relaxed) {
+            0 => "KILLED",
+            1 => "MANUAL",
+            2 => "AUTO",
+            3 => "FAILSAFE",
+            _ => "starting",
+        }
+    }
+}
 
 /// What the application gets to run against.
 #[derive(Debug)]
@@ -48,6 +88,9 @@ pub struct AppLaunch {
     /// Keep the configuration's realtime settings (SCHED_FIFO, pinning, mlockall) instead of
     /// the unprivileged ones a simulation uses by default.
     pub realtime: bool,
+    /// Where the application reports its live state (optional: the status line shows what
+    /// it gets).
+    pub status: Arc<AppStatus>,
     /// Set to stop the application (the runner sets it at the end of the scenario; signal
     /// handlers may set it earlier).
     pub stop: Arc<AtomicBool>,
@@ -383,6 +426,7 @@ where
     }
 
     // The monitor: status line and the end of the run.
+    let app_status = Arc::new(AppStatus::default());
     let run_length = o.run_length_s();
     let ended_by_runner = Arc::new(AtomicBool::new(false));
     let monitor = {
@@ -393,6 +437,7 @@ where
             ground_stats.clone(),
         );
         let scenario = o.scenario.clone();
+        let app = app_status.clone();
         let tty = match o.status {
             StatusMode::Auto => Some(std::io::stderr().is_terminal()),
             StatusMode::Plain => Some(false),
@@ -418,11 +463,11 @@ where
                     if t - last_print < interval {
                         continue;
                     }
-                    let requests = board.requests.load(Ordering::Relaxed);
+                    let cycles = app.cycles.load(Ordering::Relaxed);
                     if t > last_t {
-                        rate = (requests - last_requests) as f64 / (t - last_t);
+                        rate = cycles.saturating_sub(last_requests) as f64 / (t - last_t);
                     }
-                    last_requests = requests;
+                    last_requests = cycles;
                     last_t = t;
                     last_print = t;
                     let line = status_line(
@@ -430,6 +475,7 @@ where
                         run_length,
                         scenario.phase_at(t),
                         rate,
+                        &app,
                         &board,
                         &maestro,
                         &ground,
@@ -451,6 +497,7 @@ where
     };
 
     let launch = AppLaunch {
+        status: app_status.clone(),
         sensor_port: sensor_link,
         maestro_port: maestro_link,
         xbee_port: xbee_link,
@@ -554,6 +601,7 @@ fn status_line(
     run_length: Option<f64>,
     phase: &str,
     rate_hz: f64,
+    app: &AppStatus,
     board: &BoardStats,
     maestro: &MaestroStats,
     ground: &GroundStats,
@@ -583,8 +631,10 @@ fn status_line(
         });
     let s = world.state();
     format!(
-        "{progress}{t:5.1}s {phase:<20} | loop {rate_hz:3.0} Hz | packets {} ok {} bad | outputs {outputs} µs | display age {link_age} | car {:.1} m/s {:03.0}°",
-        board.packets_intact.load(Ordering::Relaxed),
+        "{progress}{t:5.1}s {:<8} {phase:<20} | loop {rate_hz:3.0} Hz | packets {} ok {} bad ({} damaged on the wire) | outputs {outputs} µs | display age {link_age} | car {:.1} m/s {:03.0}°",
+        app.mode_name(),
+        app.packets_ok.load(Ordering::Relaxed),
+        app.packets_missing.load(Ordering::Relaxed),
         board.packets_damaged.load(Ordering::Relaxed),
         s.speed_m_s,
         s.heading_deg
