@@ -30,6 +30,8 @@ pub struct CycleEntry {
     pub packet_ok: bool,
     /// Valid command frames applied so far.
     pub commands: u64,
+    /// Periods missed before this cycle's wake-up.
+    pub missed: u64,
     /// Outputs, µs.
     pub targets_us: [u16; 3],
 }
@@ -86,6 +88,7 @@ impl LogSummary {
                         mode: v["mode"].as_str().unwrap_or_default().to_owned(),
                         packet_ok: v["packet_ok"].as_bool().unwrap_or(false),
                         commands: v["counters"]["commands"].as_u64().unwrap_or(0),
+                        missed: v["missed_periods"].as_u64().unwrap_or(0),
                         targets_us: [target(0), target(1), target(2)],
                     });
                 }
@@ -129,6 +132,15 @@ impl LogSummary {
             before = s.mode.clone();
         }
         out
+    }
+
+    /// Periods the loop missed in cycles after `from_ns` up to and including `to_ns`.
+    pub fn missed_between(&self, from_ns: u64, to_ns: u64) -> u64 {
+        self.cycles
+            .iter()
+            .filter(|c| c.t_ns > from_ns && c.t_ns <= to_ns)
+            .map(|c| c.missed)
+            .sum()
     }
 
     /// Time of the last cycle at or before `t_ns` in which a command was applied.

@@ -339,6 +339,7 @@ fn describe(check: &crate::scenario::Check) -> String {
             from_s, targets_us, ..
         } => format!("outputs {targets_us:?} µs after {from_s} s"),
         SafeThroughout { from_s, to_s } => format!("safe outputs {from_s}-{to_s} s"),
+        SafeHeld { from_s, to_s } => format!("safe outputs held {from_s}-{to_s} s"),
         NeverSafe { from_s, to_s } => format!("no failsafe {from_s}-{to_s} s"),
         Tracks {
             speed_m_s,
