@@ -485,6 +485,8 @@ where
                     );
                     let mut err = std::io::stderr().lock();
                     if tty {
+                        // One line that never wraps, or the redraw would leave the rest behind.
+                        let line: String = line.chars().take(terminal_columns() - 1).collect();
                         let _ = write!(err, "\r\x1b[2K{line}");
                     } else {
                         let _ = writeln!(err, "{line}");
@@ -594,6 +596,23 @@ where
         ran_s,
         interrupted,
     })
+}
+
+/// Width of the terminal on stderr (80 when unknown).
+fn terminal_columns() -> usize {
+    let mut size = nix::libc::winsize {
+        ws_row: 0,
+        ws_col: 0,
+        ws_xpixel: 0,
+        ws_ypixel: 0,
+    };
+    // SAFETY: TIOCGWINSZ writes one `winsize` through the valid pointer.
+    let rc = unsafe { nix::libc::ioctl(2, nix::libc::TIOCGWINSZ, &mut size) };
+    if rc == 0 && size.ws_col >= 20 {
+        usize::from(size.ws_col)
+    } else {
+        80
+    }
 }
 
 #[allow(clippy::too_many_arguments)]
