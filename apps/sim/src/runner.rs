@@ -628,13 +628,18 @@ fn status_line(
     world: &World,
     tty: bool,
 ) -> String {
-    let progress = match run_length {
-        Some(d) if tty => {
-            let width = 20usize;
+    let time = match run_length {
+        Some(d) if tty && terminal_columns() >= 120 => {
+            let width = 10usize;
             let filled = ((t / d).clamp(0.0, 1.0) * width as f64) as usize;
-            format!("[{}{}] ", "#".repeat(filled), ".".repeat(width - filled))
+            format!(
+                "[{}{}] {t:4.1}/{d:.0}s",
+                "#".repeat(filled),
+                ".".repeat(width - filled)
+            )
         }
-        _ => String::new(),
+        Some(d) => format!("{t:4.1}/{d:.0}s"),
+        None => format!("{t:5.1}s"),
     };
     let out = maestro.targets_of([0, 1, 2]);
     let outputs = if out.contains(&0xFFFF) {
@@ -650,12 +655,17 @@ fn status_line(
             format!("{:.0} ms", ((world.now_s() - at) * 1e3).max(0.0))
         });
     let s = world.state();
+    let damaged = board.packets_damaged.load(Ordering::Relaxed);
     format!(
-        "{progress}{t:5.1}s {:<8} {phase:<20} | loop {rate_hz:3.0} Hz | packets {} ok {} bad ({} damaged on the wire) | outputs {outputs} µs | display age {link_age} | car {:.1} m/s {:03.0}°",
+        "{time} {:<8} {rate_hz:3.0} Hz | pkt {} ok {} bad{} | out {outputs} | link {link_age} | car {:.1} m/s {:03.0}° | {phase}",
         app.mode_name(),
         app.packets_ok.load(Ordering::Relaxed),
         app.packets_missing.load(Ordering::Relaxed),
-        board.packets_damaged.load(Ordering::Relaxed),
+        if damaged > 0 {
+            format!(" ({damaged} hit)")
+        } else {
+            String::new()
+        },
         s.speed_m_s,
         s.heading_deg
     )
