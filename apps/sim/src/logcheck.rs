@@ -156,3 +156,75 @@ impl LogSummary {
         last
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn state(t_ns: u64, mode: &str, cause: Option<&str>) -> StateChange {
+        StateChange {
+            t_ns,
+            mode: mode.into(),
+            cause: cause.map(Into::into),
+            events: vec!["mode_changed".into()],
+        }
+    }
+
+    fn cycle(t_ns: u64, commands: u64, missed: u64) -> CycleEntry {
+        CycleEntry {
+            t_ns,
+            mode: "MANUAL".into(),
+            packet_ok: true,
+            commands,
+            missed,
+            targets_us: [1500, 1545, 1500],
+        }
+    }
+
+    #[test]
+    fn modes_failsafes_and_command_times() {
+        let log = LogSummary {
+            states: vec![
+                state(10, "MANUAL", None),
+                state(20, "MANUAL", None),
+                state(30, "FAILSAFE", Some("CommsLoss")),
+                state(35, "FAILSAFE", Some("CommsLoss")),
+                state(40, "MANUAL", None),
+                state(50, "FAILSAFE", Some("SensorLoss")),
+            ],
+            cycles: vec![
+                cycle(1, 0, 0),
+                cycle(2, 1, 0),
+                cycle(3, 1, 2),
+                cycle(4, 2, 0),
+                cycle(5, 2, 1),
+            ],
+            ..LogSummary::default()
+        };
+        assert_eq!(
+            log.mode_sequence(),
+            ["MANUAL", "FAILSAFE", "MANUAL", "FAILSAFE"]
+        );
+        assert_eq!(
+            log.failsafes(),
+            vec![
+                (30, Some("CommsLoss".to_owned())),
+                (50, Some("SensorLoss".to_owned()))
+            ]
+        );
+        assert_eq!(log.last_command_before(3), Some(2));
+        assert_eq!(log.last_command_before(5), Some(4));
+        assert_eq!(log.last_command_before(1), None);
+        assert_eq!(log.missed_between(2, 5), 3);
+    }
+
+    #[test]
+    fn a_missing_or_foreign_file_is_an_error_naming_it() {
+        let e = LogSummary::read(Path::new("/nonexistent/x.mcap")).unwrap_err();
+        assert!(format!("{e:#}").contains("/nonexistent/x.mcap"));
+        let p = std::env::temp_dir().join(format!("dima-sim-not-mcap-{}", std::process::id()));
+        std::fs::write(&p, b"not an mcap file").unwrap();
+        assert!(LogSummary::read(&p).is_err());
+        std::fs::remove_file(&p).unwrap();
+    }
+}
