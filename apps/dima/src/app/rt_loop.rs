@@ -15,7 +15,7 @@ use crate::control::{
     SafetyLimits, SafetyState, SensorValues, ServoTargets,
 };
 use crate::devices::sensor::SensorDevice;
-use crate::devices::servo::ServoOutput;
+use crate::devices::servo::{ServoError, ServoOutput};
 use crate::devices::{DeviceLink, LinkEvent};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, Tick};
@@ -155,7 +155,9 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
     /// Runs until the stop flag is set (or `max_cycles`), then writes safe outputs. Returns the
     /// number of cycles run.
     pub fn run(&mut self, clock: &mut PeriodicClock, max_cycles: Option<u64>) -> u64 {
-        while !self.ends.stop.load(Ordering::Relaxed) && max_cycles.is_none_or_lt(self.cycle) {
+        while !self.ends.stop.load(Ordering::Relaxed)
+            && max_cycles.map_or(true, |max| self.cycle < max)
+        {
             let tick = clock.wait();
             self.cycle(tick);
         }
@@ -397,7 +399,14 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
                 self.last_written = Some(targets);
                 t
             }
-            Err(_) => {
+            Err(ServoError::Timeout | ServoError::InvalidInput) => {
+                // Still there, just slow to take bytes (or a target the configuration should
+                // have refused): counted, resent next cycle.
+                self.metrics.counters.servo_errors += 1;
+                self.last_written = None;
+                0
+            }
+            Err(ServoError::Device) => {
                 self.metrics.counters.servo_errors += 1;
                 self.servo.fail();
                 self.last_written = None;
@@ -450,16 +459,5 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             counters: self.metrics.counters,
             events: ev,
         });
-    }
-}
-
-/// `max_cycles` not reached yet (`None`: no limit).
-trait CycleLimit {
-    fn is_none_or_lt(&self, cycle: u64) -> bool;
-}
-
-impl CycleLimit for Option<u64> {
-    fn is_none_or_lt(&self, cycle: u64) -> bool {
-        self.map_or(true, |max| cycle < max)
     }
 }

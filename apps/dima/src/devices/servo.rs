@@ -7,19 +7,31 @@ use super::serial::{LineSettings, SerialError, SerialPort};
 use crate::config::MaestroConfig;
 use crate::control::Nanos;
 
+/// Why a servo write failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]
+pub enum ServoError {
+    /// The device did not take the bytes before the deadline (its input is full); the device
+    /// stays in use and the targets are resent.
+    #[error("servo write deadline passed")]
+    Timeout,
+    /// A channel or target the device cannot take (the configuration is validated against it).
+    #[error("servo channel or target out of range")]
+    InvalidInput,
+    /// The device failed (unplugged, I/O error): it is closed and reopened.
+    #[error("servo device failed")]
+    Device,
+}
+
 /// Writes servo targets. Implementations write all channels in as few writes as the device
 /// allows and give up at `deadline_ns`.
 pub trait ServoOutput {
-    /// Why a write failed.
-    type Error: core::fmt::Debug;
-
     /// Sets `targets_qus[i]` (quarter-microseconds, 0 = no pulses) on `channels[i]`.
     fn write_targets(
         &mut self,
         channels: &[u8; 3],
         targets_qus: &[u16; 3],
         deadline_ns: Nanos,
-    ) -> Result<(), Self::Error>;
+    ) -> Result<(), ServoError>;
 }
 
 /// The Pololu Maestro on its command port: compact-protocol Set Target packets for every
@@ -53,35 +65,26 @@ impl MaestroPort {
     }
 }
 
-/// Why a Maestro write failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum MaestroWriteError {
-    /// A channel or target the Maestro cannot take (configuration validated against this).
-    InvalidInput,
-    /// The port failed.
-    Serial(SerialError),
-}
-
 impl ServoOutput for MaestroPort {
-    type Error = MaestroWriteError;
-
     fn write_targets(
         &mut self,
         channels: &[u8; 3],
         targets_qus: &[u16; 3],
         deadline_ns: Nanos,
-    ) -> Result<(), MaestroWriteError> {
-        let pair = |i: usize| -> Result<(Channel, QuarterMicros), MaestroWriteError> {
+    ) -> Result<(), ServoError> {
+        let pair = |i: usize| -> Result<(Channel, QuarterMicros), ServoError> {
             Ok((
-                Channel::new::<Mini24>(channels[i]).map_err(|_| MaestroWriteError::InvalidInput)?,
-                QuarterMicros::new(targets_qus[i]).map_err(|_| MaestroWriteError::InvalidInput)?,
+                Channel::new::<Mini24>(channels[i]).map_err(|_| ServoError::InvalidInput)?,
+                QuarterMicros::new(targets_qus[i]).map_err(|_| ServoError::InvalidInput)?,
             ))
         };
         let pairs = [pair(0)?, pair(1)?, pair(2)?];
-        let frame =
-            encode_set_targets(Framing::COMPACT, &pairs).ok_or(MaestroWriteError::InvalidInput)?;
+        let frame = encode_set_targets(Framing::COMPACT, &pairs).ok_or(ServoError::InvalidInput)?;
         self.port
             .write_all(frame.as_bytes(), deadline_ns)
-            .map_err(MaestroWriteError::Serial)
+            .map_err(|e| match e {
+                SerialError::Timeout => ServoError::Timeout,
+                SerialError::HangUp | SerialError::Io(_) => ServoError::Device,
+            })
     }
 }

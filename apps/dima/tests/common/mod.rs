@@ -156,6 +156,7 @@ impl FakeBoard {
             stop.clone(),
         );
         let handle = std::thread::spawn(move || {
+            try_fifo(40);
             let mut seen = 0;
             let mut junk = [0u8; 64];
             while !st.load(Ordering::Relaxed) {
@@ -221,6 +222,7 @@ impl FakeMaestro {
         let stop = Arc::new(AtomicBool::new(false));
         let (t, c, s) = (targets.clone(), commands.clone(), stop.clone());
         let handle = std::thread::spawn(move || {
+            try_fifo(40);
             let mut decoder =
                 pololu_maestro::CommandDecoder::new(pololu_maestro::DecoderConfig::default());
             let mut buf = [0u8; 256];
@@ -297,6 +299,7 @@ impl FakeGround {
             stop.clone(),
         );
         let handle = std::thread::spawn(move || {
+            try_fifo(40);
             let mut decoder = DisplayDecoder::new();
             let mut buf = [0u8; 256];
             let mut next_hb = Instant::now();
@@ -341,11 +344,21 @@ impl Drop for FakeGround {
     }
 }
 
-/// A configuration for an unprivileged test run with a log in `log_dir`.
+/// Gives the calling test thread SCHED_FIFO `priority` when allowed (as root), so a busy
+/// machine does not starve the simulated devices; otherwise it stays SCHED_OTHER.
+pub fn try_fifo(priority: u8) {
+    let _ = dima::rt::setup::set_fifo(priority);
+}
+
+/// A configuration for a test run with a log in `log_dir`: SCHED_FIFO when permitted (it is
+/// refused and reported otherwise), no pinning, no memory locking, and overrun and sensor-loss
+/// thresholds wide enough that a busy machine does not trip them where a test is not about them.
 pub fn test_config(log_dir: &std::path::Path) -> Config {
     let mut c = Config::default();
-    c.realtime.priority = 0;
-    c.realtime.telemetry_priority = 0;
+    c.realtime.priority = 60;
+    c.realtime.telemetry_priority = 30;
+    c.safety.overrun_limit = 100;
+    c.safety.sensor_loss_packets = 50;
     c.realtime.cpus = vec![];
     c.realtime.lock_memory = false;
     c.realtime.cpu_dma_latency = false;
