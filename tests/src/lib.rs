@@ -6,7 +6,6 @@
 //! with the production serial code and the simulated request line.
 
 use std::sync::atomic::Ordering;
-use std::time::Duration;
 
 use anyhow::Context;
 use dima::app::{self, Devices, RunOptions};
@@ -100,6 +99,3 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
         },
     })
 }
-
-/// Time the application needs to stop after the stop flag.
-pub const STOP_GRACE: Duration = Duration::from_secs(2);

@@ -414,3 +414,55 @@ fn t10_original_ground_station_frames_are_accepted_byte_for_byte() {
     assert_eq!(c.ground_rejected, 0);
     assert!(c.ground_frames >= 30, "{c:?}");
 }
+
+#[test]
+fn t11_ground_pty_lets_a_gui_drive() {
+    use std::io::Write;
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = temp_dir("ground-pty");
+    let mut o = SimOptions::new(Scenario::custom("gui", 3.0));
+    o.run_dir = dir.join("dev");
+    o.log_dir = dir.join("logs");
+    o.status = StatusMode::Quiet;
+    o.ground_pty = true;
+    o.duration_s = Some(3.0);
+    // The GUI: opens the printed pty once it exists and sends frames every 100 ms.
+    let station = o.run_dir.join("ground-station");
+    let gui = std::thread::spawn(move || {
+        let t0 = std::time::Instant::now();
+        while !station.exists() {
+            assert!(t0.elapsed().as_secs() < 5, "no ground-station pty");
+            std::thread::sleep(std::time::Duration::from_millis(10));
+        }
+        let mut port = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .open(&station)
+            .unwrap();
+        let mut frames = vec![Command::Revive, Command::Throttle(pct(90))];
+        while t0.elapsed().as_secs_f64() < 2.8 {
+            let c = if frames.is_empty() {
+                Command::Heartbeat
+            } else {
+                frames.remove(0)
+            };
+            if port.write_all(&c.encode()).is_err() {
+                break;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(100));
+        }
+    });
+    let r = run_simulation(&o, run_app).expect("the simulation runs");
+    gui.join().unwrap();
+    eprintln!("[ground-pty]\n{}", r.summary());
+    assert!(
+        r.evidence
+            .outputs
+            .iter()
+            .any(|c| c.targets_qus.map(|q| q / 4) == manual_us(90, 50, 50)),
+        "{:?}",
+        r.evidence.outputs
+    );
+    assert_eq!(r.app.counters.failsafes, 0);
+    assert!(r.app.counters.ground_frames >= 10, "{:?}", r.app.counters);
+}
