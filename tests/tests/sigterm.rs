@@ -4,13 +4,18 @@
 
 use std::io::Read;
 use std::process::{Command, Stdio};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
 use nix::sys::signal::{kill, Signal};
 use nix::unistd::Pid;
 
+/// One simulation at a time: each wants the machine's cores for its loop and devices.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
 #[test]
 fn t09_sigterm_safe_outputs_exit_0_complete_log() {
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = std::env::temp_dir().join(format!("dima-e2e-sigterm-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
@@ -115,6 +120,7 @@ fn t09_sigterm_safe_outputs_exit_0_complete_log() {
     let python = std::env::var("DIMA_PYTHON").unwrap_or_else(|_| "python3".into());
     let has_mcap = Command::new(&python)
         .args(["-c", "import mcap"])
+        .stderr(Stdio::null())
         .status()
         .is_ok_and(|s| s.success());
     if !has_mcap {
@@ -153,5 +159,29 @@ print(counts.get("/sensor/raw", 0), counts.get("/dima/cycle", 0), counts.get("/d
         assert_eq!(counts[0], raw, "Python reads as many raw packets");
         assert!(counts[1] > 500 && counts[2] >= 2, "{counts:?}");
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn failed_expectation_exits_1_with_the_reason() {
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = std::env::temp_dir().join(format!("dima-e2e-exit1-{}", std::process::id()));
+    let out = Command::new(env!("CARGO_BIN_EXE_dima-e2e-sim"))
+        .args(["--scenario", "manual", "--duration", "3", "--quiet"])
+        .args(["--fault", "sensor:silence=1.5+1", "--log-dir"])
+        .arg(dir.join("logs"))
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(1), "{stdout}");
+    assert!(
+        stdout.contains("FAIL: ") && stdout.contains("SensorLoss"),
+        "{stdout}"
+    );
+    let bad = Command::new(env!("CARGO_BIN_EXE_dima-e2e-sim"))
+        .args(["--fault", "sensor:ber=2"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
 }
