@@ -551,7 +551,9 @@ where
         start_wall_ns,
         safe_us: SAFE_US,
         ran_s,
-        complete: !interrupted,
+        // Cut short by a signal or by a --duration below the scenario's length: checks past
+        // the end are skipped.
+        complete: !interrupted && ran_s + 0.5 >= o.scenario.duration_s,
         period_s: 1.0 / f64::from(o.loop_rate_hz.max(1)),
     };
     let checks: Vec<(String, Option<Result<(), String>>)> = if o.ground_pty {
