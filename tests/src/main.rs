@@ -1,5 +1,5 @@
-//! `dima sim` as a stand-alone program for the end-to-end tests: the same flags and the same
-//! run as the `dima` binary's `sim` subcommand.
+//! `dima sim` as a stand-alone program for the end-to-end tests (a test cannot build another
+//! package's binary): the same flags and the same function as the `dima` binary's `sim`.
 
 use std::process::ExitCode;
 
@@ -15,8 +15,5 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    dima_sim::cli::run(&cli.sim, |launch| {
-        dima::app::install_signal_handlers(&launch.stop)?;
-        dima_e2e::run_app(launch)
-    })
+    dima::sim::main(&cli.sim)
 }
