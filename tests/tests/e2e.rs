@@ -425,8 +425,9 @@ fn t11_ground_pty_lets_a_gui_drive() {
     o.log_dir = dir.join("logs");
     o.status = StatusMode::Quiet;
     o.ground_pty = true;
-    o.duration_s = Some(3.0);
-    // The GUI: opens the printed pty once it exists and sends frames every 100 ms.
+    o.duration_s = Some(4.0);
+    // The GUI: opens the printed pty once it exists and, once display frames arrive, sends a
+    // frame every 100 ms.
     let station = o.run_dir.join("ground-station");
     let gui = std::thread::spawn(move || {
         let t0 = std::time::Instant::now();
@@ -439,8 +440,18 @@ fn t11_ground_pty_lets_a_gui_drive() {
             .write(true)
             .open(&station)
             .unwrap();
+        // Like an operator: wait until the robot is talking (a display frame), then revive.
+        use std::io::Read;
+        let mut seen = 0;
+        let mut buf = [0u8; 256];
+        while seen < 68 {
+            match port.read(&mut buf) {
+                Ok(n) if n > 0 => seen += n,
+                _ => return,
+            }
+        }
         let mut frames = vec![Command::Revive, Command::Throttle(pct(90))];
-        while t0.elapsed().as_secs_f64() < 2.8 {
+        while t0.elapsed().as_secs_f64() < 3.8 {
             let c = if frames.is_empty() {
                 Command::Heartbeat
             } else {
