@@ -22,6 +22,8 @@ pub enum Command {
     Run(RunArgs),
     /// Configuration helpers.
     Config(ConfigArgs),
+    /// Run against simulated devices on pseudo-terminals: no hardware needed.
+    Sim(crate::sim::SimArgs),
 }
 
 /// `dima run`.

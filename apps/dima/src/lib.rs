@@ -10,7 +10,8 @@
 //!   and the supervisor that opens and reopens devices off the realtime thread;
 //! - [`app`]: the realtime loop, the fixed-size records it hands over, and [`app::run()`], which
 //!   starts every thread for a given set of device openers;
-//! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread.
+//! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread;
+//! - [`sim`]: `dima sim`, the application against the simulated devices of `dima-sim`.
 #![deny(missing_docs)]
 
 pub mod app;
@@ -21,4 +22,5 @@ pub mod devices;
 pub mod logging;
 pub mod metrics;
 pub mod rt;
+pub mod sim;
 pub mod telemetry;

@@ -15,13 +15,22 @@ use dima::config::{Config, DEFAULT_TOML};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // In a simulation the status line is the live view: only warnings unless RUST_LOG says so.
+    let level = if matches!(cli.command, Command::Sim(_)) {
+        "warn"
+    } else {
+        "info"
+    };
     tracing_subscriber::fmt()
         .with_env_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
-                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info")),
+                .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
         )
         .with_writer(std::io::stderr)
         .init();
+    if let Command::Sim(args) = &cli.command {
+        return dima::sim::main(args);
+    }
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
@@ -33,6 +42,7 @@ fn main() -> ExitCode {
 
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
+        Command::Sim(_) => unreachable!("dima sim is run from main"),
         Command::Config(args) => {
             if let Some(path) = args.check {
                 let config = Config::load(&path)?;

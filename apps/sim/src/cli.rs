@@ -1,0 +1,188 @@
+//! `dima sim`: the command-line flags and the whole command, given the function that runs the
+//! application.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::Args;
+
+use crate::faults::Faults;
+use crate::runner::{run_simulation, AppLaunch, AppOutcome, SimOptions, StatusMode};
+use crate::scenario::Scenario;
+
+/// Flags of `dima sim`.
+#[derive(Debug, Clone, Args, Default)]
+pub struct SimArgs {
+    /// Scenario: `default` (about 20 s: revive, manual, AUTO, comms loss, revive, kill) or
+    /// `manual` (revive and drive).
+    #[arg(long, default_value = "default", value_name = "NAME")]
+    pub scenario: String,
+    /// Stop after this many seconds (default: the scenario's length; with --ground-pty: run
+    /// until Ctrl-C).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Seed for sensor noise and faults (same seed, same noise).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// A fault on a link, repeatable: LINK:KEY=VALUE[,KEY=VALUE...] with LINK sensor, ground
+    /// or maestro and KEY ber, drop, insert (probabilities), delay, jitter (ms), silence,
+    /// disconnect (START+DURATION s). Example: --fault sensor:ber=1e-4 --fault
+    /// maestro:disconnect=5+1
+    #[arg(long = "fault", value_name = "LINK:KEY=VALUE")]
+    pub faults: Vec<String>,
+    /// Leave the ground link to a ground-station GUI: print the pty path to connect it to,
+    /// instead of running the scripted ground station.
+    #[arg(long)]
+    pub ground_pty: bool,
+    /// Configuration file of the application (its device ports are replaced by the
+    /// simulation's).
+    #[arg(long, short, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Directory for the MCAP log.
+    #[arg(long, default_value = "dima-logs", value_name = "DIR")]
+    pub log_dir: PathBuf,
+    /// Control-loop rate in Hz.
+    #[arg(long, default_value_t = 250, value_name = "HZ")]
+    pub loop_rate: u32,
+    /// Keep the configuration's realtime settings (SCHED_FIFO, CPU pinning, mlockall); by
+    /// default a simulation runs unprivileged.
+    #[arg(long)]
+    pub realtime: bool,
+    /// Plain status lines even on a terminal.
+    #[arg(long, conflicts_with = "quiet")]
+    pub plain: bool,
+    /// No status line, only the summary.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl SimArgs {
+    /// The run these flags describe.
+    pub fn options(&self) -> anyhow::Result<SimOptions> {
+        let scenario = Scenario::by_name(&self.scenario, self.duration).ok_or_else(|| {
+            anyhow::anyhow!("unknown scenario `{}` (default, manual)", self.scenario)
+        })?;
+        let mut faults = Faults::default();
+        for f in &self.faults {
+            faults.apply_arg(f)?;
+        }
+        if let Some(d) = self.duration {
+            if !(d > 0.0 && d.is_finite()) {
+                anyhow::bail!("--duration must be a positive number of seconds");
+            }
+        }
+        let mut o = SimOptions::new(scenario);
+        o.duration_s = self.duration;
+        o.seed = self.seed;
+        o.faults = faults;
+        o.ground_pty = self.ground_pty;
+        o.log_dir = self.log_dir.clone();
+        o.loop_rate_hz = self.loop_rate;
+        o.app_config = self.config.clone();
+        o.realtime = self.realtime;
+        o.status = if self.quiet {
+            StatusMode::Quiet
+        } else if self.plain {
+            StatusMode::Plain
+        } else {
+            StatusMode::Auto
+        };
+        Ok(o)
+    }
+}
+
+/// Runs `dima sim`: the simulation with the application started by `app`; prints the summary
+/// and the log path; exit code 0 when the scenario's checks held, 1 with the reason when one
+/// failed, 2 when the simulation could not run.
+pub fn run<F>(args: &SimArgs, app: F) -> ExitCode
+where
+    F: FnOnce(AppLaunch) -> anyhow::Result<AppOutcome>,
+{
+    let options = match args.options() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("dima sim: {e:#}");
+            return ExitCode::from(2);
+        }
+    };
+    eprintln!(
+        "dima sim: scenario `{}`, {} Hz loop, seed {}; simulated sensor board, Maestro and {} on pseudo-terminals",
+        options.scenario.name,
+        options.loop_rate_hz,
+        options.seed,
+        if options.ground_pty {
+            "a ground-station pty"
+        } else {
+            "scripted ground station"
+        }
+    );
+    match run_simulation(&options, app) {
+        Err(e) => {
+            eprintln!("dima sim: {e:#}");
+            ExitCode::from(2)
+        }
+        Ok(report) => {
+            println!("{}", report.summary().trim_end());
+            if !report.app.summary.is_empty() {
+                println!("app: {}", report.app.summary);
+            }
+            if let Some(p) = &report.app.log_path {
+                println!("MCAP log: {} (open it in Foxglove Studio)", p.display());
+            }
+            match report.failure() {
+                None => {
+                    println!("PASS: every expectation of the scenario held");
+                    ExitCode::SUCCESS
+                }
+                Some(reason) => {
+                    println!("FAIL: {reason}");
+                    ExitCode::from(1)
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Wrapper {
+        #[command(flatten)]
+        sim: SimArgs,
+    }
+
+    #[test]
+    fn flags_become_options() {
+        let w = Wrapper::try_parse_from([
+            "sim",
+            "--duration",
+            "5",
+            "--seed",
+            "9",
+            "--fault",
+            "sensor:ber=1e-4",
+            "--fault",
+            "maestro:disconnect=2+1",
+            "--plain",
+        ])
+        .unwrap();
+        let o = w.sim.options().unwrap();
+        assert_eq!(o.duration_s, Some(5.0));
+        assert_eq!(o.run_length_s(), Some(5.0));
+        assert_eq!(o.seed, 9);
+        assert_eq!(o.faults.sensor.ber, 1e-4);
+        assert_eq!(o.faults.maestro.disconnects.len(), 1);
+        assert_eq!(o.status, StatusMode::Plain);
+        assert_eq!(o.scenario.name, "default");
+
+        let bad = Wrapper::try_parse_from(["sim", "--fault", "usb:ber=1"]).unwrap();
+        assert!(bad.sim.options().is_err());
+        let bad = Wrapper::try_parse_from(["sim", "--scenario", "nope"]).unwrap();
+        assert!(bad.sim.options().is_err());
+        let gui = Wrapper::try_parse_from(["sim", "--ground-pty"]).unwrap();
+        assert_eq!(gui.sim.options().unwrap().run_length_s(), None);
+    }
+}

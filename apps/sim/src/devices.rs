@@ -1,0 +1,534 @@
+//! The simulated devices as threads on the device side of their pseudo-terminals: the sensor
+//! board, the Maestro, the scripted ground station, and the relay that gives a GUI its own pty.
+//!
+//! Each thread applies its link's [`FaultSpec`]: disconnect windows close the pty (the
+//! application sees a hang-up) and reopen it at the end, silent windows send nothing, and
+//! every frame passes through a [`FaultInjector`].
+
+use std::collections::hash_map::DefaultHasher;
+use std::collections::HashSet;
+use std::hash::{Hash, Hasher};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicU16, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
+use pololu_maestro::{CommandDecoder, DecoderConfig};
+
+use crate::board::{BoardConfig, BoardSim};
+use crate::faults::{FaultInjector, FaultSpec, FaultStats};
+use crate::model::VehicleState;
+use crate::pty::SimPty;
+use crate::request::RequestLine;
+use crate::rng::SimRng;
+use crate::world::World;
+
+/// Locks a mutex whatever a panicked thread left behind.
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A 64-bit fingerprint of a frame's bytes.
+pub fn fingerprint(bytes: &[u8]) -> u64 {
+    let mut h = DefaultHasher::new();
+    bytes.hash(&mut h);
+    h.finish()
+}
+
+/// A device's pty and link path, closed and reopened by the link's disconnect windows.
+#[derive(Debug)]
+pub struct LinkPort {
+    link: PathBuf,
+    pty: Option<SimPty>,
+    /// Times the pty was (re)opened.
+    pub opens: u64,
+}
+
+impl LinkPort {
+    /// Opens the first pty behind `link`.
+    pub fn open(link: &Path) -> std::io::Result<LinkPort> {
+        Ok(LinkPort {
+            link: link.to_owned(),
+            pty: Some(SimPty::open(link)?),
+            opens: 1,
+        })
+    }
+
+    /// Closes or reopens according to `spec` at `t_s`; the pty when connected.
+    pub fn update(&mut self, spec: &FaultSpec, t_s: f64) -> Option<&SimPty> {
+        let unplugged = spec.disconnected_at(t_s);
+        if unplugged && self.pty.is_some() {
+            self.pty = None;
+        } else if !unplugged && self.pty.is_none() {
+            if let Ok(p) = SimPty::open(&self.link) {
+                self.pty = Some(p);
+                self.opens += 1;
+            }
+        }
+        self.pty.as_ref()
+    }
+
+    /// The pty, if connected.
+    pub fn pty(&self) -> Option<&SimPty> {
+        self.pty.as_ref()
+    }
+}
+
+/// What the simulated sensor board saw and did.
+#[derive(Debug, Default)]
+pub struct BoardStats {
+    /// Rising edges of the request line.
+    pub requests: AtomicU64,
+    /// Answers written (packet, maybe with an info frame).
+    pub answers: AtomicU64,
+    /// Packets that went out unchanged.
+    pub packets_intact: AtomicU64,
+    /// Packets that went out damaged by the fault injector.
+    pub packets_damaged: AtomicU64,
+    /// Info frames sent.
+    pub info_frames: AtomicU64,
+    /// Answers that were complete later than [`LATE_ANSWER`] after their request (the board
+    /// thread was held up by the machine): the application may count them missing.
+    pub late_answers: AtomicU64,
+    /// Requests not answered: silent window, unplugged, or a request while busy.
+    pub unanswered: AtomicU64,
+    /// Fingerprints of the packets sent unchanged.
+    pub intact: Mutex<HashSet<u64>>,
+    /// Fingerprints of the damaged packets as sent.
+    pub damaged: Mutex<HashSet<u64>>,
+    /// What the fault injector did.
+    pub faults: Mutex<FaultStats>,
+    /// Times the pty was (re)opened.
+    pub opens: AtomicU64,
+}
+
+/// An answer written this long after its request edge misses the application's default packet
+/// deadline (3.7 ms).
+pub const LATE_ANSWER: Duration = Duration::from_micros(3_700);
+
+/// Runs the simulated sensor board until `stop`.
+#[allow(clippy::too_many_arguments)]
+pub fn spawn_board(
+    world: Arc<World>,
+    line: Arc<RequestLine>,
+    mut port: LinkPort,
+    config: BoardConfig,
+    spec: FaultSpec,
+    rng: SimRng,
+    stats: Arc<BoardStats>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("sim-board".into())
+        .spawn(move || {
+            line.listen();
+            // Answer requests promptly on a busy machine when the system allows it.
+            let _ = set_fifo(70);
+            let mut board = BoardSim::new(config, rng.fork(1));
+            let mut injector = FaultInjector::new(spec.clone(), rng.fork(2));
+            let mut seen = line.edges();
+            let mut out = Vec::with_capacity(512);
+            let mut wire = Vec::with_capacity(512);
+            let mut junk = [0u8; 256];
+            while !stop.load(Ordering::Relaxed) {
+                let now = line.wait_edge(seen, Duration::from_millis(5));
+                let t = world.now_s();
+                let connected = port.update(&spec, t).is_some();
+                stats.opens.store(port.opens, Ordering::Relaxed);
+                if let Some(pty) = port.pty() {
+                    // The host sends nothing on this link; drop whatever arrives.
+                    let _ = pty.read(&mut junk, Duration::ZERO);
+                }
+                if now == seen {
+                    continue;
+                }
+                let edges = now - seen;
+                seen = now;
+                stats.requests.fetch_add(edges, Ordering::Relaxed);
+                if edges > 1 {
+                    // Requests while the previous answer was still going out.
+                    for _ in 1..edges {
+                        board.skip_request();
+                    }
+                    stats.unanswered.fetch_add(edges - 1, Ordering::Relaxed);
+                }
+                if !connected || spec.silent_at(t) {
+                    stats.unanswered.fetch_add(1, Ordering::Relaxed);
+                    continue;
+                }
+                let state: VehicleState = world.state();
+                let answer = board.answer(t, &state);
+                let delay = injector.delay();
+                if !delay.is_zero() {
+                    std::thread::sleep(delay);
+                }
+                wire.clear();
+                injector.mangle(&answer.packet, &mut out);
+                wire.extend_from_slice(&out);
+                // Intact: the packet's bytes arrive unchanged and in one piece (garbage
+                // inserted before its first byte does not damage it).
+                let intact = out.windows(answer.packet.len()).any(|w| w == answer.packet);
+                if intact {
+                    stats.packets_intact.fetch_add(1, Ordering::Relaxed);
+                    lock(&stats.intact).insert(fingerprint(&answer.packet));
+                } else {
+                    stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
+                    lock(&stats.damaged).insert(fingerprint(&out));
+                }
+                if let Some(info) = answer.info {
+                    injector.mangle(&info, &mut out);
+                    wire.extend_from_slice(&out);
+                    stats.info_frames.fetch_add(1, Ordering::Relaxed);
+                }
+                if let Some(pty) = port.pty() {
+                    let _ = pty.write(&wire, Duration::from_millis(50));
+                }
+                if line.since_last_edge() > LATE_ANSWER && line.edges() == seen {
+                    stats.late_answers.fetch_add(1, Ordering::Relaxed);
+                }
+                stats.answers.fetch_add(1, Ordering::Relaxed);
+                *lock(&stats.faults) = injector.stats();
+            }
+        })
+}
+
+/// SCHED_FIFO for the calling thread when permitted (ignored otherwise).
+fn set_fifo(priority: i32) -> std::io::Result<()> {
+    let param = nix::libc::sched_param {
+        sched_priority: priority,
+    };
+    // SAFETY: pthread_self() is the calling thread and `param` a valid sched_param.
+    let rc = unsafe {
+        nix::libc::pthread_setschedparam(nix::libc::pthread_self(), nix::libc::SCHED_FIFO, &param)
+    };
+    if rc == 0 {
+        Ok(())
+    } else {
+        Err(std::io::Error::from_raw_os_error(rc))
+    }
+}
+
+/// One change of the Maestro's outputs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OutputChange {
+    /// Simulation time, s.
+    pub t_s: f64,
+    /// Targets of the throttle, steering and tail channels, quarter-µs (0: no pulses).
+    pub targets_qus: [u16; 3],
+}
+
+/// What the simulated Maestro received.
+#[derive(Debug)]
+pub struct MaestroStats {
+    /// Current target of every channel, quarter-µs (0xFFFF: never set).
+    pub targets: [AtomicU16; 24],
+    /// Set Target commands decoded.
+    pub commands: AtomicU64,
+    /// Bytes the decoder could not use.
+    pub dropped_bytes: AtomicU64,
+    /// Every change of the three DIMA channels, in order.
+    pub history: Mutex<Vec<OutputChange>>,
+    /// Times the pty was (re)opened.
+    pub opens: AtomicU64,
+    /// Commands received since the last (re)open.
+    pub commands_since_open: AtomicU64,
+}
+
+impl Default for MaestroStats {
+    fn default() -> Self {
+        MaestroStats {
+            targets: std::array::from_fn(|_| AtomicU16::new(0xFFFF)),
+            commands: AtomicU64::new(0),
+            dropped_bytes: AtomicU64::new(0),
+            history: Mutex::new(Vec::new()),
+            opens: AtomicU64::new(0),
+            commands_since_open: AtomicU64::new(0),
+        }
+    }
+}
+
+impl MaestroStats {
+    /// Targets of `channels`, quarter-µs.
+    pub fn targets_of(&self, channels: [u8; 3]) -> [u16; 3] {
+        channels.map(|c| self.targets[usize::from(c) % 24].load(Ordering::Relaxed))
+    }
+
+    /// The outputs in force at simulation time `t_s` (None before the first command).
+    pub fn outputs_at(&self, t_s: f64) -> Option<[u16; 3]> {
+        lock(&self.history)
+            .iter()
+            .take_while(|c| c.t_s <= t_s)
+            .last()
+            .map(|c| c.targets_qus)
+    }
+
+    /// A copy of the history.
+    pub fn history(&self) -> Vec<OutputChange> {
+        lock(&self.history).clone()
+    }
+}
+
+/// Runs the simulated Maestro until `stop`; `channels` are the throttle, steering and tail
+/// channel numbers whose pulses drive the model.
+pub fn spawn_maestro(
+    world: Arc<World>,
+    mut port: LinkPort,
+    channels: [u8; 3],
+    spec: FaultSpec,
+    rng: SimRng,
+    stats: Arc<MaestroStats>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("sim-maestro".into())
+        .spawn(move || {
+            let mut decoder = CommandDecoder::new(DecoderConfig::default());
+            let mut injector = FaultInjector::new(spec.clone(), rng.fork(3));
+            let mut buf = [0u8; 512];
+            let mut mangled = Vec::with_capacity(512);
+            let mut last = [0xFFFFu16; 3];
+            let mut opens = 0;
+            while !stop.load(Ordering::Relaxed) {
+                let t = world.now_s();
+                let connected = port.update(&spec, t).is_some();
+                if port.opens != opens {
+                    opens = port.opens;
+                    // A Maestro that was unplugged lost its targets: the host must send them again.
+                    decoder.reset();
+                    for t in &stats.targets {
+                        t.store(0xFFFF, Ordering::Relaxed);
+                    }
+                    last = [0xFFFF; 3];
+                    stats.opens.store(opens, Ordering::Relaxed);
+                    stats.commands_since_open.store(0, Ordering::Relaxed);
+                }
+                let (true, Some(pty)) = (connected, port.pty()) else {
+                    std::thread::sleep(Duration::from_millis(5));
+                    continue;
+                };
+                let n = pty.read(&mut buf, Duration::from_millis(5)).unwrap_or(0);
+                if n == 0 {
+                    continue;
+                }
+                // Errors on the way in (the USB link) are applied to what the device receives.
+                injector.mangle(&buf[..n], &mut mangled);
+                for &b in &mangled {
+                    let Some(command) = decoder.push(b) else {
+                        continue;
+                    };
+                    let set = |ch: u8, qus: u16| {
+                        if let Some(slot) = stats.targets.get(usize::from(ch)) {
+                            slot.store(qus, Ordering::Relaxed);
+                        }
+                        stats.commands.fetch_add(1, Ordering::Relaxed);
+                        stats.commands_since_open.fetch_add(1, Ordering::Relaxed);
+                    };
+                    match command {
+                        pololu_maestro::Command::SetTarget { channel, target } => {
+                            set(channel.index(), target.get())
+                        }
+                        pololu_maestro::Command::SetMultipleTargets(m) => {
+                            for (ch, target) in m.iter() {
+                                set(ch, target.get());
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                stats
+                    .dropped_bytes
+                    .store(u64::from(decoder.stats().dropped_bytes), Ordering::Relaxed);
+                let now = stats.targets_of(channels);
+                if now != last && now.iter().all(|&q| q != 0xFFFF) {
+                    last = now;
+                    lock(&stats.history).push(OutputChange {
+                        t_s: world.now_s(),
+                        targets_qus: now,
+                    });
+                    world.set_pulses(now.map(|q| f64::from(q) / 4.0));
+                }
+            }
+        })
+}
+
+/// One step of a ground-station script.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum GroundAction {
+    /// Send a command (it replaces the heartbeat of its 100 ms slot).
+    Send(Command),
+    /// Stop sending anything (the operator's radio is off).
+    Silence,
+    /// Resume heartbeats.
+    Resume,
+    /// Send these exact bytes (a frame captured from another ground station).
+    Raw([u8; 10]),
+}
+
+/// A ground-station action at a time of the run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ScriptStep {
+    /// When, s from the start.
+    pub at_s: f64,
+    /// What.
+    pub action: GroundAction,
+}
+
+/// What the scripted ground station sent and received.
+#[derive(Debug, Default)]
+pub struct GroundStats {
+    /// Frames sent (heartbeats and commands).
+    pub frames_sent: AtomicU64,
+    /// Commands other than heartbeats sent, with their times.
+    pub commands: Mutex<Vec<(f64, Command)>>,
+    /// Time of the last frame sent, s (NaN before the first).
+    pub last_sent_s: Mutex<Option<f64>>,
+    /// Display frames received intact.
+    pub displays: AtomicU64,
+    /// Display frames rejected by the decoder (CRC or range).
+    pub display_errors: AtomicU64,
+    /// The last display frame and its arrival time, s.
+    pub last_display: Mutex<Option<(f64, DisplayFrame)>>,
+    /// Samples of the model: time and state, once per 100 ms.
+    pub truth: Mutex<Vec<VehicleState>>,
+}
+
+/// The frame period of the ground station (DESIGN 2.2: one frame every 100 ms).
+pub const GROUND_PERIOD_S: f64 = 0.1;
+
+/// Runs the scripted ground station until `stop`.
+#[allow(clippy::too_many_arguments)]
+pub fn spawn_ground(
+    world: Arc<World>,
+    mut port: LinkPort,
+    script: Vec<ScriptStep>,
+    heartbeat: [u8; 10],
+    spec: FaultSpec,
+    rng: SimRng,
+    stats: Arc<GroundStats>,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("sim-ground".into())
+        .spawn(move || {
+            let mut injector = FaultInjector::new(spec.clone(), rng.fork(4));
+            let mut decoder = DisplayDecoder::new();
+            let mut next_slot = 0.0f64;
+            let mut step = 0usize;
+            let mut sending = true;
+            let mut buf = [0u8; 512];
+            let mut out = Vec::with_capacity(64);
+            let mut wire = Vec::with_capacity(256);
+            while !stop.load(Ordering::Relaxed) {
+                let t = world.now_s();
+                let connected = port.update(&spec, t).is_some();
+                if let Some(pty) = port.pty() {
+                    let wait = (next_slot - t).clamp(0.0, 0.01);
+                    let n = pty
+                        .read(&mut buf, Duration::from_secs_f64(wait))
+                        .unwrap_or(0);
+                    let at = world.now_s();
+                    for result in decoder.feed(&buf[..n]) {
+                        match result {
+                            Ok(frame) => {
+                                stats.displays.fetch_add(1, Ordering::Relaxed);
+                                *lock(&stats.last_display) = Some((at, frame));
+                            }
+                            Err(_) => {
+                                stats.display_errors.fetch_add(1, Ordering::Relaxed);
+                            }
+                        }
+                    }
+                } else {
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+                let t = world.now_s();
+                if t < next_slot {
+                    continue;
+                }
+                next_slot += GROUND_PERIOD_S;
+                if next_slot < t {
+                    next_slot = t + GROUND_PERIOD_S;
+                }
+                lock(&stats.truth).push(world.state());
+                // Everything due now, in script order.
+                let mut frames: Vec<(Option<Command>, [u8; 10])> = Vec::new();
+                while let Some(s) = script.get(step).filter(|s| s.at_s <= t) {
+                    match s.action {
+                        GroundAction::Send(c) => frames.push((Some(c), c.encode())),
+                        GroundAction::Raw(bytes) => frames.push((None, bytes)),
+                        GroundAction::Silence => sending = false,
+                        GroundAction::Resume => sending = true,
+                    }
+                    step += 1;
+                }
+                if !sending || !connected || spec.silent_at(t) {
+                    continue;
+                }
+                if frames.is_empty() {
+                    frames.push((None, heartbeat));
+                }
+                wire.clear();
+                for (_, bytes) in &frames {
+                    injector.mangle(bytes, &mut out);
+                    wire.extend_from_slice(&out);
+                }
+                let delay = injector.delay();
+                if !delay.is_zero() {
+                    std::thread::sleep(delay);
+                }
+                if let Some(pty) = port.pty() {
+                    if pty.write(&wire, Duration::from_millis(50)).unwrap_or(0) == wire.len() {
+                        let sent_at = world.now_s();
+                        stats
+                            .frames_sent
+                            .fetch_add(frames.len() as u64, Ordering::Relaxed);
+                        *lock(&stats.last_sent_s) = Some(sent_at);
+                        let mut log = lock(&stats.commands);
+                        for c in frames.iter().filter_map(|(c, _)| *c) {
+                            log.push((sent_at, c));
+                        }
+                    }
+                }
+            }
+        })
+}
+
+/// Copies bytes both ways between the application's XBee pty and a second pty a ground-station
+/// GUI opens (a null-modem cable), applying the ground link's faults towards the robot.
+pub fn spawn_relay(
+    world: Arc<World>,
+    mut robot: LinkPort,
+    station: SimPty,
+    spec: FaultSpec,
+    rng: SimRng,
+    stop: Arc<AtomicBool>,
+) -> std::io::Result<JoinHandle<()>> {
+    std::thread::Builder::new()
+        .name("sim-relay".into())
+        .spawn(move || {
+            let mut injector = FaultInjector::new(spec.clone(), rng.fork(5));
+            let mut buf = [0u8; 512];
+            let mut out = Vec::with_capacity(512);
+            while !stop.load(Ordering::Relaxed) {
+                let t = world.now_s();
+                let robot_pty = robot.update(&spec, t);
+                let n = station
+                    .read(&mut buf, Duration::from_millis(2))
+                    .unwrap_or(0);
+                if let Some(r) = robot_pty {
+                    if n > 0 && !spec.silent_at(t) {
+                        injector.mangle(&buf[..n], &mut out);
+                        let _ = r.write(&out, Duration::from_millis(20));
+                    }
+                    let m = r.read(&mut buf, Duration::from_millis(2)).unwrap_or(0);
+                    if m > 0 {
+                        let _ = station.write(&buf[..m], Duration::from_millis(20));
+                    }
+                } else {
+                    std::thread::sleep(Duration::from_millis(2));
+                }
+            }
+        })
+}

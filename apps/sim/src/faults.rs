@@ -1,0 +1,376 @@
+//! Fault injection per link: bit errors, byte drops and insertions, added delay and jitter,
+//! silent periods and disconnects at given times.
+//!
+//! A [`FaultSpec`] is plain data (from the command line: `--fault sensor:ber=1e-3`); a
+//! [`FaultInjector`] applies it to each frame a simulated device sends and counts what it did,
+//! so tests can compare what the application accepted with what arrived intact.
+
+use std::fmt;
+use std::str::FromStr;
+use std::time::Duration;
+
+use crate::rng::SimRng;
+
+/// A time window of a run, seconds from the start.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    /// Start, s.
+    pub start_s: f64,
+    /// Length, s.
+    pub duration_s: f64,
+}
+
+impl Window {
+    /// Whether `t_s` falls inside.
+    pub fn contains(&self, t_s: f64) -> bool {
+        t_s >= self.start_s && t_s < self.start_s + self.duration_s
+    }
+}
+
+impl FromStr for Window {
+    type Err = FaultParseError;
+
+    /// `START+DURATION` in seconds, e.g. `5+2`.
+    fn from_str(s: &str) -> Result<Window, FaultParseError> {
+        let bad = || FaultParseError(format!("window `{s}`: expected START+DURATION seconds"));
+        let (a, b) = s.split_once('+').ok_or_else(bad)?;
+        let start_s: f64 = a.trim().parse().map_err(|_| bad())?;
+        let duration_s: f64 = b.trim().parse().map_err(|_| bad())?;
+        if !(start_s >= 0.0 && duration_s > 0.0) {
+            return Err(bad());
+        }
+        Ok(Window {
+            start_s,
+            duration_s,
+        })
+    }
+}
+
+/// Which link a fault applies to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Link {
+    /// Sensor board -> application (UART).
+    Sensor,
+    /// Ground station -> application (XBee).
+    Ground,
+    /// Application -> Maestro (USB serial).
+    Maestro,
+}
+
+/// What can go wrong on one link.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct FaultSpec {
+    /// Probability that any one bit is flipped.
+    pub ber: f64,
+    /// Probability that any one byte is lost.
+    pub drop_rate: f64,
+    /// Probability that a random byte is inserted before any one byte.
+    pub insert_rate: f64,
+    /// Delay added to every frame, ms.
+    pub delay_ms: f64,
+    /// Uniform extra delay `0..jitter_ms` per frame, ms.
+    pub jitter_ms: f64,
+    /// Windows in which the device sends nothing.
+    pub silences: Vec<Window>,
+    /// Windows in which the device is unplugged (pty closed, reopened at the end).
+    pub disconnects: Vec<Window>,
+}
+
+/// A `--fault` argument that could not be understood.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct FaultParseError(pub String);
+
+impl FaultSpec {
+    /// Whether this spec changes anything.
+    pub fn is_nominal(&self) -> bool {
+        *self == FaultSpec::default()
+    }
+
+    /// Applies one `KEY=VALUE` setting: `ber`, `drop`, `insert` (probabilities), `delay`,
+    /// `jitter` (ms), `silence`, `disconnect` (`START+DURATION` s, repeatable).
+    pub fn set(&mut self, setting: &str) -> Result<(), FaultParseError> {
+        let (key, value) = setting
+            .split_once('=')
+            .ok_or_else(|| FaultParseError(format!("`{setting}`: expected KEY=VALUE")))?;
+        let number = |v: &str| -> Result<f64, FaultParseError> {
+            v.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite() && *x >= 0.0)
+                .ok_or_else(|| FaultParseError(format!("`{setting}`: not a number >= 0")))
+        };
+        let probability = |v: &str| -> Result<f64, FaultParseError> {
+            let p = number(v)?;
+            if p > 1.0 {
+                return Err(FaultParseError(format!("`{setting}`: probability above 1")));
+            }
+            Ok(p)
+        };
+        match key.trim() {
+            "ber" => self.ber = probability(value)?,
+            "drop" => self.drop_rate = probability(value)?,
+            "insert" => self.insert_rate = probability(value)?,
+            "delay" => self.delay_ms = number(value)?,
+            "jitter" => self.jitter_ms = number(value)?,
+            "silence" => self.silences.push(value.parse()?),
+            "disconnect" => self.disconnects.push(value.parse()?),
+            other => {
+                return Err(FaultParseError(format!(
+                "unknown fault `{other}` (ber, drop, insert, delay, jitter, silence, disconnect)"
+            )))
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the device is silent at `t_s`.
+    pub fn silent_at(&self, t_s: f64) -> bool {
+        self.silences.iter().any(|w| w.contains(t_s))
+    }
+
+    /// Whether the device is unplugged at `t_s`.
+    pub fn disconnected_at(&self, t_s: f64) -> bool {
+        self.disconnects.iter().any(|w| w.contains(t_s))
+    }
+}
+
+/// Faults for every link.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Faults {
+    /// Sensor-board UART.
+    pub sensor: FaultSpec,
+    /// Ground link.
+    pub ground: FaultSpec,
+    /// Maestro port.
+    pub maestro: FaultSpec,
+}
+
+impl Faults {
+    /// The spec of one link.
+    pub fn link_mut(&mut self, link: Link) -> &mut FaultSpec {
+        match link {
+            Link::Sensor => &mut self.sensor,
+            Link::Ground => &mut self.ground,
+            Link::Maestro => &mut self.maestro,
+        }
+    }
+
+    /// Applies a `LINK:KEY=VALUE[,KEY=VALUE...]` argument, e.g. `sensor:ber=1e-3,drop=1e-4`.
+    pub fn apply_arg(&mut self, arg: &str) -> Result<(), FaultParseError> {
+        let (link, settings) = arg.split_once(':').ok_or_else(|| {
+            FaultParseError(format!(
+                "`{arg}`: expected LINK:KEY=VALUE (link: sensor, ground, maestro)"
+            ))
+        })?;
+        let link = match link.trim() {
+            "sensor" => Link::Sensor,
+            "ground" | "xbee" => Link::Ground,
+            "maestro" => Link::Maestro,
+            other => {
+                return Err(FaultParseError(format!(
+                    "unknown link `{other}` (sensor, ground, maestro)"
+                )))
+            }
+        };
+        for setting in settings.split(',').filter(|s| !s.trim().is_empty()) {
+            self.link_mut(link).set(setting)?;
+        }
+        Ok(())
+    }
+}
+
+/// What an injector did to the frames it passed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FaultStats {
+    /// Frames handed to the injector.
+    pub frames: u64,
+    /// Frames that went out unchanged.
+    pub intact: u64,
+    /// Bits flipped.
+    pub bits_flipped: u64,
+    /// Bytes dropped.
+    pub bytes_dropped: u64,
+    /// Bytes inserted.
+    pub bytes_inserted: u64,
+}
+
+impl fmt::Display for FaultStats {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} frames, {} intact, {} bits flipped, {} bytes dropped, {} inserted",
+            self.frames, self.intact, self.bits_flipped, self.bytes_dropped, self.bytes_inserted
+        )
+    }
+}
+
+/// Applies a [`FaultSpec`] to a device's outgoing frames.
+#[derive(Debug, Clone)]
+pub struct FaultInjector {
+    spec: FaultSpec,
+    rng: SimRng,
+    stats: FaultStats,
+}
+
+impl FaultInjector {
+    /// An injector for `spec` drawing from `rng`.
+    pub fn new(spec: FaultSpec, rng: SimRng) -> FaultInjector {
+        FaultInjector {
+            spec,
+            rng,
+            stats: FaultStats::default(),
+        }
+    }
+
+    /// The spec.
+    pub fn spec(&self) -> &FaultSpec {
+        &self.spec
+    }
+
+    /// What was done so far.
+    pub fn stats(&self) -> FaultStats {
+        self.stats
+    }
+
+    /// Copies `frame` into `out` with bit errors, drops and insertions; returns whether it went
+    /// out unchanged.
+    pub fn mangle(&mut self, frame: &[u8], out: &mut Vec<u8>) -> bool {
+        out.clear();
+        let before = self.stats;
+        let s = &self.spec;
+        for &byte in frame {
+            if self.rng.chance(s.insert_rate) {
+                out.push(self.rng.next_u64() as u8);
+                self.stats.bytes_inserted += 1;
+            }
+            if self.rng.chance(s.drop_rate) {
+                self.stats.bytes_dropped += 1;
+                continue;
+            }
+            let mut b = byte;
+            if s.ber > 0.0 {
+                for bit in 0..8 {
+                    if self.rng.chance(s.ber) {
+                        b ^= 1 << bit;
+                        self.stats.bits_flipped += 1;
+                    }
+                }
+            }
+            out.push(b);
+        }
+        self.stats.frames += 1;
+        let intact = self.stats.bits_flipped == before.bits_flipped
+            && self.stats.bytes_dropped == before.bytes_dropped
+            && self.stats.bytes_inserted == before.bytes_inserted;
+        if intact {
+            self.stats.intact += 1;
+        }
+        intact
+    }
+
+    /// The delay before this frame goes out.
+    pub fn delay(&mut self) -> Duration {
+        let ms = self.spec.delay_ms + self.spec.jitter_ms * self.rng.uniform();
+        Duration::from_secs_f64(ms / 1e3)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_the_command_line_form() {
+        let mut f = Faults::default();
+        f.apply_arg("sensor:ber=1e-3,drop=0.001").unwrap();
+        f.apply_arg("maestro:disconnect=4+1.5").unwrap();
+        f.apply_arg("ground:silence=3+2,delay=20,jitter=5").unwrap();
+        assert_eq!(f.sensor.ber, 1e-3);
+        assert_eq!(f.sensor.drop_rate, 1e-3);
+        assert_eq!(
+            f.maestro.disconnects,
+            vec![Window {
+                start_s: 4.0,
+                duration_s: 1.5
+            }]
+        );
+        assert!(f.ground.silent_at(4.9) && !f.ground.silent_at(5.0) && !f.ground.silent_at(2.9));
+        assert_eq!(f.ground.delay_ms, 20.0);
+        for bad in [
+            "sensor",
+            "usb:ber=1",
+            "sensor:ber=2",
+            "sensor:ber=x",
+            "sensor:silence=5",
+            "sensor:noise=1",
+            "sensor:delay=-1",
+        ] {
+            assert!(Faults::default().apply_arg(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn nominal_spec_passes_frames_unchanged() {
+        let mut inj = FaultInjector::new(FaultSpec::default(), SimRng::new(1));
+        let mut out = Vec::new();
+        let frame: Vec<u8> = (0..=255).collect();
+        for _ in 0..100 {
+            assert!(inj.mangle(&frame, &mut out));
+            assert_eq!(out, frame);
+        }
+        assert_eq!(inj.stats().intact, 100);
+        assert_eq!(inj.delay(), Duration::ZERO);
+    }
+
+    #[test]
+    fn bit_error_rate_and_intact_count_agree() {
+        let spec = FaultSpec {
+            ber: 1e-3,
+            ..FaultSpec::default()
+        };
+        let mut inj = FaultInjector::new(spec, SimRng::new(42));
+        let frame = [0x55u8; 132];
+        let mut out = Vec::new();
+        let mut intact = 0;
+        let mut flipped = 0u64;
+        for _ in 0..2_000 {
+            if inj.mangle(&frame, &mut out) {
+                intact += 1;
+                assert_eq!(out, frame);
+            } else {
+                flipped += out
+                    .iter()
+                    .zip(frame)
+                    .map(|(a, b)| u64::from((a ^ b).count_ones()))
+                    .sum::<u64>();
+            }
+        }
+        let s = inj.stats();
+        assert_eq!(s.intact, intact);
+        assert_eq!(s.bits_flipped, flipped);
+        // 2000 * 1056 bits * 1e-3 = 2112 expected flips; P(intact) = (1 - 1e-3)^1056 = 0.348.
+        assert!((1_800..2_400).contains(&flipped), "{flipped}");
+        assert!((600..800).contains(&intact), "{intact}");
+    }
+
+    #[test]
+    fn drops_and_insertions_change_the_length() {
+        let spec = FaultSpec {
+            drop_rate: 0.01,
+            insert_rate: 0.01,
+            jitter_ms: 4.0,
+            delay_ms: 1.0,
+            ..FaultSpec::default()
+        };
+        let mut inj = FaultInjector::new(spec, SimRng::new(3));
+        let mut out = Vec::new();
+        for _ in 0..1_000 {
+            inj.mangle(&[0u8; 100], &mut out);
+            let d = inj.delay();
+            assert!(d >= Duration::from_millis(1) && d < Duration::from_millis(5));
+        }
+        let s = inj.stats();
+        assert!((700..1_300).contains(&s.bytes_dropped), "{s:?}");
+        assert!((700..1_300).contains(&s.bytes_inserted), "{s:?}");
+    }
+}

@@ -1,0 +1,674 @@
+//! The simulation runner: builds the simulated devices on pseudo-terminals, hands their paths
+//! and the request line to the application, shows a live status line, and judges the run.
+//!
+//! The runner does not know the application's types: the caller passes a function that runs
+//! the real application against an [`AppLaunch`] (pty paths, request pin, stop flag) and
+//! reports an [`AppOutcome`]. `dima sim` passes the one that calls the application's `run`
+//! with its production device layer.
+
+use std::io::{IsTerminal, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use anyhow::Context;
+
+use crate::board::BoardConfig;
+use crate::devices::{
+    spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardStats, GroundStats, LinkPort,
+    MaestroStats,
+};
+use crate::faults::Faults;
+use crate::logcheck::LogSummary;
+use crate::model::VehicleParams;
+use crate::pty::SimPty;
+use crate::request::{RequestLine, RequestPin};
+use crate::rng::SimRng;
+use crate::scenario::{evaluate, Evidence, Scenario, SAFE_US};
+use crate::world::World;
+
+/// The application's live state as its logger thread sees it, for the status line.
+#[derive(Debug)]
+pub struct AppStatus {
+    /// Mode code: 0 KILLED, 1 MANUAL, 2 AUTO, 3 FAILSAFE; 255 before the first cycle.
+    pub mode: AtomicU8,
+    /// Cycles run.
+    pub cycles: AtomicU64,
+    /// Valid packets.
+    pub packets_ok: AtomicU64,
+    /// Packets rejected by the CRC.
+    pub crc_errors: AtomicU64,
+    /// Cycles without a valid packet.
+    pub packets_missing: AtomicU64,
+}
+
+impl Default for AppStatus {
+    fn default() -> Self {
+        AppStatus {
+            mode: AtomicU8::new(u8::MAX),
+            cycles: AtomicU64::new(0),
+            packets_ok: AtomicU64::new(0),
+            crc_errors: AtomicU64::new(0),
+            packets_missing: AtomicU64::new(0),
+        }
+    }
+}
+
+impl AppStatus {
+    /// The mode's name.
+    pub fn mode_name(&self) -> &'static str {
+        match self.mode.load(Ordering::Relaxed) {
+            0 => "KILLED",
+            1 => "MANUAL",
+            2 => "AUTO",
+            3 => "FAILSAFE",
+            _ => "starting",
+        }
+    }
+}
+
+/// What the application gets to run against.
+#[derive(Debug)]
+pub struct AppLaunch {
+    /// Sensor-board serial port (a pty link).
+    pub sensor_port: PathBuf,
+    /// Maestro serial port.
+    pub maestro_port: PathBuf,
+    /// XBee serial port.
+    pub xbee_port: PathBuf,
+    /// The request line (clone it for every open of the sensor board).
+    pub request: RequestPin,
+    /// Directory for the MCAP log.
+    pub log_dir: PathBuf,
+    /// Loop rate, Hz.
+    pub loop_rate_hz: u32,
+    /// The application's configuration file, if one was given (its ports are replaced).
+    pub config: Option<PathBuf>,
+    /// Keep the configuration's realtime settings (SCHED_FIFO, pinning, mlockall) instead of
+    /// the unprivileged ones a simulation uses by default.
+    pub realtime: bool,
+    /// Where the application reports its live state (optional: the status line shows what
+    /// it gets).
+    pub status: Arc<AppStatus>,
+    /// Set to stop the application (the runner sets it at the end of the scenario; signal
+    /// handlers may set it earlier).
+    pub stop: Arc<AtomicBool>,
+}
+
+/// The application's counters at the end of a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AppCounters {
+    /// Cycles run.
+    pub cycles: u64,
+    /// Periods missed.
+    pub missed_periods: u64,
+    /// Valid packets.
+    pub packets_ok: u64,
+    /// Cycles without a valid packet.
+    pub packets_missing: u64,
+    /// Packets rejected by the CRC.
+    pub packet_crc_errors: u64,
+    /// Bytes skipped by the stream decoder.
+    pub packet_bytes_skipped: u64,
+    /// Info frames received.
+    pub info_frames: u64,
+    /// FAILSAFE entries.
+    pub failsafes: u64,
+    /// Devices (re)connected.
+    pub device_connects: u64,
+    /// Command frames applied.
+    pub commands: u64,
+    /// Command frames the telemetry thread decoded.
+    pub ground_frames: u64,
+    /// Command frames it rejected (CRC, range, unknown type).
+    pub ground_rejected: u64,
+}
+
+/// What the application reports after its run.
+#[derive(Debug, Clone, Default)]
+pub struct AppOutcome {
+    /// The MCAP log, if one was written.
+    pub log_path: Option<PathBuf>,
+    /// The application's own one-line summary.
+    pub summary: String,
+    /// Counters.
+    pub counters: AppCounters,
+}
+
+/// How the status is shown.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StatusMode {
+    /// A live line on a terminal, plain lines otherwise.
+    #[default]
+    Auto,
+    /// Plain lines, one per second.
+    Plain,
+    /// Nothing until the summary.
+    Quiet,
+}
+
+/// Everything a run needs.
+#[derive(Debug, Clone)]
+pub struct SimOptions {
+    /// The scenario.
+    pub scenario: Scenario,
+    /// Stop after this long instead of the scenario's length, s.
+    pub duration_s: Option<f64>,
+    /// Seed of every random choice (noise, faults).
+    pub seed: u64,
+    /// Faults per link.
+    pub faults: Faults,
+    /// Give the ground link to a GUI on a second pty instead of the scripted station.
+    pub ground_pty: bool,
+    /// Directory for the pty links (created; removed at the end).
+    pub run_dir: PathBuf,
+    /// Directory for the MCAP log.
+    pub log_dir: PathBuf,
+    /// Loop rate, Hz.
+    pub loop_rate_hz: u32,
+    /// Sensor board settings.
+    pub board: BoardConfig,
+    /// Vehicle parameters.
+    pub vehicle: VehicleParams,
+    /// Status display.
+    pub status: StatusMode,
+    /// The application's configuration file.
+    pub app_config: Option<PathBuf>,
+    /// Keep the configuration's realtime settings.
+    pub realtime: bool,
+}
+
+impl SimOptions {
+    /// Defaults for `scenario`: seed 1, no faults, links under the temp directory, log in
+    /// `./dima-logs`.
+    pub fn new(scenario: Scenario) -> SimOptions {
+        SimOptions {
+            scenario,
+            duration_s: None,
+            seed: 1,
+            faults: Faults::default(),
+            ground_pty: false,
+            run_dir: std::env::temp_dir().join(format!("dima-sim-{}", std::process::id())),
+            log_dir: PathBuf::from("dima-logs"),
+            loop_rate_hz: 250,
+            board: BoardConfig::default(),
+            vehicle: VehicleParams::default(),
+            status: StatusMode::Auto,
+            app_config: None,
+            realtime: false,
+        }
+    }
+
+    /// How long the run lasts, s (None: until stopped, with a GUI).
+    pub fn run_length_s(&self) -> Option<f64> {
+        if self.ground_pty {
+            self.duration_s
+        } else {
+            Some(self.duration_s.unwrap_or(self.scenario.duration_s))
+        }
+    }
+}
+
+/// A copy of what the simulated devices counted.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct DeviceCounts {
+    /// Request edges seen by the board.
+    pub requests: u64,
+    /// Answers sent.
+    pub answers: u64,
+    /// Packets sent unchanged.
+    pub packets_intact: u64,
+    /// Packets sent damaged.
+    pub packets_damaged: u64,
+    /// Requests not answered (silent, unplugged, busy).
+    pub unanswered: u64,
+    /// Info frames sent.
+    pub info_frames: u64,
+    /// Answers complete later than the default packet deadline after their request.
+    pub late_answers: u64,
+    /// Sensor pty opens.
+    pub sensor_opens: u64,
+    /// Maestro commands decoded.
+    pub maestro_commands: u64,
+    /// Maestro pty opens.
+    pub maestro_opens: u64,
+    /// Maestro commands since its last reopen.
+    pub maestro_commands_since_open: u64,
+    /// Ground frames sent.
+    pub ground_frames: u64,
+    /// Outputs at the Maestro at the end, µs (None: never set).
+    pub final_outputs_us: Option<[u16; 3]>,
+    /// Display frames received intact.
+    pub displays: u64,
+    /// Display frames rejected.
+    pub display_errors: u64,
+}
+
+/// The result of a run.
+#[derive(Debug, Clone)]
+pub struct SimReport {
+    /// Every check held (skipped ones aside).
+    pub passed: bool,
+    /// Check results: description and failure reason.
+    pub checks: Vec<(String, Option<Result<(), String>>)>,
+    /// The application's outcome.
+    pub app: AppOutcome,
+    /// Device-side counts.
+    pub devices: DeviceCounts,
+    /// Logged raw packets that the board did not send intact (must be 0).
+    pub false_accepts: u64,
+    /// Logged raw packets that the board sent intact.
+    pub logged_intact: u64,
+    /// The log, read back.
+    pub log: Option<LogSummary>,
+    /// Evidence the checks used.
+    pub evidence: Evidence,
+    /// Run length, s.
+    pub ran_s: f64,
+    /// Stopped early by a signal.
+    pub interrupted: bool,
+}
+
+impl SimReport {
+    /// A short human summary (several lines).
+    pub fn summary(&self) -> String {
+        let d = &self.devices;
+        let c = &self.app.counters;
+        let mut s =
+            format!(
+            "ran {:.1} s{}: {} cycles, {} packets ok, {} CRC errors, {} missing, {} failsafe(s)\n\
+             board: {} requests, {} answers ({} damaged by faults, {} late), {} info frames; \
+             maestro: {} commands, {} opens; ground: {} frames sent, {} display frames back\n",
+            self.ran_s,
+            if self.interrupted { " (interrupted)" } else { "" },
+            c.cycles,
+            c.packets_ok,
+            c.packet_crc_errors,
+            c.packets_missing,
+            c.failsafes,
+            d.requests,
+            d.answers,
+            d.packets_damaged,
+            d.late_answers,
+            d.info_frames,
+            d.maestro_commands,
+            d.maestro_opens,
+            d.ground_frames,
+            d.displays,
+        );
+        if let Some(o) = d.final_outputs_us {
+            s.push_str(&format!(
+                "final outputs at the Maestro: {}/{}/{} µs{}\n",
+                o[0],
+                o[1],
+                o[2],
+                if o == SAFE_US { " (safe)" } else { "" }
+            ));
+        }
+        for (name, result) in &self.checks {
+            let mark = match result {
+                None => "skip".to_owned(),
+                Some(Ok(())) => "ok  ".to_owned(),
+                Some(Err(e)) => format!("FAIL {e}\n       "),
+            };
+            s.push_str(&format!("  {mark} {name}\n"));
+        }
+        s
+    }
+
+    /// The first failure, if any.
+    pub fn failure(&self) -> Option<String> {
+        if self.false_accepts > 0 {
+            return Some(format!(
+                "{} logged packets were not sent intact by the board",
+                self.false_accepts
+            ));
+        }
+        self.checks.iter().find_map(|(name, r)| match r {
+            Some(Err(e)) => Some(format!("{name}: {e}")),
+            _ => None,
+        })
+    }
+}
+
+fn describe(check: &crate::scenario::Check) -> String {
+    use crate::scenario::Check::*;
+    match check {
+        OutputsReach {
+            from_s, targets_us, ..
+        } => format!("outputs {targets_us:?} µs after {from_s} s"),
+        SafeThroughout { from_s, to_s } => format!("safe outputs {from_s}-{to_s} s"),
+        SafeHeld { from_s, to_s } => format!("safe outputs held {from_s}-{to_s} s"),
+        NeverSafe { from_s, to_s } => format!("no failsafe {from_s}-{to_s} s"),
+        Tracks {
+            speed_m_s,
+            heading_deg,
+            from_s,
+            to_s,
+            ..
+        } => format!("AUTO holds {speed_m_s} m/s and {heading_deg}° {from_s}-{to_s} s"),
+        CommsFailsafe { after_s, .. } => format!("comms-loss FAILSAFE in time after {after_s} s"),
+        ModesInOrder(m) => format!("modes {}", m.join(" -> ")),
+        Failsafes(n) => format!("{n} failsafe(s) in the log"),
+    }
+}
+
+/// Runs the scenario with the application started by `app` on the calling thread.
+pub fn run_simulation<F>(options: &SimOptions, app: F) -> anyhow::Result<SimReport>
+where
+    F: FnOnce(AppLaunch) -> anyhow::Result<AppOutcome>,
+{
+    let o = options;
+    std::fs::create_dir_all(&o.run_dir)
+        .with_context(|| format!("creating {}", o.run_dir.display()))?;
+    let rng = SimRng::new(o.seed);
+    let world = Arc::new(World::new(o.vehicle, o.scenario.start_heading_deg));
+    let start_wall_ns = SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0);
+    let stop_devices = Arc::new(AtomicBool::new(false));
+    let stop_app = Arc::new(AtomicBool::new(false));
+    let line = RequestLine::new();
+
+    let sensor_link = o.run_dir.join("sensor");
+    let maestro_link = o.run_dir.join("maestro");
+    let xbee_link = o.run_dir.join("xbee");
+    let board_stats = Arc::new(BoardStats::default());
+    let maestro_stats = Arc::new(MaestroStats::default());
+    let ground_stats = Arc::new(GroundStats::default());
+    let mut threads = Vec::new();
+    threads.push(spawn_board(
+        world.clone(),
+        line.clone(),
+        LinkPort::open(&sensor_link).context("sensor-board pty")?,
+        o.board,
+        o.faults.sensor.clone(),
+        rng.fork(10),
+        board_stats.clone(),
+        stop_devices.clone(),
+    )?);
+    threads.push(spawn_maestro(
+        world.clone(),
+        LinkPort::open(&maestro_link).context("Maestro pty")?,
+        [0, 1, 2],
+        o.faults.maestro.clone(),
+        rng.fork(11),
+        maestro_stats.clone(),
+        stop_devices.clone(),
+    )?);
+    let xbee = LinkPort::open(&xbee_link).context("XBee pty")?;
+    if o.ground_pty {
+        let station = SimPty::open(&o.run_dir.join("ground-station")).context("ground pty")?;
+        eprintln!(
+            "ground station: connect the GUI to {} (9600 8N1); the robot starts KILLED",
+            station.device_path().display()
+        );
+        threads.push(spawn_relay(
+            world.clone(),
+            xbee,
+            station,
+            o.faults.ground.clone(),
+            rng.fork(12),
+            stop_devices.clone(),
+        )?);
+    } else {
+        threads.push(spawn_ground(
+            world.clone(),
+            xbee,
+            o.scenario.script.clone(),
+            o.scenario.heartbeat,
+            o.faults.ground.clone(),
+            rng.fork(13),
+            ground_stats.clone(),
+            stop_devices.clone(),
+        )?);
+    }
+
+    // The monitor: status line and the end of the run.
+    let app_status = Arc::new(AppStatus::default());
+    let run_length = o.run_length_s();
+    let ended_by_runner = Arc::new(AtomicBool::new(false));
+    let monitor = {
+        let (world, stop_app, ended) = (world.clone(), stop_app.clone(), ended_by_runner.clone());
+        let (board, maestro, ground) = (
+            board_stats.clone(),
+            maestro_stats.clone(),
+            ground_stats.clone(),
+        );
+        let scenario = o.scenario.clone();
+        let app = app_status.clone();
+        let tty = match o.status {
+            StatusMode::Auto => Some(std::io::stderr().is_terminal()),
+            StatusMode::Plain => Some(false),
+            StatusMode::Quiet => None,
+        };
+        std::thread::Builder::new()
+            .name("sim-status".into())
+            .spawn(move || {
+                let mut last_print = -1.0f64;
+                let mut last_requests = 0u64;
+                let mut last_t = 0.0f64;
+                let mut rate = 0.0f64;
+                while !stop_app.load(Ordering::Relaxed) {
+                    std::thread::sleep(Duration::from_millis(100));
+                    let t = world.now_s();
+                    if run_length.is_some_and(|d| t >= d) {
+                        ended.store(true, Ordering::Relaxed);
+                        stop_app.store(true, Ordering::Relaxed);
+                        break;
+                    }
+                    let Some(tty) = tty else { continue };
+                    let interval = if tty { 0.25 } else { 1.0 };
+                    if t - last_print < interval {
+                        continue;
+                    }
+                    let cycles = app.cycles.load(Ordering::Relaxed);
+                    if t > last_t {
+                        rate = cycles.saturating_sub(last_requests) as f64 / (t - last_t);
+                    }
+                    last_requests = cycles;
+                    last_t = t;
+                    last_print = t;
+                    let line = status_line(
+                        t,
+                        run_length,
+                        scenario.phase_at(t),
+                        rate,
+                        &app,
+                        &board,
+                        &maestro,
+                        &ground,
+                        &world,
+                        tty,
+                    );
+                    let mut err = std::io::stderr().lock();
+                    if tty {
+                        // One line that never wraps, or the redraw would leave the rest behind.
+                        let line: String = line.chars().take(terminal_columns() - 1).collect();
+                        let _ = write!(err, "\r\x1b[2K{line}");
+                    } else {
+                        let _ = writeln!(err, "{line}");
+                    }
+                    let _ = err.flush();
+                }
+                if tty == Some(true) {
+                    eprintln!();
+                }
+            })?
+    };
+
+    let launch = AppLaunch {
+        status: app_status.clone(),
+        sensor_port: sensor_link,
+        maestro_port: maestro_link,
+        xbee_port: xbee_link,
+        request: RequestPin::new(line),
+        log_dir: o.log_dir.clone(),
+        loop_rate_hz: o.loop_rate_hz,
+        config: o.app_config.clone(),
+        realtime: o.realtime,
+        stop: stop_app.clone(),
+    };
+    let outcome = app(launch);
+    let ran_s = world.now_s();
+    stop_app.store(true, Ordering::Relaxed);
+    let _ = monitor.join();
+    // Let the Maestro thread see the final safe write before the devices stop.
+    std::thread::sleep(Duration::from_millis(50));
+    stop_devices.store(true, Ordering::Relaxed);
+    for t in threads {
+        let _ = t.join();
+    }
+    let _ = std::fs::remove_dir_all(&o.run_dir);
+    let app = outcome?;
+    let interrupted = !ended_by_runner.load(Ordering::Relaxed) && run_length.is_some();
+
+    let log = match &app.log_path {
+        Some(p) => Some(LogSummary::read(p)?),
+        None => None,
+    };
+    let (mut false_accepts, mut logged_intact) = (0, 0);
+    if let Some(l) = &log {
+        let intact = board_stats.intact.lock().unwrap_or_else(|e| e.into_inner());
+        for fp in &l.raw_packets {
+            if intact.contains(fp) {
+                logged_intact += 1;
+            } else {
+                false_accepts += 1;
+            }
+        }
+    }
+    let evidence = Evidence {
+        outputs: maestro_stats.history(),
+        truth: ground_stats
+            .truth
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone(),
+        log: log.clone(),
+        start_wall_ns,
+        safe_us: SAFE_US,
+        ran_s,
+        // Cut short by a signal or by a --duration below the scenario's length: checks past
+        // the end are skipped.
+        complete: !interrupted && ran_s + 0.5 >= o.scenario.duration_s,
+        period_s: 1.0 / f64::from(o.loop_rate_hz.max(1)),
+    };
+    let checks: Vec<(String, Option<Result<(), String>>)> = if o.ground_pty {
+        Vec::new()
+    } else {
+        o.scenario
+            .checks
+            .iter()
+            .map(|c| (describe(c), evaluate(c, &evidence)))
+            .collect()
+    };
+    let load = |a: &std::sync::atomic::AtomicU64| a.load(Ordering::Relaxed);
+    let devices = DeviceCounts {
+        requests: load(&board_stats.requests),
+        answers: load(&board_stats.answers),
+        packets_intact: load(&board_stats.packets_intact),
+        packets_damaged: load(&board_stats.packets_damaged),
+        unanswered: load(&board_stats.unanswered),
+        info_frames: load(&board_stats.info_frames),
+        late_answers: load(&board_stats.late_answers),
+        sensor_opens: load(&board_stats.opens),
+        maestro_commands: load(&maestro_stats.commands),
+        maestro_opens: load(&maestro_stats.opens),
+        maestro_commands_since_open: load(&maestro_stats.commands_since_open),
+        ground_frames: load(&ground_stats.frames_sent),
+        final_outputs_us: Some(maestro_stats.targets_of([0, 1, 2]))
+            .filter(|t| !t.contains(&0xFFFF))
+            .map(|t| t.map(|q| q / 4)),
+        displays: load(&ground_stats.displays),
+        display_errors: load(&ground_stats.display_errors),
+    };
+    let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
+    Ok(SimReport {
+        passed,
+        checks,
+        app,
+        devices,
+        false_accepts,
+        logged_intact,
+        log,
+        evidence,
+        ran_s,
+        interrupted,
+    })
+}
+
+/// Width of the terminal on stderr (80 when unknown).
+fn terminal_columns() -> usize {
+    let mut size = nix::libc::winsize {
+        ws_row: 0,
+        ws_col: 0,
+        ws_xpixel: 0,
+        ws_ypixel: 0,
+    };
+    // SAFETY: TIOCGWINSZ writes one `winsize` through the valid pointer.
+    let rc = unsafe { nix::libc::ioctl(2, nix::libc::TIOCGWINSZ, &mut size) };
+    if rc == 0 && size.ws_col >= 20 {
+        usize::from(size.ws_col)
+    } else {
+        80
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn status_line(
+    t: f64,
+    run_length: Option<f64>,
+    phase: &str,
+    rate_hz: f64,
+    app: &AppStatus,
+    board: &BoardStats,
+    maestro: &MaestroStats,
+    ground: &GroundStats,
+    world: &World,
+    tty: bool,
+) -> String {
+    let time = match run_length {
+        Some(d) if tty && terminal_columns() >= 120 => {
+            let width = 10usize;
+            let filled = ((t / d).clamp(0.0, 1.0) * width as f64) as usize;
+            format!(
+                "[{}{}] {t:4.1}/{d:.0}s",
+                "#".repeat(filled),
+                ".".repeat(width - filled)
+            )
+        }
+        Some(d) => format!("{t:4.1}/{d:.0}s"),
+        None => format!("{t:5.1}s"),
+    };
+    let out = maestro.targets_of([0, 1, 2]);
+    let outputs = if out.contains(&0xFFFF) {
+        "-".to_owned()
+    } else {
+        format!("{}/{}/{}", out[0] / 4, out[1] / 4, out[2] / 4)
+    };
+    let link_age = ground
+        .last_display
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .map_or("-".to_owned(), |(at, _)| {
+            format!("{:.0} ms", ((world.now_s() - at) * 1e3).max(0.0))
+        });
+    let s = world.state();
+    let damaged = board.packets_damaged.load(Ordering::Relaxed);
+    format!(
+        "{time} {:<8} {rate_hz:3.0} Hz | pkt {} ok {} bad{} | out {outputs} | link {link_age} | car {:.1} m/s {:03.0}° | {phase}",
+        app.mode_name(),
+        app.packets_ok.load(Ordering::Relaxed),
+        app.packets_missing.load(Ordering::Relaxed),
+        if damaged > 0 {
+            format!(" ({damaged} hit)")
+        } else {
+            String::new()
+        },
+        s.speed_m_s,
+        s.heading_deg
+    )
+}

@@ -1,0 +1,607 @@
+//! Scenarios: what the ground station does when, and what must be observed for the run to
+//! pass. Checks look only at what an outside observer sees: the outputs at the Maestro pty, the
+//! model driven by them, the frames at the ground pty, and the application's MCAP log.
+
+use dima_groundlink::{Command, Percent};
+
+use crate::devices::{GroundAction, OutputChange, ScriptStep};
+use crate::logcheck::LogSummary;
+use crate::model::VehicleState;
+
+/// Safe outputs of the DIMA car (DESIGN 2.4), µs: throttle, steering, tail.
+pub const SAFE_US: [u16; 3] = [1500, 1545, 1500];
+
+/// Manual mapping of percentages to µs (DESIGN 2.4): throttle 1000 + 10 d, steering
+/// 1250 + 590 d / 100, tail 1000 + 10 d, rounded to the nearest µs.
+pub fn manual_us(throttle: u8, steering: u8, tail: u8) -> [u16; 3] {
+    let map = |min: u32, span: u32, d: u8| (min + (span * u32::from(d) + 50) / 100) as u16;
+    [
+        map(1000, 1000, throttle),
+        map(1250, 590, steering),
+        map(1000, 1000, tail),
+    ]
+}
+
+/// Something that must hold.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Check {
+    /// The Maestro shows `targets_us` at some time in `from_s..=to_s`.
+    OutputsReach {
+        /// Window start, s.
+        from_s: f64,
+        /// Window end, s.
+        to_s: f64,
+        /// Expected outputs, µs.
+        targets_us: [u16; 3],
+    },
+    /// The Maestro shows safe outputs throughout `from_s..to_s`.
+    SafeThroughout {
+        /// Window start, s.
+        from_s: f64,
+        /// Window end, s.
+        to_s: f64,
+    },
+    /// The Maestro shows safe outputs at some time in `from_s..to_s`, and from then on only
+    /// safe outputs until `to_s` (a kill or a failsafe that stays latched), whatever the
+    /// machine's scheduling delays.
+    SafeHeld {
+        /// Window start, s.
+        from_s: f64,
+        /// Window end, s.
+        to_s: f64,
+    },
+    /// The Maestro never shows safe outputs in `from_s..to_s` (no unexpected failsafe).
+    NeverSafe {
+        /// Window start, s.
+        from_s: f64,
+        /// Window end, s.
+        to_s: f64,
+    },
+    /// The car (the model driven by the Maestro's pulses) holds a speed and heading.
+    Tracks {
+        /// Window start, s.
+        from_s: f64,
+        /// Window end, s.
+        to_s: f64,
+        /// Speed setpoint, m/s.
+        speed_m_s: f64,
+        /// Allowed speed error, m/s.
+        speed_tol_m_s: f64,
+        /// Heading setpoint, degrees clockwise from north.
+        heading_deg: f64,
+        /// Allowed heading error, degrees.
+        heading_tol_deg: f64,
+    },
+    /// The log shows FAILSAFE for comms loss no earlier than the timeout and no later than the
+    /// timeout plus two periods after the last command the loop applied before `after_s`.
+    CommsFailsafe {
+        /// The ground station fell silent at about this time, s.
+        after_s: f64,
+        /// Comms timeout, s.
+        timeout_s: f64,
+    },
+    /// The log's mode changes contain these modes in this order.
+    ModesInOrder(Vec<&'static str>),
+    /// The log has this many FAILSAFE entries.
+    Failsafes(usize),
+}
+
+/// A scripted run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scenario {
+    /// Name.
+    pub name: &'static str,
+    /// Length, s.
+    pub duration_s: f64,
+    /// Initial heading of the car, degrees clockwise from north.
+    pub start_heading_deg: f64,
+    /// The ground station's script.
+    pub script: Vec<ScriptStep>,
+    /// The heartbeat frame the ground station sends in idle slots.
+    pub heartbeat: [u8; 10],
+    /// Phase names shown in the status line, from their start time.
+    pub phases: Vec<(f64, &'static str)>,
+    /// What must hold.
+    pub checks: Vec<Check>,
+}
+
+/// A percentage (clamped to 100).
+pub fn pct(v: u8) -> Percent {
+    Percent::new(v.min(100)).unwrap_or(Percent::HALF)
+}
+
+/// A script step sending `c` at `at_s`.
+pub fn send(at_s: f64, c: Command) -> ScriptStep {
+    ScriptStep {
+        at_s,
+        action: GroundAction::Send(c),
+    }
+}
+
+impl Scenario {
+    /// The phase at `t_s`.
+    pub fn phase_at(&self, t_s: f64) -> &'static str {
+        self.phases
+            .iter()
+            .take_while(|(t, _)| *t <= t_s)
+            .last()
+            .map_or("", |(_, n)| n)
+    }
+
+    /// About 20 s: revive, manual driving, AUTO tracking a speed and a heading, a comms loss
+    /// that trips the failsafe (latched while the link is back), a revive, manual, kill.
+    pub fn default_tour() -> Scenario {
+        let manual = manual_us(60, 50, 50);
+        let turn = manual_us(60, 60, 50);
+        let after = manual_us(55, 50, 50);
+        Scenario {
+            name: "default",
+            duration_s: 20.0,
+            start_heading_deg: 0.0,
+            heartbeat: Command::Heartbeat.encode(),
+            script: vec![
+                send(1.0, Command::Revive),
+                send(1.5, Command::Throttle(pct(60))),
+                send(1.5, Command::Steering(pct(50))),
+                send(1.5, Command::Tail(pct(50))),
+                send(3.0, Command::Steering(pct(60))),
+                send(4.5, Command::Steering(pct(50))),
+                send(6.0, Command::SpeedSetpoint { mm_s: 2_500 }),
+                send(6.0, Command::HeadingSetpoint { deg_e5: 12_000_000 }),
+                ScriptStep {
+                    at_s: 14.0,
+                    action: GroundAction::Silence,
+                },
+                ScriptStep {
+                    at_s: 16.0,
+                    action: GroundAction::Resume,
+                },
+                send(16.5, Command::Throttle(pct(70))),
+                send(17.0, Command::Revive),
+                send(17.3, Command::Throttle(pct(55))),
+                send(19.0, Command::Kill),
+            ],
+            phases: vec![
+                (0.0, "KILLED (start-up)"),
+                (1.0, "revive"),
+                (1.5, "MANUAL driving"),
+                (6.0, "AUTO 2.5 m/s, 120°"),
+                (14.0, "comms loss"),
+                (16.0, "link back, latched"),
+                (17.0, "revive, MANUAL"),
+                (19.0, "kill"),
+            ],
+            checks: vec![
+                Check::SafeThroughout {
+                    from_s: 0.0,
+                    to_s: 0.9,
+                },
+                Check::OutputsReach {
+                    from_s: 1.5,
+                    to_s: 3.0,
+                    targets_us: manual,
+                },
+                Check::OutputsReach {
+                    from_s: 3.0,
+                    to_s: 4.5,
+                    targets_us: turn,
+                },
+                Check::NeverSafe {
+                    from_s: 2.0,
+                    to_s: 14.0,
+                },
+                Check::Tracks {
+                    from_s: 12.0,
+                    to_s: 14.0,
+                    speed_m_s: 2.5,
+                    speed_tol_m_s: 0.4,
+                    heading_deg: 120.0,
+                    heading_tol_deg: 10.0,
+                },
+                Check::CommsFailsafe {
+                    after_s: 14.0,
+                    timeout_s: 1.0,
+                },
+                Check::SafeHeld {
+                    from_s: 14.0,
+                    to_s: 17.0,
+                },
+                Check::OutputsReach {
+                    from_s: 17.3,
+                    to_s: 19.0,
+                    targets_us: after,
+                },
+                Check::SafeHeld {
+                    from_s: 19.0,
+                    to_s: 20.0,
+                },
+                Check::ModesInOrder(vec!["MANUAL", "AUTO", "FAILSAFE", "MANUAL", "KILLED"]),
+                Check::Failsafes(1),
+            ],
+        }
+    }
+
+    /// Revive and hold a manual setting for `duration_s`; no failsafe allowed.
+    pub fn manual_drive(duration_s: f64) -> Scenario {
+        let manual = manual_us(60, 40, 50);
+        Scenario {
+            name: "manual",
+            duration_s,
+            start_heading_deg: 0.0,
+            heartbeat: Command::Heartbeat.encode(),
+            script: vec![
+                send(0.5, Command::Revive),
+                send(1.0, Command::Throttle(pct(60))),
+                send(1.0, Command::Steering(pct(40))),
+                send(1.0, Command::Tail(pct(50))),
+            ],
+            phases: vec![(0.0, "KILLED"), (0.5, "revive"), (1.0, "MANUAL")],
+            checks: vec![
+                Check::OutputsReach {
+                    from_s: 1.0,
+                    to_s: duration_s,
+                    targets_us: manual,
+                },
+                Check::Failsafes(0),
+            ],
+        }
+    }
+
+    /// An empty scenario of `duration_s` (build the script and checks yourself).
+    pub fn custom(name: &'static str, duration_s: f64) -> Scenario {
+        Scenario {
+            name,
+            duration_s,
+            start_heading_deg: 0.0,
+            heartbeat: Command::Heartbeat.encode(),
+            script: Vec::new(),
+            phases: vec![(0.0, name)],
+            checks: Vec::new(),
+        }
+    }
+
+    /// A scenario by name: `default` or `manual`.
+    pub fn by_name(name: &str, duration_s: Option<f64>) -> Option<Scenario> {
+        match name {
+            "default" | "tour" => Some(Scenario::default_tour()),
+            "manual" => Some(Scenario::manual_drive(duration_s.unwrap_or(10.0))),
+            _ => None,
+        }
+    }
+}
+
+/// What a run left behind, for the checks.
+#[derive(Debug, Clone, Default)]
+pub struct Evidence {
+    /// Output changes at the Maestro.
+    pub outputs: Vec<OutputChange>,
+    /// Model samples (10 Hz).
+    pub truth: Vec<VehicleState>,
+    /// The application's log, when one was written.
+    pub log: Option<LogSummary>,
+    /// Wall-clock ns at simulation time 0 (to place log times on the simulation clock).
+    pub start_wall_ns: u64,
+    /// Safe outputs, µs.
+    pub safe_us: [u16; 3],
+    /// How long the run lasted, s.
+    pub ran_s: f64,
+    /// The scenario ran to its end (false: interrupted; checks past the end are skipped).
+    pub complete: bool,
+    /// Loop period, s.
+    pub period_s: f64,
+}
+
+impl Evidence {
+    fn outputs_at(&self, t_s: f64) -> Option<[u16; 3]> {
+        self.outputs
+            .iter()
+            .take_while(|c| c.t_s <= t_s)
+            .last()
+            .map(|c| c.targets_qus.map(|q| q / 4))
+    }
+
+    /// Outputs in force at `from_s` and every change until `to_s`.
+    fn outputs_in(&self, from_s: f64, to_s: f64) -> Vec<[u16; 3]> {
+        let mut v: Vec<[u16; 3]> = self.outputs_at(from_s).into_iter().collect();
+        v.extend(
+            self.outputs
+                .iter()
+                .filter(|c| c.t_s > from_s && c.t_s < to_s)
+                .map(|c| c.targets_qus.map(|q| q / 4)),
+        );
+        v
+    }
+
+    fn sim_s(&self, log_ns: u64) -> f64 {
+        (log_ns as f64 - self.start_wall_ns as f64) * 1e-9
+    }
+}
+
+/// The latest time a check looks at, s.
+fn check_end(check: &Check) -> f64 {
+    match check {
+        Check::OutputsReach { to_s, .. }
+        | Check::SafeThroughout { to_s, .. }
+        | Check::SafeHeld { to_s, .. }
+        | Check::NeverSafe { to_s, .. }
+        | Check::Tracks { to_s, .. } => *to_s,
+        Check::CommsFailsafe {
+            after_s, timeout_s, ..
+        } => after_s + timeout_s + 0.5,
+        Check::ModesInOrder(_) | Check::Failsafes(_) => f64::INFINITY,
+    }
+}
+
+/// Evaluates one check: `None` when the run ended before the check's window (skipped),
+/// otherwise `Ok` or the reason it failed.
+pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
+    if !e.complete && check_end(check) > e.ran_s {
+        return None;
+    }
+    Some(match check {
+        Check::OutputsReach {
+            from_s,
+            to_s,
+            targets_us,
+        } => {
+            let seen = e.outputs_in(*from_s, *to_s);
+            if seen.contains(targets_us) {
+                Ok(())
+            } else {
+                Err(format!(
+                    "outputs {targets_us:?} µs expected between {from_s} s and {to_s} s; saw {seen:?}"
+                ))
+            }
+        }
+        Check::SafeThroughout { from_s, to_s } => {
+            let seen = e.outputs_in(*from_s, *to_s);
+            match seen.iter().find(|o| **o != e.safe_us) {
+                None if !seen.is_empty() => Ok(()),
+                None => Err(format!("no outputs at all by {from_s} s")),
+                Some(o) => Err(format!(
+                    "outputs {o:?} µs between {from_s} s and {to_s} s; expected safe {:?}",
+                    e.safe_us
+                )),
+            }
+        }
+        Check::SafeHeld { from_s, to_s } => {
+            let seen = e.outputs_in(*from_s, *to_s);
+            match seen.iter().position(|o| *o == e.safe_us) {
+                None => Err(format!(
+                    "no safe outputs between {from_s} s and {to_s} s; saw {seen:?}"
+                )),
+                Some(i) => match seen[i..].iter().find(|o| **o != e.safe_us) {
+                    None => Ok(()),
+                    Some(o) => Err(format!(
+                        "outputs {o:?} µs after the safe ones before {to_s} s (not latched)"
+                    )),
+                },
+            }
+        }
+        Check::NeverSafe { from_s, to_s } => {
+            let seen = e.outputs_in(*from_s, *to_s);
+            if seen.contains(&e.safe_us) {
+                Err(format!(
+                    "unexpected safe outputs (failsafe or kill) between {from_s} s and {to_s} s"
+                ))
+            } else {
+                Ok(())
+            }
+        }
+        Check::Tracks {
+            from_s,
+            to_s,
+            speed_m_s,
+            speed_tol_m_s,
+            heading_deg,
+            heading_tol_deg,
+        } => {
+            let samples: Vec<&VehicleState> = e
+                .truth
+                .iter()
+                .filter(|s| s.t_s >= *from_s && s.t_s <= *to_s)
+                .collect();
+            if samples.is_empty() {
+                return Some(Err(format!(
+                    "no model samples between {from_s} and {to_s} s"
+                )));
+            }
+            let worst_speed = samples
+                .iter()
+                .map(|s| (s.speed_m_s - speed_m_s).abs())
+                .fold(0.0, f64::max);
+            let worst_heading = samples
+                .iter()
+                .map(|s| ((s.heading_deg - heading_deg + 540.0).rem_euclid(360.0) - 180.0).abs())
+                .fold(0.0, f64::max);
+            if worst_speed <= *speed_tol_m_s && worst_heading <= *heading_tol_deg {
+                Ok(())
+            } else {
+                Err(format!(
+                    "AUTO tracking between {from_s} and {to_s} s: worst speed error {worst_speed:.2} m/s (allowed {speed_tol_m_s}), worst heading error {worst_heading:.1}° (allowed {heading_tol_deg})"
+                ))
+            }
+        }
+        Check::CommsFailsafe { after_s, timeout_s } => {
+            let Some(log) = &e.log else {
+                return Some(Err("no log to check the failsafe timing".into()));
+            };
+            let entry = log
+                .failsafes()
+                .into_iter()
+                .find(|(t, cause)| e.sim_s(*t) > *after_s && cause.as_deref() == Some("CommsLoss"));
+            let Some((t_fs, _)) = entry else {
+                return Some(Err(format!(
+                    "no FAILSAFE for comms loss after {after_s} s in the log"
+                )));
+            };
+            let Some(t_cmd) = log.last_command_before(t_fs) else {
+                return Some(Err("no command before the failsafe in the log".into()));
+            };
+            let waited = (t_fs - t_cmd) as f64 * 1e-9;
+            // The loop sees the last frame in the cycle after it arrived and decides once per
+            // cycle: between the timeout and the timeout plus two periods, plus any periods
+            // the loop itself counted as missed in between (a stalled machine).
+            let missed = log.missed_between(t_cmd, t_fs) as f64;
+            let (lo, hi) = (
+                *timeout_s - e.period_s,
+                *timeout_s + (2.0 + missed) * e.period_s,
+            );
+            if waited >= lo && waited <= hi {
+                Ok(())
+            } else {
+                Err(format!(
+                    "FAILSAFE {waited:.4} s after the last command; expected {lo:.4}..{hi:.4} s"
+                ))
+            }
+        }
+        Check::ModesInOrder(modes) => {
+            let Some(log) = &e.log else {
+                return Some(Err("no log to check the modes".into()));
+            };
+            let seq = log.mode_sequence();
+            let mut it = seq.iter();
+            match modes.iter().find(|m| !it.any(|s| s == *m)) {
+                None => Ok(()),
+                Some(m) => Err(format!(
+                    "mode {m} missing from the order {modes:?}; log has {seq:?}"
+                )),
+            }
+        }
+        Check::Failsafes(n) => {
+            let Some(log) = &e.log else {
+                return Some(Err("no log to count failsafes".into()));
+            };
+            let got = log.failsafes();
+            if got.len() == *n {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{} FAILSAFE entries in the log, expected {n}: {:?}",
+                    got.len(),
+                    got.iter()
+                        .map(|(t, c)| format!("{:.2} s {c:?}", e.sim_s(*t)))
+                        .collect::<Vec<_>>()
+                ))
+            }
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn manual_mapping_matches_the_design() {
+        assert_eq!(manual_us(80, 0, 100), [1800, 1250, 2000]);
+        assert_eq!(manual_us(50, 50, 50), [1500, 1545, 1500]);
+        assert_eq!(manual_us(0, 100, 0), [1000, 1840, 1000]);
+    }
+
+    fn change(t_s: f64, us: [u16; 3]) -> OutputChange {
+        OutputChange {
+            t_s,
+            targets_qus: us.map(|u| u * 4),
+        }
+    }
+
+    fn evidence(outputs: Vec<OutputChange>) -> Evidence {
+        Evidence {
+            outputs,
+            safe_us: SAFE_US,
+            ran_s: 10.0,
+            complete: false,
+            period_s: 0.004,
+            ..Evidence::default()
+        }
+    }
+
+    #[test]
+    fn output_checks_follow_the_history() {
+        let e = evidence(vec![
+            change(0.1, SAFE_US),
+            change(1.2, [1600, 1545, 1500]),
+            change(5.0, SAFE_US),
+        ]);
+        let ok = |c: Check| evaluate(&c, &e).unwrap().is_ok();
+        assert!(ok(Check::SafeThroughout {
+            from_s: 0.2,
+            to_s: 1.0
+        }));
+        assert!(!ok(Check::SafeThroughout {
+            from_s: 0.2,
+            to_s: 1.3
+        }));
+        assert!(ok(Check::OutputsReach {
+            from_s: 1.0,
+            to_s: 1.5,
+            targets_us: [1600, 1545, 1500]
+        }));
+        assert!(ok(Check::OutputsReach {
+            from_s: 3.0,
+            to_s: 3.5,
+            targets_us: [1600, 1545, 1500]
+        }));
+        assert!(!ok(Check::OutputsReach {
+            from_s: 0.0,
+            to_s: 1.0,
+            targets_us: [1600, 1545, 1500]
+        }));
+        assert!(ok(Check::NeverSafe {
+            from_s: 1.3,
+            to_s: 4.9
+        }));
+        assert!(!ok(Check::NeverSafe {
+            from_s: 1.3,
+            to_s: 5.1
+        }));
+        // Beyond the end of the run: skipped.
+        assert!(evaluate(
+            &Check::NeverSafe {
+                from_s: 9.0,
+                to_s: 12.0
+            },
+            &e
+        )
+        .is_none());
+    }
+
+    #[test]
+    fn tracking_uses_the_model_samples() {
+        let mut e = evidence(vec![]);
+        e.truth = (0..20)
+            .map(|i| VehicleState {
+                t_s: f64::from(i) * 0.1,
+                speed_m_s: 2.4,
+                heading_deg: 359.0,
+                ..VehicleState::default()
+            })
+            .collect();
+        let check = |heading_deg| Check::Tracks {
+            from_s: 0.5,
+            to_s: 1.5,
+            speed_m_s: 2.5,
+            speed_tol_m_s: 0.2,
+            heading_deg,
+            heading_tol_deg: 5.0,
+        };
+        assert!(
+            evaluate(&check(3.0), &e).unwrap().is_ok(),
+            "wraps through north"
+        );
+        assert!(evaluate(&check(10.0), &e).unwrap().is_err());
+    }
+
+    #[test]
+    fn default_tour_is_consistent() {
+        let s = Scenario::default_tour();
+        assert!(s.script.windows(2).all(|w| w[0].at_s <= w[1].at_s));
+        assert!(s
+            .checks
+            .iter()
+            .all(|c| check_end(c) <= s.duration_s + 0.5 || !check_end(c).is_finite()));
+        assert_eq!(s.phase_at(7.0), "AUTO 2.5 m/s, 120°");
+        assert_eq!(s.phase_at(0.0), "KILLED (start-up)");
+    }
+}

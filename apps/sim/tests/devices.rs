@@ -1,0 +1,228 @@
+//! The device threads on real pseudo-terminals, driven from the application's side of the link
+//! with plain file I/O and the project's codecs.
+
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Write};
+use std::os::unix::fs::OpenOptionsExt;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use dima_groundlink::{Command, CommandDecoder, DisplayFrame};
+use dima_sensorboard::{Frame, StreamDecoder};
+use dima_sim::board::BoardConfig;
+use dima_sim::devices::*;
+use dima_sim::faults::FaultSpec;
+use dima_sim::model::VehicleParams;
+use dima_sim::pty::SimPty;
+use dima_sim::request::{RequestLine, RequestPin};
+use dima_sim::rng::SimRng;
+use dima_sim::scenario::send;
+use dima_sim::world::World;
+use embedded_hal::digital::OutputPin;
+
+fn dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("dima-sim-dev-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn open_app_side(path: &Path) -> File {
+    OpenOptions::new()
+        .read(true)
+        .write(true)
+        .custom_flags(nix::libc::O_NONBLOCK)
+        .open(path)
+        .unwrap()
+}
+
+/// Reads until `want` bytes or the timeout.
+fn read_for(f: &mut File, want: usize, timeout: Duration) -> Vec<u8> {
+    let t0 = Instant::now();
+    let mut out = Vec::new();
+    let mut buf = [0u8; 512];
+    while out.len() < want && t0.elapsed() < timeout {
+        match f.read(&mut buf) {
+            Ok(n) if n > 0 => out.extend_from_slice(&buf[..n]),
+            _ => std::thread::sleep(Duration::from_millis(1)),
+        }
+    }
+    out
+}
+
+fn world() -> Arc<World> {
+    Arc::new(World::new(VehicleParams::default(), 0.0))
+}
+
+#[test]
+fn board_answers_each_rising_edge_with_a_packet_and_the_first_with_an_info_frame() {
+    let d = dir("board");
+    let link = d.join("sensor");
+    let line = RequestLine::new();
+    let stats = Arc::new(BoardStats::default());
+    let stop = Arc::new(AtomicBool::new(false));
+    let board = spawn_board(
+        world(),
+        line.clone(),
+        LinkPort::open(&link).unwrap(),
+        BoardConfig::default(),
+        FaultSpec::default(),
+        SimRng::new(1),
+        stats.clone(),
+        stop.clone(),
+    )
+    .unwrap();
+    let mut app = open_app_side(&link);
+    let mut pin = RequestPin::new(line);
+    // Nothing unrequested.
+    assert!(read_for(&mut app, 1, Duration::from_millis(100)).is_empty());
+    let mut decoder = StreamDecoder::new();
+    let mut frames = Vec::new();
+    for _ in 0..3 {
+        pin.set_high().unwrap();
+        let bytes = read_for(&mut app, 132, Duration::from_secs(2));
+        pin.set_low().unwrap();
+        let mut input = bytes.as_slice();
+        std::thread::sleep(Duration::from_millis(20));
+        let more = read_for(&mut app, 1_000, Duration::from_millis(20));
+        let mut rest = more.as_slice();
+        while let Some(f) = decoder.feed(&mut input) {
+            frames.push(f);
+        }
+        while let Some(f) = decoder.feed(&mut rest) {
+            frames.push(f);
+        }
+    }
+    stop.store(true, Ordering::Relaxed);
+    board.join().unwrap();
+    let packets = frames
+        .iter()
+        .filter(|f| matches!(f, Frame::Packet(_)))
+        .count();
+    let infos = frames
+        .iter()
+        .filter(|f| matches!(f, Frame::Info(_)))
+        .count();
+    assert_eq!((packets, infos), (3, 1), "{frames:?}");
+    assert!(
+        matches!(frames[1], Frame::Info(_)),
+        "info right after the first packet"
+    );
+    assert_eq!(stats.requests.load(Ordering::Relaxed), 3);
+    assert_eq!(stats.packets_intact.load(Ordering::Relaxed), 3);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn maestro_decodes_targets_and_drives_the_model() {
+    let d = dir("maestro");
+    let link = d.join("maestro");
+    let w = world();
+    let stats = Arc::new(MaestroStats::default());
+    let stop = Arc::new(AtomicBool::new(false));
+    let t = spawn_maestro(
+        w.clone(),
+        LinkPort::open(&link).unwrap(),
+        [0, 1, 2],
+        FaultSpec::default(),
+        SimRng::new(1),
+        stats.clone(),
+        stop.clone(),
+    )
+    .unwrap();
+    let mut app = open_app_side(&link);
+    // Compact Set Target, three channels in one write (what the application sends):
+    // throttle 1750 µs, steering 1545 µs, tail 1500 µs, plus a stray byte in between.
+    let mut bytes = Vec::new();
+    for (ch, us) in [(0u8, 1750u16), (1, 1545), (2, 1500)] {
+        let q = us * 4;
+        bytes.extend_from_slice(&[0x84, ch, (q & 0x7F) as u8, (q >> 7) as u8]);
+        bytes.push(0x11);
+    }
+    app.write_all(&bytes).unwrap();
+    let t0 = Instant::now();
+    while stats.targets_of([0, 1, 2]) != [7000, 6180, 6000] && t0.elapsed() < Duration::from_secs(2)
+    {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    assert_eq!(stats.targets_of([0, 1, 2]), [7000, 6180, 6000]);
+    assert_eq!(stats.commands.load(Ordering::Relaxed), 3);
+    assert!(stats.dropped_bytes.load(Ordering::Relaxed) >= 3);
+    std::thread::sleep(Duration::from_millis(500));
+    // Throttle +0.5 of travel: the car accelerates towards 5 m/s.
+    assert!(w.state().speed_m_s > 2.0, "{:?}", w.state());
+    stop.store(true, Ordering::Relaxed);
+    t.join().unwrap();
+    assert_eq!(stats.history().len(), 1);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn ground_station_sends_script_and_heartbeats_and_reads_display_frames() {
+    let d = dir("ground");
+    let link = d.join("xbee");
+    let stats = Arc::new(GroundStats::default());
+    let stop = Arc::new(AtomicBool::new(false));
+    let t = spawn_ground(
+        world(),
+        LinkPort::open(&link).unwrap(),
+        vec![
+            send(0.0, Command::Revive),
+            ScriptStep {
+                at_s: 0.5,
+                action: GroundAction::Silence,
+            },
+        ],
+        Command::Heartbeat.encode(),
+        FaultSpec::default(),
+        SimRng::new(1),
+        stats.clone(),
+        stop.clone(),
+    )
+    .unwrap();
+    let mut app = open_app_side(&link);
+    app.write_all(&DisplayFrame::default().encode()).unwrap();
+    let bytes = read_for(&mut app, 10_000, Duration::from_millis(900));
+    let mut decoder = CommandDecoder::new();
+    let commands: Vec<Command> = decoder.feed(&bytes).map(|c| c.unwrap()).collect();
+    stop.store(true, Ordering::Relaxed);
+    t.join().unwrap();
+    assert_eq!(commands[0], Command::Revive);
+    // One frame per 100 ms until the silence at 0.5 s.
+    assert!((4..=6).contains(&commands.len()), "{commands:?}");
+    assert!(commands[1..].iter().all(|c| *c == Command::Heartbeat));
+    assert_eq!(stats.displays.load(Ordering::Relaxed), 1);
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn relay_joins_the_application_and_a_gui_pty() {
+    let d = dir("relay");
+    let robot_link = d.join("xbee");
+    let station = SimPty::open(&d.join("station")).unwrap();
+    let station_path = station.device_path().to_owned();
+    let stop = Arc::new(AtomicBool::new(false));
+    let t = spawn_relay(
+        world(),
+        LinkPort::open(&robot_link).unwrap(),
+        station,
+        FaultSpec::default(),
+        SimRng::new(1),
+        stop.clone(),
+    )
+    .unwrap();
+    let mut robot = open_app_side(&robot_link);
+    let mut gui = open_app_side(&station_path);
+    gui.write_all(&Command::Kill.encode()).unwrap();
+    assert_eq!(
+        read_for(&mut robot, 10, Duration::from_secs(2)),
+        Command::Kill.encode()
+    );
+    robot.write_all(&[1, 2, 3]).unwrap();
+    assert_eq!(read_for(&mut gui, 3, Duration::from_secs(2)), [1, 2, 3]);
+    stop.store(true, Ordering::Relaxed);
+    t.join().unwrap();
+    std::fs::remove_dir_all(&d).unwrap();
+}
