@@ -172,7 +172,7 @@ impl BoardSim {
 
     /// The answer to a request at `now_s` (seconds since boot) with the car in `state`.
     pub fn answer(&mut self, now_s: f64, state: &VehicleState) -> Answer {
-        let info_due = self.last_request_s.map_or(true, |t| now_s - t >= 0.5);
+        let info_due = self.last_request_s.is_none_or(|t| now_s - t >= 0.5);
         self.last_request_s = Some(now_s);
         self.update_gnss(now_s, state);
 
