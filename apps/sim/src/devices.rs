@@ -26,7 +26,7 @@ use crate::rng::SimRng;
 use crate::world::World;
 
 /// Locks a mutex whatever a panicked thread left behind.
-fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+pub(crate) fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|e| e.into_inner())
 }
 

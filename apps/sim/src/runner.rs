@@ -16,7 +16,7 @@ use anyhow::Context;
 
 use crate::board::BoardConfig;
 use crate::devices::{
-    spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardStats, GroundStats, LinkPort,
+    lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardStats, GroundStats, LinkPort,
     MaestroStats,
 };
 use crate::faults::Faults;
@@ -531,7 +531,7 @@ where
     };
     let (mut false_accepts, mut logged_intact) = (0, 0);
     if let Some(l) = &log {
-        let intact = board_stats.intact.lock().unwrap_or_else(|e| e.into_inner());
+        let intact = lock(&board_stats.intact);
         for fp in &l.raw_packets {
             if intact.contains(fp) {
                 logged_intact += 1;
@@ -542,11 +542,7 @@ where
     }
     let evidence = Evidence {
         outputs: maestro_stats.history(),
-        truth: ground_stats
-            .truth
-            .lock()
-            .unwrap_or_else(|e| e.into_inner())
-            .clone(),
+        truth: lock(&ground_stats.truth).clone(),
         log: log.clone(),
         start_wall_ns,
         safe_us: SAFE_US,
@@ -649,17 +645,15 @@ fn status_line(
     } else {
         format!("{}/{}/{}", out[0] / 4, out[1] / 4, out[2] / 4)
     };
-    let link_age = ground
-        .last_display
-        .lock()
-        .unwrap_or_else(|e| e.into_inner())
-        .map_or("-".to_owned(), |(at, _)| {
-            format!("{:.0} ms", ((world.now_s() - at) * 1e3).max(0.0))
-        });
+    // The ground station's view of the radio link: how long since it last sent a frame (the
+    // robot's failsafe watches this direction) and since it last received a display frame.
+    let now = world.now_s();
+    let uplink_age = age_text(now, *lock(&ground.last_sent_s));
+    let downlink_age = age_text(now, lock(&ground.last_display).map(|(at, _)| at));
     let s = world.state();
     let damaged = board.packets_damaged.load(Ordering::Relaxed);
     format!(
-        "{time} {:<8} {rate_hz:3.0} Hz | pkt {} ok {} bad{} | out {outputs} | link {link_age} | car {:.1} m/s {:03.0}° | {phase}",
+        "{time} {:<8} {rate_hz:3.0} Hz | pkt {} ok {} bad{} | out {outputs} | link up {uplink_age} down {downlink_age} | car {:.1} m/s {:03.0}° | {phase}",
         app.mode_name(),
         app.packets_ok.load(Ordering::Relaxed),
         app.packets_missing.load(Ordering::Relaxed),
@@ -671,4 +665,34 @@ fn status_line(
         s.speed_m_s,
         s.heading_deg
     )
+}
+
+/// The age of an event at `at_s` seen at `now_s`: "-" before it happened, milliseconds below one
+/// second, seconds above.
+fn age_text(now_s: f64, at_s: Option<f64>) -> String {
+    match at_s {
+        None => "-".to_owned(),
+        Some(at) => {
+            let age = (now_s - at).max(0.0);
+            if age < 1.0 {
+                format!("{:.0} ms", age * 1e3)
+            } else {
+                format!("{age:.1} s")
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::age_text;
+
+    #[test]
+    fn ages_read_in_milliseconds_below_a_second_and_seconds_above() {
+        assert_eq!(age_text(5.0, None), "-");
+        assert_eq!(age_text(5.0, Some(4.9)), "100 ms");
+        assert_eq!(age_text(5.0, Some(1.8)), "3.2 s");
+        // A clock read just before the event was stamped is not a negative age.
+        assert_eq!(age_text(5.0, Some(5.001)), "0 ms");
+    }
 }
