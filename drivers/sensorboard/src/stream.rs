@@ -46,9 +46,6 @@ const DOLLAR: u8 = b'$';
 /// The shortest frame: a version 1 info frame.
 const MIN_FRAME_LEN: usize = INFO_V1_LEN;
 
-/// Info candidates after the front that the decoder keeps track of at once.
-const PENDING_INFO: usize = 4;
-
 /// What the bytes at the front of the buffer are.
 enum Step {
     /// The front is a valid frame of this many bytes.
@@ -89,10 +86,6 @@ pub struct StreamDecoder {
     len: usize,
     /// Candidates after the front that end at or before this length were already checked.
     nested_checked: usize,
-    /// Starts of info candidates after the front whose header is valid but whose last byte has
-    /// not arrived yet.
-    pending_info: [usize; PENDING_INFO],
-    pending_len: usize,
     stats: DecoderStats,
 }
 
@@ -113,8 +106,6 @@ impl StreamDecoder {
             buf: [0; BUFFER_LEN],
             len: 0,
             nested_checked: 0,
-            pending_info: [0; PENDING_INFO],
-            pending_len: 0,
             stats: DecoderStats {
                 packets: 0,
                 info_frames: 0,
@@ -250,78 +241,40 @@ impl StreamDecoder {
     /// buffer settles it at once.
     ///
     /// The work is incremental: only candidates whose last byte arrived since the previous
-    /// call are checked. A packet candidate ending at `end` starts at `end - 132`; an info
-    /// candidate is noted in `pending_info` once its header is in, and checked when its
-    /// announced length is. Of the frames found, the one that starts first wins.
+    /// call are checked (a CRC at most once per candidate), however many false starts the
+    /// buffer holds. Of the frames found, the one that starts first wins; the candidates after
+    /// it are looked at again once it is taken out.
     fn nested_frame(&mut self) -> Option<(usize, Frame, usize)> {
-        let from = self.nested_checked;
-        let len = self.len;
-        if from >= len {
+        let (checked, len) = (self.nested_checked, self.len);
+        if checked >= len {
             return None;
         }
-        let mut best: Option<(usize, Frame, usize)> = None;
-        let mut consider = |decoder: &Self, start: usize| {
-            if best.as_ref().is_some_and(|(s, _, _)| *s <= start) {
-                return;
+        // No frame is longer than the buffer, so a candidate ending after `checked` starts
+        // less than a buffer length before it.
+        let lowest = (checked + 1).saturating_sub(BUFFER_LEN).max(1);
+        for start in lowest..=len.saturating_sub(MIN_FRAME_LEN) {
+            let Some(end) = self.candidate_end(start) else {
+                continue;
+            };
+            if end <= checked || end > len {
+                continue;
             }
-            if let Some(candidate) = decoder.buf.get(start..len) {
-                if let Step::Frame(frame, frame_len) = Self::examine_candidate(candidate) {
-                    best = Some((start, frame, frame_len));
-                }
-            }
-        };
-
-        // Packet candidates whose 132nd byte arrived.
-        for end in (from + 1).max(PACKET_LEN + 1)..=len {
-            let start = end - PACKET_LEN;
-            if self.buf[start] == DOLLAR && self.buf[start + 1] == PACKET_START[1] {
-                consider(self, start);
+            if let Step::Frame(frame, frame_len) = Self::examine_candidate(&self.buf[start..len]) {
+                return Some((start, frame, frame_len));
             }
         }
-        // Info candidates noted earlier whose last byte arrived.
-        for &start in &self.pending_info[..self.pending_len] {
-            if self.info_end(start).is_some_and(|end| end <= len) {
-                consider(self, start);
-            }
-        }
-        // Info headers whose fourth byte arrived.
-        let mut new_pending = [0usize; PENDING_INFO];
-        let mut new_count = 0;
-        for start in (from + 1).saturating_sub(4).max(1)..=len.saturating_sub(4) {
-            match self.info_end(start) {
-                Some(end) if end <= len => consider(self, start),
-                Some(_) if new_count < PENDING_INFO => {
-                    new_pending[new_count] = start;
-                    new_count += 1;
-                }
-                _ => {}
-            }
-        }
-
-        if best.is_some() {
-            // Candidates after the frame are looked at again once it is taken out.
-            return best;
-        }
-        // Nothing found: forget the info candidates that turned out invalid, keep the rest,
-        // and add the new ones (oldest dropped first when full: only a delay, never a loss).
-        let mut kept = [0usize; PENDING_INFO];
-        let mut kept_count = 0;
-        let still_waiting = self.pending_info[..self.pending_len]
-            .iter()
-            .chain(&new_pending[..new_count])
-            .filter(|&&start| self.info_end(start).is_some_and(|end| end > len));
-        for &start in still_waiting {
-            if kept_count == PENDING_INFO {
-                kept.copy_within(1.., 0);
-                kept_count -= 1;
-            }
-            kept[kept_count] = start;
-            kept_count += 1;
-        }
-        self.pending_info = kept;
-        self.pending_len = kept_count;
         self.nested_checked = len;
         None
+    }
+
+    /// Where the candidate starting at `start` ends: a packet after [`PACKET_LEN`] bytes, an
+    /// info frame after the length its header announces; `None` when no frame starts there.
+    fn candidate_end(&self, start: usize) -> Option<usize> {
+        match self.buf.get(start..start + 2)? {
+            [DOLLAR, second] if *second == PACKET_START[1] => Some(start + PACKET_LEN),
+            [DOLLAR, second] if *second == INFO_START[1] => self.info_end(start),
+            _ => None,
+        }
     }
 
     /// Where the info candidate starting at `start` ends, if it has a valid header.
@@ -402,17 +355,6 @@ impl StreamDecoder {
         self.buf.copy_within(count..self.len, 0);
         self.len -= count;
         self.nested_checked = self.nested_checked.saturating_sub(count);
-        // Info candidates move with the bytes; those at or before the new front are gone (the
-        // front is examined on its own).
-        let mut kept = 0;
-        for i in 0..self.pending_len {
-            let start = self.pending_info[i];
-            if start > count {
-                self.pending_info[kept] = start - count;
-                kept += 1;
-            }
-        }
-        self.pending_len = kept;
     }
 }
 

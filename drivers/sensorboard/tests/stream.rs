@@ -138,6 +138,27 @@ fn false_start_in_noise_does_not_delay_the_packet() {
 }
 
 #[test]
+fn many_false_starts_in_noise_do_not_delay_the_info_frame() {
+    // Noise before an info frame: a `$$` false packet start, then four `$I` headers that
+    // announce 73-byte payloads (81-byte frames that never complete). However many false
+    // starts wait in the buffer (here all five headers arrive in one read, before the frame's
+    // end), the info frame comes out as soon as its last byte is in.
+    let info = InfoFrame {
+        firmware: [0, 2, 0],
+        ..InfoFrame::default()
+    };
+    let noise = b"$$I$I\x01I$I$I\x01I";
+    let mut stream = noise.to_vec();
+    stream.extend_from_slice(&info.encode());
+    for sizes in [&[1][..], &[2], &[7], &[20, 200], &[40, 200], &[200]] {
+        let mut decoder = StreamDecoder::new();
+        let frames = decode_chunked(&mut decoder, &stream, sizes);
+        assert_eq!(frames, vec![Frame::Info(info)], "chunks of {sizes:?}");
+        assert_accounted(&decoder, stream.len(), &frames);
+    }
+}
+
+#[test]
 fn packet_then_info_frame_as_the_board_answers() {
     let info = InfoFrame {
         version: 1,
