@@ -43,7 +43,7 @@ pub fn display_frame(packet: Option<&SensorPacket>) -> DisplayFrame {
         frame.vel_e_mm_s = pvt.vel_e_mm_s;
         frame.vel_d_mm_s = pvt.vel_d_mm_s;
         frame.height_mm = pvt.height_mm;
-        frame.h_msl_mm = pvt.hmsl_mm;
+        frame.h_msl_mm = pvt.h_msl_mm;
         frame.g_speed_mm_s = pvt.g_speed_mm_s;
         frame.head_mot_deg_e5 = pvt.head_mot_deg_e5;
     }

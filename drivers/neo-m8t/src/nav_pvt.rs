@@ -35,7 +35,7 @@ pub const FLAG_DIFF_SOLN: u8 = 0x02;
 pub const FLAG_HEAD_VEH_VALID: u8 = 0x20;
 
 /// GNSS fix type (`fixType`), as the receiver reports it.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FixType {
     /// 0: no fix.
@@ -102,7 +102,7 @@ impl From<FixType> for u8 {
 /// assert_eq!(&frame.as_bytes()[..6], &[0xB5, 0x62, 0x01, 0x07, 0x5C, 0x00]);
 /// assert_eq!(frame.to_nav_pvt(), fix);
 /// ```
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NavPvt {
     /// GPS time of week of the navigation epoch, ms (`iTOW`); identifies the epoch.
@@ -184,6 +184,26 @@ impl NavPvt {
     /// `gnssFixOk`: the receiver considers the fix valid (within its masks).
     pub fn gnss_fix_ok(&self) -> bool {
         self.flags & FLAG_GNSS_FIX_OK != 0
+    }
+
+    /// `flags3` (payload bytes 78-79, little-endian): bit 0 invalidLlh, the rest reserved.
+    pub fn flags3(&self) -> u16 {
+        u16::from_le_bytes([self.reserved1[0], self.reserved1[1]])
+    }
+
+    /// Latitude in degrees (`f64`: software floating point on a Cortex-M4F, meant for hosts).
+    pub fn lat_deg(&self) -> f64 {
+        f64::from(self.lat_deg_e7) / 1e7
+    }
+
+    /// Longitude in degrees (`f64`, as [`lat_deg`](Self::lat_deg)).
+    pub fn lon_deg(&self) -> f64 {
+        f64::from(self.lon_deg_e7) / 1e7
+    }
+
+    /// Heading of motion in degrees (`f64`, as [`lat_deg`](Self::lat_deg)).
+    pub fn head_mot_deg(&self) -> f64 {
+        f64::from(self.head_mot_deg_e5) / 1e5
     }
 
     /// The 92-byte payload in wire order.
@@ -273,7 +293,7 @@ impl NavPvt {
 }
 
 /// A checksum-verified NAV-PVT frame, exactly the 100 bytes the receiver sent.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NavPvtFrame([u8; FRAME_LEN]);
 

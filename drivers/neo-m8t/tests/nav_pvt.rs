@@ -84,6 +84,10 @@ fn pyubx2_frame_decodes_to_its_fields() {
     let fix = frame.to_nav_pvt();
     assert_eq!(fix.fix(), FixType::Fix3D);
     assert!(fix.gnss_fix_ok());
+    // pyubx2 was given 47.3769 deg, 8.5417 deg and 282.27 deg (truncated to 1e-5).
+    assert!((fix.lat_deg() - 47.3769).abs() < 1e-9);
+    assert!((fix.lon_deg() - 8.5417).abs() < 1e-9);
+    assert!((fix.head_mot_deg() - 282.269_99).abs() < 1e-9);
 }
 
 #[test]
@@ -119,6 +123,7 @@ fn field_offsets_in_payload() {
     assert_eq!(&p[64..68], &[0x40, 0x41, 0x42, 0x43]);
     assert_eq!(&p[76..78], &[0x4C, 0x4D]);
     assert_eq!(&p[78..84], &[0x4E, 0x4F, 0x50, 0x51, 0x52, 0x53]);
+    assert_eq!(fix.flags3(), 0x4F4E);
     assert_eq!(
         &p[84..92],
         &[0x54, 0x55, 0x56, 0x57, 0x58, 0x59, 0x5A, 0x5B]

@@ -8,9 +8,8 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use dima_sensorboard::crc::crc32_bitwise;
-use dima_sensorboard::{
-    FixType, Frame, GnssFrame, NavPvt, SensorPacket, Stm32Crc, StreamDecoder, ValidFlags,
-};
+use dima_sensorboard::gnss::nav_pvt;
+use dima_sensorboard::{Frame, GnssFrame, NavPvt, SensorPacket, Stm32Crc, StreamDecoder};
 
 const PACKETS: usize = 100;
 
@@ -31,17 +30,17 @@ fn packet(i: usize) -> [u8; 132] {
             hour: 8,
             min: 0,
             sec: 0,
-            valid: ValidFlags::VALID_DATE | ValidFlags::VALID_TIME,
+            valid: nav_pvt::VALID_DATE | nav_pvt::VALID_TIME,
             t_acc_ns: 20,
             nano_ns: 0,
-            fix_type: FixType::Fix3D,
+            fix_type: 3,
             flags: 1,
             flags2: 0,
             num_sv: 10,
             lon_deg_e7: 85_465_123,
             lat_deg_e7: 473_976_543,
             height_mm: 500_000,
-            hmsl_mm: 452_000,
+            h_msl_mm: 452_000,
             h_acc_mm: 1200,
             v_acc_mm: 2000,
             vel_n_mm_s: 1000,
@@ -51,8 +50,8 @@ fn packet(i: usize) -> [u8; 132] {
             head_mot_deg_e5: 0,
             s_acc_mm_s: 100,
             head_acc_deg_e5: 500_000,
-            pdop_e2: 120,
-            flags3: 0,
+            p_dop_e2: 120,
+            reserved1: [0; 6],
             head_veh_deg_e5: 0,
             mag_dec_deg_e2: 0,
             mag_acc_deg_e2: 0,

@@ -17,12 +17,12 @@ fn packet_json(packet: &SensorPacket) -> Value {
     let gnss = packet.nav_pvt().map_or(Value::Null, |pvt| {
         json!({
             "itow_ms": pvt.itow_ms,
-            "fix_type": u8::from(pvt.fix_type),
+            "fix_type": pvt.fix_type,
             "num_sv": pvt.num_sv,
             "lat_deg": pvt.lat_deg(),
             "lon_deg": pvt.lon_deg(),
             "height_mm": pvt.height_mm,
-            "hmsl_mm": pvt.hmsl_mm,
+            "hmsl_mm": pvt.h_msl_mm,
             "vel_n_mm_s": pvt.vel_n_mm_s,
             "vel_e_mm_s": pvt.vel_e_mm_s,
             "vel_d_mm_s": pvt.vel_d_mm_s,

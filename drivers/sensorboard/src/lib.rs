@@ -10,7 +10,7 @@
 //! - Packet v1, bit-exact with the original board: [`SensorPacket::encode`] /
 //!   [`SensorPacket::decode`], raw signed counts after the arithmetic shifts, raw 20-bit BMP280
 //!   values, and the NAV-PVT frame kept verbatim ([`GnssFrame`]) and parsed with the `ublox`
-//!   crate into typed fields ([`NavPvt`]). An all-zero or damaged GNSS area means "no GNSS",
+//!   crate into typed fields by the NEO-M8T driver ([`NavPvt`]). An all-zero or damaged GNSS area means "no GNSS",
 //!   never a bad packet.
 //! - The STM32 CRC (each byte as a zero-extended 32-bit word, CRC-32/MPEG-2): a bitwise
 //!   reference model [`crc::crc32_bitwise`], a table-driven [`Stm32Crc`], and the [`SensorCrc`]
@@ -75,7 +75,7 @@ pub mod units;
 pub use builder::PacketBuilder;
 pub use crc::{SensorCrc, Stm32Crc};
 pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
-pub use gnss::{FixType, GnssFrame, NavPvt, ValidFlags, GNSS_FRAME_LEN};
+pub use gnss::{FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
 pub use info::{InfoError, InfoFrame, SensorStatus, INFO_V1_LEN, INFO_VERSION};
 pub use packet::{PacketError, RawPacket, SensorPacket, PACKET_LEN};
 pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};

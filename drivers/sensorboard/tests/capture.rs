@@ -2,9 +2,8 @@
 //! packets with and without GNSS, info frames, a torn answer, stray start bytes) decoded in
 //! arbitrary reads, as `examples/decode.rs` does.
 
-use dima_sensorboard::{
-    FixType, Frame, GnssFrame, InfoFrame, NavPvt, SensorPacket, StreamDecoder, ValidFlags,
-};
+use dima_sensorboard::gnss::nav_pvt;
+use dima_sensorboard::{Frame, GnssFrame, InfoFrame, NavPvt, SensorPacket, StreamDecoder};
 
 /// A small deterministic generator for garbage and read sizes (xorshift32).
 struct Noise(u32);
@@ -31,17 +30,17 @@ fn fix(itow_ms: u32) -> NavPvt {
         hour: 8,
         min: 0,
         sec: 0,
-        valid: ValidFlags::VALID_DATE | ValidFlags::VALID_TIME,
+        valid: nav_pvt::VALID_DATE | nav_pvt::VALID_TIME,
         t_acc_ns: 30,
         nano_ns: 0,
-        fix_type: FixType::Fix3D,
+        fix_type: 3,
         flags: 1,
         flags2: 0,
         num_sv: 9,
         lon_deg_e7: 85_465_123,
         lat_deg_e7: 473_976_543,
         height_mm: 500_000,
-        hmsl_mm: 452_000,
+        h_msl_mm: 452_000,
         h_acc_mm: 1500,
         v_acc_mm: 2500,
         vel_n_mm_s: 1000,
@@ -51,8 +50,8 @@ fn fix(itow_ms: u32) -> NavPvt {
         head_mot_deg_e5: 13_500_000,
         s_acc_mm_s: 200,
         head_acc_deg_e5: 1_000_000,
-        pdop_e2: 150,
-        flags3: 0,
+        p_dop_e2: 150,
+        reserved1: [0; 6],
         head_veh_deg_e5: 0,
         mag_dec_deg_e2: 0,
         mag_acc_deg_e2: 0,

@@ -1,11 +1,12 @@
 //! The GNSS area: a NAV-PVT frame written by hand from the u-blox M8 protocol specification
 //! (UBX-NAV-PVT, class 0x01, id 0x07, 92-byte payload, 8-bit Fletcher checksum over class,
-//! id, length and payload), parsed by this crate and cross-checked with the `ublox` crate.
+//! id, length and payload), carried in the packet's GNSS area, read back through the
+//! packet codec and cross-checked with the `ublox` crate's floating-point accessors.
 
-use dima_sensorboard::gnss::ubx_checksum;
-use dima_sensorboard::{
-    FixType, GnssFrame, NavPvt, PacketBuilder, SensorPacket, Stm32Crc, ValidFlags,
+use dima_sensorboard::gnss::nav_pvt::{
+    FLAG_GNSS_FIX_OK, VALID_DATE, VALID_FULLY_RESOLVED, VALID_TIME,
 };
+use dima_sensorboard::{FixType, GnssFrame, NavPvt, PacketBuilder, SensorPacket, Stm32Crc};
 use ublox::proto23::{PacketRef, Proto23};
 use ublox::{FixedBuffer, GnssFixType, Parser, UbxPacket};
 
@@ -19,7 +20,7 @@ impl Payload {
     }
 }
 
-/// The Fletcher checksum, written out separately from the crate's `ubx_checksum`.
+/// The Fletcher checksum of the specification, written out independently of the crates.
 fn fletcher(bytes: &[u8]) -> [u8; 2] {
     let mut a: u32 = 0;
     let mut b: u32 = 0;
@@ -74,17 +75,17 @@ fn expected() -> NavPvt {
         hour: 7,
         min: 30,
         sec: 15,
-        valid: ValidFlags::VALID_DATE | ValidFlags::VALID_TIME | ValidFlags::FULLY_RESOLVED,
+        valid: VALID_DATE | VALID_TIME | VALID_FULLY_RESOLVED,
         t_acc_ns: 25,
         nano_ns: -12_345,
-        fix_type: FixType::Fix3D,
-        flags: 0x01,
+        fix_type: 3,
+        flags: FLAG_GNSS_FIX_OK,
         flags2: 0xE0,
         num_sv: 11,
         lon_deg_e7: 85_465_123,
         lat_deg_e7: 473_976_543,
         height_mm: 508_123,
-        hmsl_mm: 460_456,
+        h_msl_mm: 460_456,
         h_acc_mm: 1_234,
         v_acc_mm: 2_345,
         vel_n_mm_s: -1_500,
@@ -94,8 +95,8 @@ fn expected() -> NavPvt {
         head_mot_deg_e5: 12_345_678,
         s_acc_mm_s: 150,
         head_acc_deg_e5: 2_500_000,
-        pdop_e2: 135,
-        flags3: 0,
+        p_dop_e2: 135,
+        reserved1: [0; 6],
         head_veh_deg_e5: -4_200_000,
         mag_dec_deg_e2: -250,
         mag_acc_deg_e2: 75,
@@ -104,8 +105,11 @@ fn expected() -> NavPvt {
 
 #[test]
 fn hand_frame_parses_to_its_fields() {
-    let pvt = NavPvt::from_frame(&hand_frame()).expect("valid NAV-PVT");
+    let pvt = GnssFrame::from_bytes(hand_frame())
+        .nav_pvt()
+        .expect("valid NAV-PVT");
     assert_eq!(pvt, expected());
+    assert_eq!(pvt.fix(), FixType::Fix3D);
     assert!(pvt.gnss_fix_ok());
     assert!((pvt.lat_deg() - 47.397_654_3).abs() < 1e-9);
     assert!((pvt.lon_deg() - 8.546_512_3).abs() < 1e-9);
@@ -114,20 +118,11 @@ fn hand_frame_parses_to_its_fields() {
 
 #[test]
 fn encoder_writes_the_hand_frame() {
-    assert_eq!(expected().to_frame(), hand_frame());
+    assert_eq!(expected().to_frame().as_bytes(), &hand_frame());
     assert_eq!(
         GnssFrame::from_nav_pvt(&expected()).as_bytes(),
         &hand_frame()
     );
-}
-
-#[test]
-fn crate_checksum_matches_spec_fletcher() {
-    let frame = hand_frame();
-    let (a, b) = ubx_checksum(&frame[2..98]);
-    assert_eq!([a, b], fletcher(&frame[2..98]));
-    // The MON-VER poll (pyubx2 / ublox builders): `B5 62 0A 04 00 00 0E 34`.
-    assert_eq!(ubx_checksum(&[0x0A, 0x04, 0x00, 0x00]), (0x0E, 0x34));
 }
 
 #[test]
@@ -152,44 +147,25 @@ fn ublox_crate_reads_the_same_values() {
 }
 
 #[test]
-fn one_byte_at_a_time_through_the_ublox_parser() {
-    // A 100-byte buffer is enough when the frame arrives byte by byte.
-    let frame = hand_frame();
-    let mut parser = Parser::<FixedBuffer<100>, Proto23>::with_fixed_buffer();
-    let mut found = 0;
-    for byte in frame {
-        let chunk = [byte];
-        let mut it = parser.consume_ubx(&chunk);
-        while let Some(result) = it.next() {
-            if let Ok(UbxPacket::Proto23(PacketRef::NavPvt(pvt))) = result {
-                assert_eq!(pvt.itow(), 123_456_000);
-                found += 1;
-            }
-        }
-    }
-    assert_eq!(found, 1);
-}
-
-#[test]
 fn absent_when_zero_or_damaged() {
-    assert!(NavPvt::from_frame(&[0; 100]).is_none());
+    assert!(GnssFrame::from_bytes([0; 100]).nav_pvt().is_none());
     assert!(GnssFrame::ABSENT.nav_pvt().is_none());
     assert!(GnssFrame::ABSENT.is_zero());
 
     let mut bad = hand_frame();
     bad[99] ^= 0x01; // CK_B
-    assert!(NavPvt::from_frame(&bad).is_none());
+    assert!(GnssFrame::from_bytes(bad).nav_pvt().is_none());
 
     let mut bad = hand_frame();
     bad[40] ^= 0x10; // payload byte
-    assert!(NavPvt::from_frame(&bad).is_none());
+    assert!(GnssFrame::from_bytes(bad).nav_pvt().is_none());
 
     // A well-formed frame of another message (NAV-POSLLH id, same length) is not NAV-PVT.
     let mut other = hand_frame();
     other[3] = 0x02;
     let ck = fletcher(&other[2..98]);
     other[98..].copy_from_slice(&ck);
-    assert!(NavPvt::from_frame(&other).is_none());
+    assert!(GnssFrame::from_bytes(other).nav_pvt().is_none());
 }
 
 #[test]
@@ -198,7 +174,10 @@ fn every_bit_flip_makes_gnss_absent() {
     for bit in 0..frame.len() * 8 {
         let mut bad = frame;
         bad[bit / 8] ^= 1 << (bit % 8);
-        assert!(NavPvt::from_frame(&bad).is_none(), "bit {bit} not detected");
+        assert!(
+            GnssFrame::from_bytes(bad).nav_pvt().is_none(),
+            "bit {bit} not detected"
+        );
     }
 }
 
@@ -257,43 +236,22 @@ fn pyubx2_frame_in_packet_bytes_28_to_127_decodes_to_its_fields() {
         .expect("valid packet")
         .nav_pvt()
         .expect("valid NAV-PVT");
+    // The values pyubx2 was given.
+    assert_eq!(pvt.itow_ms, 28_548_000);
+    assert_eq!((pvt.year, pvt.month, pvt.day), (2026, 11, 22));
+    assert_eq!((pvt.hour, pvt.min, pvt.sec), (7, 55, 30));
+    assert_eq!(pvt.fix(), FixType::Fix3D);
+    assert!(pvt.gnss_fix_ok());
+    assert_eq!(pvt.num_sv, 11);
+    assert_eq!((pvt.lat_deg_e7, pvt.lon_deg_e7), (473_769_000, 85_417_000));
+    assert_eq!((pvt.height_mm, pvt.h_msl_mm), (470_123, 422_456));
     assert_eq!(
-        pvt,
-        NavPvt {
-            itow_ms: 28_548_000,
-            year: 2026,
-            month: 11,
-            day: 22,
-            hour: 7,
-            min: 55,
-            sec: 30,
-            valid: ValidFlags::VALID_DATE | ValidFlags::VALID_TIME | ValidFlags::FULLY_RESOLVED,
-            t_acc_ns: 21,
-            nano_ns: -12_345,
-            fix_type: FixType::Fix3D,
-            flags: 0x01,
-            flags2: 0xE0,
-            num_sv: 11,
-            lon_deg_e7: 85_417_000,
-            lat_deg_e7: 473_769_000,
-            height_mm: 470_123,
-            hmsl_mm: 422_456,
-            h_acc_mm: 1_800,
-            v_acc_mm: 2_700,
-            vel_n_mm_s: 1_234,
-            vel_e_mm_s: -5_678,
-            vel_d_mm_s: 90,
-            g_speed_mm_s: 5_810,
-            head_mot_deg_e5: 28_226_999,
-            s_acc_mm_s: 350,
-            head_acc_deg_e5: 150_000,
-            pdop_e2: 132,
-            flags3: 0,
-            head_veh_deg_e5: 28_226_999,
-            mag_dec_deg_e2: 0,
-            mag_acc_deg_e2: 0,
-        }
+        (pvt.vel_n_mm_s, pvt.vel_e_mm_s, pvt.vel_d_mm_s),
+        (1_234, -5_678, 90)
     );
+    assert_eq!(pvt.g_speed_mm_s, 5_810);
+    assert_eq!(pvt.head_mot_deg_e5, 28_226_999);
+    assert_eq!(pvt.p_dop_e2, 132);
     // And the encoder writes pyubx2's bytes back.
-    assert_eq!(pvt.to_frame(), PYUBX2_NAV_PVT);
+    assert_eq!(pvt.to_frame().as_bytes(), &PYUBX2_NAV_PVT);
 }

@@ -23,7 +23,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use dima_sensorboard::gnss::{ubx_checksum, GNSS_FRAME_LEN, NAV_PVT_HEADER};
+use dima_sensorboard::gnss::{nav_pvt, NavPvt, GNSS_FRAME_LEN};
 use dima_sensorboard::{Frame, InfoFrame, RawPacket, StreamDecoder};
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
@@ -135,26 +135,23 @@ fn kinds(frames: &[Frame]) -> String {
 
 /// A checksum-valid UBX NAV-PVT frame (100 bytes) with recognisable contents.
 fn nav_pvt_frame() -> [u8; GNSS_FRAME_LEN] {
-    let mut frame = [0u8; GNSS_FRAME_LEN];
-    frame[..6].copy_from_slice(&NAV_PVT_HEADER);
-    let payload = &mut frame[6..98];
-    payload[0..4].copy_from_slice(&345_600_000u32.to_le_bytes()); // iTOW, ms
-    payload[4..6].copy_from_slice(&2026u16.to_le_bytes()); // year
-    payload[6] = 11; // month
-    payload[7] = 22; // day
-    payload[8] = 8; // hour
-    payload[11] = 0x07; // valid: date, time, fully resolved
-    payload[20] = 3; // fixType: 3D
-    payload[21] = 0x01; // flags: gnssFixOK
-    payload[23] = 9; // numSV
-    payload[24..28].copy_from_slice(&112_345_678i32.to_le_bytes()); // lon, 1e-7 deg
-    payload[28..32].copy_from_slice(&481_234_567i32.to_le_bytes()); // lat, 1e-7 deg
-    payload[32..36].copy_from_slice(&520_000i32.to_le_bytes()); // height, mm
-    payload[36..40].copy_from_slice(&470_000i32.to_le_bytes()); // hMSL, mm
-    let (ck_a, ck_b) = ubx_checksum(&frame[2..98]);
-    frame[98] = ck_a;
-    frame[99] = ck_b;
-    frame
+    let fix = NavPvt {
+        itow_ms: 345_600_000,
+        year: 2026,
+        month: 11,
+        day: 22,
+        hour: 8,
+        valid: nav_pvt::VALID_DATE | nav_pvt::VALID_TIME | nav_pvt::VALID_FULLY_RESOLVED,
+        fix_type: 3,
+        flags: nav_pvt::FLAG_GNSS_FIX_OK,
+        num_sv: 9,
+        lon_deg_e7: 112_345_678,
+        lat_deg_e7: 481_234_567,
+        height_mm: 520_000,
+        h_msl_mm: 470_000,
+        ..NavPvt::default()
+    };
+    *fix.to_frame().as_bytes()
 }
 
 fn main() {

@@ -107,7 +107,7 @@ fn values_from(packet: &SensorPacket) -> SensorValues {
     match packet.nav_pvt() {
         Some(pvt) => SensorValues {
             gyro_z_dps,
-            gnss_fix_ok: pvt.gnss_fix_ok() && matches!(u8::from(pvt.fix_type), 2..=4),
+            gnss_fix_ok: pvt.gnss_fix_ok() && matches!(pvt.fix_type, 2..=4),
             gnss_itow_ms: pvt.itow_ms,
             g_speed_mm_s: pvt.g_speed_mm_s,
             head_mot_deg_e5: pvt.head_mot_deg_e5,

@@ -15,7 +15,7 @@ use dima::devices::sensor::SensorDevice;
 use dima::devices::serial::{LineSettings, SerialPort};
 use dima::devices::servo::MaestroPort;
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
-use dima_sensorboard::{FixType, GnssFrame, NavPvt, SensorPacket, ValidFlags};
+use dima_sensorboard::{GnssFrame, NavPvt, SensorPacket};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use nix::sys::termios::{self, SetArg};
 
@@ -94,17 +94,17 @@ pub fn nav_pvt(itow_ms: u32) -> NavPvt {
         hour: 8,
         min: 0,
         sec: 0,
-        valid: ValidFlags::default(),
+        valid: 0,
         t_acc_ns: 50,
         nano_ns: 0,
-        fix_type: FixType::Fix3D,
+        fix_type: 3,
         flags: 0x01,
         flags2: 0,
         num_sv: 9,
         lon_deg_e7: 184_750_000,
         lat_deg_e7: -340_885_000,
         height_mm: 40_000,
-        hmsl_mm: 10_000,
+        h_msl_mm: 10_000,
         h_acc_mm: 1_500,
         v_acc_mm: 2_500,
         vel_n_mm_s: 1_000,
@@ -114,8 +114,8 @@ pub fn nav_pvt(itow_ms: u32) -> NavPvt {
         head_mot_deg_e5: 34_870_000,
         s_acc_mm_s: 100,
         head_acc_deg_e5: 100_000,
-        pdop_e2: 150,
-        flags3: 0,
+        p_dop_e2: 150,
+        reserved1: [0; 6],
         head_veh_deg_e5: 0,
         mag_dec_deg_e2: 0,
         mag_acc_deg_e2: 0,

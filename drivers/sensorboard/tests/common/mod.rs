@@ -14,9 +14,8 @@ pub fn fletcher(bytes: &[u8]) -> [u8; 2] {
     [a, b]
 }
 
-/// A NAV-PVT frame around `payload` (the reserved bytes 80..=83 cleared).
-pub fn nav_pvt_frame(mut payload: [u8; 92]) -> [u8; 100] {
-    payload[80..84].fill(0);
+/// A NAV-PVT frame around `payload`, with the checksum of the specification.
+pub fn nav_pvt_frame(payload: [u8; 92]) -> [u8; 100] {
     let mut frame = [0u8; 100];
     frame[..6].copy_from_slice(&[0xB5, 0x62, 0x01, 0x07, 92, 0]);
     frame[6..98].copy_from_slice(&payload);
