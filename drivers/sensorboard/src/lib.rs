@@ -9,9 +9,9 @@
 //! # Features
 //! - Packet v1, bit-exact with the original board: [`SensorPacket::encode`] /
 //!   [`SensorPacket::decode`], raw signed counts after the arithmetic shifts, raw 20-bit BMP280
-//!   values, and the NAV-PVT frame kept verbatim ([`GnssFrame`]) and parsed with the `ublox`
-//!   crate into typed fields by the NEO-M8T driver ([`NavPvt`]). An all-zero or damaged GNSS area means "no GNSS",
-//!   never a bad packet.
+//!   values, and the NAV-PVT frame kept verbatim ([`GnssFrame`]) and parsed into the NEO-M8T
+//!   driver's typed fields ([`NavPvt`], decoded by the `ublox` crate). An all-zero or damaged
+//!   GNSS area means "no GNSS", never a bad packet.
 //! - The STM32 CRC (each byte as a zero-extended 32-bit word, CRC-32/MPEG-2): a bitwise
 //!   reference model [`crc::crc32_bitwise`], a table-driven [`Stm32Crc`], and the [`SensorCrc`]
 //!   trait through which the firmware plugs in the hardware CRC unit.
