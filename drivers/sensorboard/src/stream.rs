@@ -29,6 +29,10 @@ pub struct DecoderStats {
     /// Info frames that passed the header check and the CRC.
     pub info_frames: u64,
     /// Candidates (packet or info frame) whose CRC did not match.
+    ///
+    /// A false start in noise is counted when its announced end arrives before a real frame
+    /// behind it settles it, so this count can depend on how the bytes were chunked; the other
+    /// counters do not.
     pub crc_errors: u64,
     /// Bytes dropped because they were not part of a valid frame.
     pub bytes_skipped: u64,
