@@ -31,8 +31,8 @@ pub struct DecoderStats {
     /// Candidates (packet or info frame) whose CRC did not match.
     ///
     /// A false start in noise is counted when its announced end arrives before a real frame
-    /// behind it settles it, so this count can depend on how the bytes were chunked; the other
-    /// counters do not.
+    /// behind it settles it, so this count can depend on how the bytes were chunked; the frames
+    /// found and the packet and info-frame counts do not.
     pub crc_errors: u64,
     /// Bytes dropped because they were not part of a valid frame.
     pub bytes_skipped: u64,
