@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use dima_groundlink::Command;
-use dima_sensorboard::{units, DecoderStats, Frame, InfoFrame, RawPacket, SensorPacket};
+use dima_sensorboard::{units, DecoderStats, FixType, Frame, InfoFrame, RawPacket, SensorPacket};
 use embedded_hal::digital::OutputPin;
 
 use super::record::{events, CycleRecord, Snapshot};
@@ -107,7 +107,11 @@ fn values_from(packet: &SensorPacket) -> SensorValues {
     match packet.nav_pvt() {
         Some(pvt) => SensorValues {
             gyro_z_dps,
-            gnss_fix_ok: pvt.gnss_fix_ok() && matches!(pvt.fix_type, 2..=4),
+            gnss_fix_ok: pvt.gnss_fix_ok()
+                && matches!(
+                    pvt.fix(),
+                    FixType::Fix2D | FixType::Fix3D | FixType::GnssDeadReckoning
+                ),
             gnss_itow_ms: pvt.itow_ms,
             g_speed_mm_s: pvt.g_speed_mm_s,
             head_mot_deg_e5: pvt.head_mot_deg_e5,
@@ -460,5 +464,44 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             counters: self.metrics.counters,
             events: ev,
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::values_from;
+    use dima_sensorboard::gnss::nav_pvt::FLAG_GNSS_FIX_OK;
+    use dima_sensorboard::{GnssFrame, NavPvt, SensorPacket};
+
+    fn packet_with_fix(fix_type: u8, flags: u8) -> SensorPacket {
+        SensorPacket {
+            gnss: GnssFrame::from_nav_pvt(&NavPvt {
+                itow_ms: 1_000,
+                fix_type,
+                flags,
+                g_speed_mm_s: 2_500,
+                ..NavPvt::default()
+            }),
+            ..SensorPacket::default()
+        }
+    }
+
+    #[test]
+    fn a_fix_counts_only_when_flagged_ok_and_positional() {
+        // 2-D, 3-D and GNSS + dead reckoning are position fixes.
+        for fix_type in [2, 3, 4] {
+            let v = values_from(&packet_with_fix(fix_type, FLAG_GNSS_FIX_OK));
+            assert!(v.gnss_fix_ok, "fix type {fix_type}");
+            assert_eq!((v.gnss_itow_ms, v.g_speed_mm_s), (1_000, 2_500));
+        }
+        // No fix, dead reckoning only, time only, reserved: not a position fix.
+        for fix_type in [0, 1, 5, 6] {
+            let v = values_from(&packet_with_fix(fix_type, FLAG_GNSS_FIX_OK));
+            assert!(!v.gnss_fix_ok, "fix type {fix_type}");
+        }
+        // A 3-D fix outside the receiver's masks (gnssFixOK clear).
+        assert!(!values_from(&packet_with_fix(3, 0)).gnss_fix_ok);
+        // No NAV-PVT in the packet yet.
+        assert!(!values_from(&SensorPacket::default()).gnss_fix_ok);
     }
 }
