@@ -4,4 +4,5 @@
 //! [`run_app`] starts the application for a simulation exactly as `dima sim` does (it is the
 //! same function).
 
-pub use dima::sim::{run_app, sim_config};
+pub use dima::sim::run_app;
+pub use dima_sim::app_config::app_config;

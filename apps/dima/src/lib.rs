@@ -1,24 +1,27 @@
 //! The DIMA robot's realtime control application.
 //!
 //! `main` only parses the command line and the configuration and wires the parts together:
-//! - [`config`]: the TOML configuration with documented defaults;
-//! - [`control`]: the safety state machine, the AUTO controllers and the output mapping, as
-//!   pure functions (inputs and time in, outputs out);
+//! - [`config`]: the TOML configuration (from `dima-core`) and reading it from a file;
+//! - [`control`]: the AUTO controllers and the output mapping, and [`dima_core`] under them:
+//!   the safety state machine, the monitors and the pure control step (inputs and time in,
+//!   outputs out);
 //! - [`rt`]: realtime thread setup with its read-back report, and the absolute-deadline clock;
 //! - [`metrics`]: the wake-up latency histogram (cyclictest format) and counters;
 //! - [`devices`]: raw termios serial ports, the sensor board and Maestro as the loop sees them,
 //!   and the supervisor that opens and reopens devices off the realtime thread;
 //! - [`app`]: the realtime loop, the fixed-size records it hands over, and [`app::run()`], which
 //!   starts every thread for a given set of device openers;
-//! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread;
+//! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread, which
+//!   writes the typed messages of [`log_messages`];
 //! - [`sim`]: `dima sim`, the application against the simulated devices of `dima-sim`.
 #![deny(missing_docs)]
 
 pub mod app;
 pub mod cli;
 pub mod config;
-pub mod control;
+pub use dima_core::control;
 pub mod devices;
+pub mod log_messages;
 pub mod logging;
 pub mod metrics;
 pub mod rt;

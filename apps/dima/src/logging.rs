@@ -24,10 +24,11 @@ use std::sync::Arc;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
-use serde_json::json;
+use dima_core::schema::{self, ChannelSpec};
+use dima_core::Mode;
 
 use crate::app::record::{events, CycleRecord};
-use crate::control::Mode;
+use crate::log_messages::{cycle_message, info_message, state_message};
 use crate::rt::{monotonic_ns, RtSetupReport};
 
 /// The MCAP file being written.
@@ -42,52 +43,6 @@ pub struct McapLog {
     /// Added to CLOCK_MONOTONIC to get wall-clock ns for log times.
     epoch_offset_ns: i128,
 }
-
-const CYCLE_SCHEMA: &str = r#"{
-  "type": "object",
-  "title": "dima.Cycle",
-  "properties": {
-    "cycle": {"type": "integer"},
-    "mode": {"type": "string"},
-    "wake_latency_us": {"type": "number"},
-    "missed_periods": {"type": "integer"},
-    "request_to_packet_us": {"type": "number"},
-    "compute_us": {"type": "number"},
-    "servo_write_us": {"type": "number"},
-    "packet_ok": {"type": "boolean"},
-    "sensor": {"type": "object", "properties": {
-      "accel": {"type": "array", "items": {"type": "integer"}},
-      "gyro": {"type": "array", "items": {"type": "integer"}},
-      "mag": {"type": "array", "items": {"type": "integer"}},
-      "rhall": {"type": "integer"},
-      "press_raw": {"type": "integer"},
-      "temp_raw": {"type": "integer"},
-      "gyro_z_dps": {"type": "number"},
-      "gnss_fix_ok": {"type": "boolean"},
-      "lat_deg": {"type": "number"},
-      "lon_deg": {"type": "number"},
-      "g_speed_mm_s": {"type": "integer"},
-      "head_mot_deg": {"type": "number"},
-      "num_sv": {"type": "integer"}
-    }},
-    "action": {"type": "object", "properties": {
-      "throttle": {"type": "number"}, "steering": {"type": "number"}, "tail": {"type": "number"}
-    }},
-    "targets_us": {"type": "array", "items": {"type": "integer"}},
-    "counters": {"type": "object"}
-  }
-}"#;
-
-const STATE_SCHEMA: &str = r#"{
-  "type": "object",
-  "title": "dima.State",
-  "properties": {
-    "cycle": {"type": "integer"},
-    "mode": {"type": "string"},
-    "cause": {"type": ["string", "null"]},
-    "events": {"type": "array", "items": {"type": "string"}}
-  }
-}"#;
 
 /// `dima-YYYYMMDDTHHMMSSZ.mcap` for `now`.
 pub fn log_file_name(now: SystemTime) -> String {
@@ -111,34 +66,6 @@ pub fn log_file_name(now: SystemTime) -> String {
     )
 }
 
-fn event_names(bits: u16) -> Vec<&'static str> {
-    [
-        (events::SENSOR_CONNECTED, "sensor_connected"),
-        (events::SENSOR_LOST, "sensor_lost"),
-        (events::SERVO_CONNECTED, "servo_connected"),
-        (events::SERVO_LOST, "servo_lost"),
-        (events::MODE_CHANGED, "mode_changed"),
-        (events::SHUTDOWN, "shutdown"),
-    ]
-    .iter()
-    .filter(|(bit, _)| bits & bit != 0)
-    .map(|&(_, name)| name)
-    .collect()
-}
-
-fn mode_name(mode: Mode) -> &'static str {
-    match mode {
-        Mode::Killed => "KILLED",
-        Mode::Manual => "MANUAL",
-        Mode::Auto => "AUTO",
-        Mode::Failsafe => "FAILSAFE",
-    }
-}
-
-fn us(ns: u64) -> f64 {
-    ns as f64 / 1_000.0
-}
-
 impl McapLog {
     /// Creates `dir` if needed and a new timestamped file in it.
     pub fn create(dir: &Path) -> anyhow::Result<McapLog> {
@@ -159,19 +86,17 @@ impl McapLog {
             .create(BufWriter::new(file))
             .context("log: starting the MCAP file")?;
         let none = BTreeMap::new();
-        let raw = writer.add_channel(0, "/sensor/raw", "dima-sensor-v1", &none)?;
-        let cycle_schema =
-            writer.add_schema("dima.Cycle", "jsonschema", CYCLE_SCHEMA.as_bytes())?;
-        let cycle = writer.add_channel(cycle_schema, "/dima/cycle", "json", &none)?;
-        let state_schema =
-            writer.add_schema("dima.State", "jsonschema", STATE_SCHEMA.as_bytes())?;
-        let state = writer.add_channel(state_schema, "/dima/state", "json", &none)?;
-        let info_schema = writer.add_schema(
-            "dima.SensorInfo",
-            "jsonschema",
-            br#"{"type": "object", "title": "dima.SensorInfo"}"#,
-        )?;
-        let info = writer.add_channel(info_schema, "/sensor/info", "json", &none)?;
+        let mut add = |spec: &ChannelSpec| -> anyhow::Result<u16> {
+            let schema_id = match schema::schema_of(spec) {
+                Some(text) => writer.add_schema(spec.schema_name, "jsonschema", text.as_bytes())?,
+                None => 0,
+            };
+            Ok(writer.add_channel(schema_id, spec.topic, spec.encoding, &none)?)
+        };
+        let raw = add(&schema::SENSOR_RAW)?;
+        let cycle = add(&schema::CYCLE)?;
+        let state = add(&schema::STATE)?;
+        let info = add(&schema::SENSOR_INFO)?;
         let wall = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0, |d| d.as_nanos() as i128);
@@ -234,76 +159,21 @@ impl McapLog {
         )
     }
 
-    /// Writes one cycle: raw packet, decoded values (if `with_decoded`), state changes.
+    /// Writes one cycle: raw packet, info frame, state change, and the decoded cycle (if
+    /// `with_decoded`).
     pub fn record(&mut self, r: &CycleRecord, with_decoded: bool) -> anyhow::Result<()> {
         let t = r.tick.wake_ns;
-        if let Some(raw) = &r.packet {
+        if let Some(raw) = &r.raw {
             self.message(self.raw, t, raw.as_ref())?;
         }
         if let Some(info) = &r.info {
-            let msg = json!({
-                "version": info.version,
-                "firmware": info.firmware,
-                "status": info.status.bits(),
-                "bmp280_calibration": info.bmp280_calibration,
-                "bmm150_trim": info.bmm150_trim,
-                "uptime_ms": info.uptime_ms,
-                "requests_skipped": info.requests_skipped,
-            });
-            self.message(self.info, t, &serde_json::to_vec(&msg)?)?;
+            self.message(self.info, t, &serde_json::to_vec(&info_message(info))?)?;
         }
         if r.events != 0 {
-            let msg = json!({
-                "cycle": r.cycle,
-                "mode": mode_name(r.safety.mode),
-                "cause": r.safety.cause.map(|c| format!("{c:?}")),
-                "events": event_names(r.events),
-            });
-            self.message(self.state, t, &serde_json::to_vec(&msg)?)?;
+            self.message(self.state, t, &serde_json::to_vec(&state_message(r))?)?;
         }
         if with_decoded {
-            let sensor = r.packet.map(|raw| {
-                let p = raw.decode();
-                let pvt = p.nav_pvt();
-                json!({
-                    "accel": p.accel, "gyro": p.gyro, "mag": p.mag, "rhall": p.rhall,
-                    "press_raw": p.press_raw, "temp_raw": p.temp_raw,
-                    "gyro_z_dps": r.values.gyro_z_dps,
-                    "gnss_fix_ok": r.values.gnss_fix_ok,
-                    "lat_deg": pvt.map(|v| v.lat_deg()),
-                    "lon_deg": pvt.map(|v| v.lon_deg()),
-                    "g_speed_mm_s": pvt.map(|v| v.g_speed_mm_s),
-                    "head_mot_deg": pvt.map(|v| v.head_mot_deg()),
-                    "num_sv": pvt.map(|v| v.num_sv),
-                })
-            });
-            let since = |a: u64, b: u64| {
-                if a != 0 && b != 0 {
-                    Some(us(a.saturating_sub(b)))
-                } else {
-                    None
-                }
-            };
-            let msg = json!({
-                "cycle": r.cycle,
-                "mode": mode_name(r.safety.mode),
-                "wake_latency_us": us(r.tick.latency_ns),
-                "missed_periods": r.tick.missed,
-                "request_to_packet_us": since(r.t_packet_ns, r.t_request_ns),
-                "compute_us": us(r.t_compute_ns.saturating_sub(
-                    if r.t_packet_ns != 0 { r.t_packet_ns } else { r.tick.wake_ns })),
-                "servo_write_us": since(r.t_write_ns, r.t_compute_ns),
-                "packet_ok": r.packet.is_some(),
-                "sensor": sensor,
-                "action": {
-                    "throttle": r.action.throttle,
-                    "steering": r.action.steering,
-                    "tail": r.action.tail,
-                },
-                "targets_us": r.targets.pulse_us,
-                "counters": r.counters,
-            });
-            self.message(self.cycle, t, &serde_json::to_vec(&msg)?)?;
+            self.message(self.cycle, t, &serde_json::to_vec(&cycle_message(r))?)?;
         }
         Ok(())
     }
@@ -351,23 +221,27 @@ pub struct LoggerSettings {
     pub decoded_every: u64,
 }
 
-/// Prints what a record says happened (mode changes, device events).
+/// Prints what a record says happened (mode changes, refusals, device events).
 fn report_events(r: &CycleRecord, last_mode: &mut Mode) {
-    if r.safety.mode != *last_mode {
-        match r.safety.cause {
-            Some(cause) if r.safety.mode == Mode::Failsafe => tracing::warn!(
-                "mode {} -> FAILSAFE ({cause:?}) at cycle {}",
-                mode_name(*last_mode),
+    let out = &r.outputs;
+    if out.mode != *last_mode {
+        match out.cause {
+            Some(cause) if out.mode == Mode::Failsafe => tracing::warn!(
+                "mode {last_mode} -> FAILSAFE ({cause:?}) at cycle {}",
                 r.cycle
             ),
-            _ => tracing::info!(
-                "mode {} -> {} at cycle {}",
-                mode_name(*last_mode),
-                mode_name(r.safety.mode),
-                r.cycle
-            ),
+            _ => tracing::info!("mode {last_mode} -> {} at cycle {}", out.mode, r.cycle),
         }
-        *last_mode = r.safety.mode;
+        *last_mode = out.mode;
+    }
+    if let Some(why) = out.refused {
+        tracing::warn!("revive refused ({why:?}) at cycle {}", r.cycle);
+    }
+    if out.setpoints_rejected > 0 {
+        tracing::warn!(
+            "speed setpoint rejected (allowed 0..=control.max_speed_mm_s) at cycle {}",
+            r.cycle
+        );
     }
     if r.events & events::SENSOR_LOST != 0 {
         tracing::warn!("sensor board: I/O error in cycle {}, reopening", r.cycle);

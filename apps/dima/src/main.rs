@@ -1,6 +1,6 @@
 //! `dima`: parses the command line and the configuration, then hands over to the library.
 
-use std::io::Write;
+use std::io::{IsTerminal, Write};
 use std::process::ExitCode;
 
 use std::sync::atomic::AtomicBool;
@@ -11,7 +11,7 @@ use anyhow::Context;
 use clap::Parser;
 use dima::app;
 use dima::cli::{Cli, Command};
-use dima::config::{Config, DEFAULT_TOML};
+use dima::config::{self, DEFAULT_TOML};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -27,6 +27,8 @@ fn main() -> ExitCode {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
         )
         .with_writer(std::io::stderr)
+        // Colour codes only for a terminal, never into files and pipes.
+        .with_ansi(std::io::stderr().is_terminal())
         .init();
     if let Command::Sim(args) = &cli.command {
         return dima::sim::main(args);
@@ -45,7 +47,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Sim(_) => unreachable!("dima sim is run from main"),
         Command::Config(args) => {
             if let Some(path) = args.check {
-                let config = Config::load(&path)?;
+                let config = config::load(&path)?;
                 let text = toml::to_string(&config).context("serialising the configuration")?;
                 std::io::stdout().write_all(text.as_bytes())?;
             } else if args.print_default {
@@ -56,7 +58,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             Ok(())
         }
         Command::Run(args) => {
-            let mut config = Config::load(&args.config)?;
+            let mut config = config::load(&args.config)?;
             args.overrides.apply(&mut config);
             config.validate()?;
             let stop = Arc::new(AtomicBool::new(false));
@@ -64,15 +66,27 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let options = app::RunOptions {
                 duration: args.overrides.duration.map(Duration::from_secs_f64),
                 observer: None,
+                busy: None,
             };
             tracing::info!("starting: KILLED until a revive from the ground station");
             let summary = app::run(&config, app::hardware_devices(&config), options, stop)?;
-            tracing::info!("outputs safe; {}", summary.metrics.summary());
+            if summary.outputs_safe {
+                tracing::info!("outputs safe; {}", summary.metrics.summary());
+            } else {
+                tracing::error!(
+                    "safe outputs NOT confirmed (the Maestro was missing or its last write \
+                     failed): check the car; {}",
+                    summary.metrics.summary()
+                );
+            }
             tracing::info!("{}", summary.telemetry.summary());
-            if let Some(path) = summary.log_path {
+            if let Some(path) = &summary.log_path {
                 tracing::info!("log: {}", path.display());
             }
-            Ok(())
+            match summary.realtime_fault {
+                Some(why) => anyhow::bail!("the run stayed KILLED: realtime setup failed ({why})"),
+                None => Ok(()),
+            }
         }
     }
 }

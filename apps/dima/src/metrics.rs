@@ -4,6 +4,7 @@
 
 use std::fmt::Write as _;
 
+use dima_core::schema::{DurationStats, SummaryRecord};
 use serde::Serialize;
 
 /// Histogram of durations in 1 µs buckets up to a fixed bound; longer ones are overflows.
@@ -128,40 +129,7 @@ impl Stat {
     }
 }
 
-/// Every counter of the realtime loop.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
-pub struct Counters {
-    /// Cycles run.
-    pub cycles: u64,
-    /// Periods missed (cyclictest semantics).
-    pub missed_periods: u64,
-    /// Valid packets used.
-    pub packets_ok: u64,
-    /// Cycles without a valid packet by the deadline.
-    pub packets_missing: u64,
-    /// Packets rejected by the decoder (CRC or start token), from its stats.
-    pub packet_crc_errors: u64,
-    /// Bytes the packet decoder skipped.
-    pub packet_bytes_skipped: u64,
-    /// Info frames received.
-    pub info_frames: u64,
-    /// Sensor port or request-line errors.
-    pub sensor_errors: u64,
-    /// Maestro writes done.
-    pub servo_writes: u64,
-    /// Maestro write errors.
-    pub servo_errors: u64,
-    /// Cycles where outputs could not be written because the Maestro was missing.
-    pub servo_missing: u64,
-    /// Commands applied.
-    pub commands: u64,
-    /// Log records dropped because the logger ring was full.
-    pub log_dropped: u64,
-    /// Devices (re)connected.
-    pub device_connects: u64,
-    /// FAILSAFE entries.
-    pub failsafes: u64,
-}
+pub use dima_core::counters::Counters;
 
 /// Metrics owned by the realtime thread.
 #[derive(Debug, Clone)]
@@ -174,7 +142,7 @@ pub struct LoopMetrics {
     pub compute: Stat,
     /// Maestro write.
     pub servo_write: Stat,
-    /// Counters.
+    /// Counters (a copy of the control state's, updated every cycle).
     pub counters: Counters,
 }
 
@@ -190,6 +158,29 @@ impl LoopMetrics {
         }
     }
 
+    /// The run's totals for the log's summary record.
+    pub fn summary_record(&self) -> SummaryRecord {
+        let stats = |s: &Stat| DurationStats {
+            count: s.count,
+            min_us: s.min_ns as f64 / 1e3,
+            mean_us: s.mean_ns() as f64 / 1e3,
+            max_us: s.max_ns as f64 / 1e3,
+        };
+        let h = &self.wake_latency;
+        SummaryRecord {
+            counters: self.counters,
+            wake_latency: DurationStats {
+                count: h.count(),
+                min_us: h.min_ns() as f64 / 1e3,
+                mean_us: h.avg_ns() as f64 / 1e3,
+                max_us: h.max_ns() as f64 / 1e3,
+            },
+            request_to_packet: stats(&self.request_to_packet),
+            compute: stats(&self.compute),
+            servo_write: stats(&self.servo_write),
+        }
+    }
+
     /// The one-line summary printed at exit.
     pub fn summary(&self) -> String {
         let c = &self.counters;
@@ -197,8 +188,10 @@ impl LoopMetrics {
         format!(
             "cycles {} missed {} | wake latency min/avg/max {}/{}/{} µs (overflows {}) | \
              request->packet avg/max {}/{} µs | compute avg/max {}/{} µs | servo write avg/max \
-             {}/{} µs | packets ok {} missing {} crc {} skipped-bytes {} | sensor errors {} | \
-             servo writes {} errors {} missing {} | commands {} | log dropped {} | failsafes {}",
+             {}/{} µs | packets ok {} missing {} stale {} late {} crc {} skipped-bytes {} | \
+             sensor errors {} | gnss fixes {} | \
+             servo writes {} errors {} missing {} | commands {} (setpoints rejected {}, revives \
+             refused {}) | log dropped {} | failsafes {}",
             c.cycles,
             c.missed_periods,
             h.min_ns() / 1_000,
@@ -213,13 +206,18 @@ impl LoopMetrics {
             self.servo_write.max_ns / 1_000,
             c.packets_ok,
             c.packets_missing,
+            c.packets_stale,
+            c.packets_late,
             c.packet_crc_errors,
             c.packet_bytes_skipped,
             c.sensor_errors,
+            c.gnss_fixes,
             c.servo_writes,
             c.servo_errors,
             c.servo_missing,
             c.commands,
+            c.setpoints_rejected,
+            c.revives_refused,
             c.log_dropped,
             c.failsafes,
         )

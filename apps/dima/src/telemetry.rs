@@ -2,9 +2,10 @@
 //! frames out.
 //!
 //! Commands go to the loop as events through a ring, never as a latest value, so a kill or a
-//! revive cannot be overwritten; if the ring is ever full they wait here, in order. The
-//! comms-loss decision is not taken here but in the loop, so a dead telemetry thread still
-//! trips the failsafe.
+//! revive cannot be overwritten; if the ring is ever full they wait here, in order, in a
+//! bounded queue ([`CommandHandOff`]). A kill goes first: it is pushed before anything else is
+//! done with it, and it supersedes every command still waiting. The comms-loss decision is not
+//! taken here but in the loop, so a dead telemetry thread still trips the failsafe.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -48,6 +49,70 @@ pub fn display_frame(packet: Option<&SensorPacket>) -> DisplayFrame {
         frame.head_mot_deg_e5 = pvt.head_mot_deg_e5;
     }
     frame
+}
+
+/// Commands waiting for room in the ring to the loop, at most this many.
+pub const PENDING_COMMANDS: usize = 64;
+
+/// Hands commands to the loop in arrival order through the ring, with a bounded queue for when
+/// the ring is full.
+pub struct CommandHandOff {
+    ring: rtrb::Producer<Command>,
+    pending: VecDeque<Command>,
+    dropped: u64,
+}
+
+impl CommandHandOff {
+    /// Around the ring to the loop.
+    pub fn new(ring: rtrb::Producer<Command>) -> CommandHandOff {
+        CommandHandOff {
+            ring,
+            pending: VecDeque::with_capacity(PENDING_COMMANDS),
+            dropped: 0,
+        }
+    }
+
+    /// Hands `command` over: a kill at once, ahead of (and instead of) anything still
+    /// waiting; anything else after what is waiting. A full queue drops the new command and
+    /// counts it.
+    pub fn push(&mut self, command: Command) {
+        if command == Command::Kill {
+            if self.ring.push(command).is_err() {
+                self.dropped += self.pending.len() as u64;
+                self.pending.clear();
+                self.pending.push_back(command);
+            } else {
+                // Whatever was waiting came before the kill and is void after it.
+                self.dropped += self.pending.len() as u64;
+                self.pending.clear();
+            }
+            return;
+        }
+        self.flush();
+        if self.pending.is_empty() && self.ring.push(command).is_ok() {
+            return;
+        }
+        if self.pending.len() < PENDING_COMMANDS {
+            self.pending.push_back(command);
+        } else {
+            self.dropped += 1;
+        }
+    }
+
+    /// Moves waiting commands into the ring while it has room.
+    pub fn flush(&mut self) {
+        while let Some(&c) = self.pending.front() {
+            if self.ring.push(c).is_err() {
+                break;
+            }
+            self.pending.pop_front();
+        }
+    }
+
+    /// Commands dropped: a full queue, or superseded by a kill.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
 }
 
 /// Why a radio operation failed: the port is then reopened.
@@ -116,6 +181,8 @@ pub struct TelemetryStats {
     pub display_frames: u64,
     /// Port errors (each followed by a reopen).
     pub port_errors: u64,
+    /// Commands dropped before the loop saw them (queue full, or superseded by a kill).
+    pub commands_dropped: u64,
 }
 
 impl TelemetryStats {
@@ -124,12 +191,13 @@ impl TelemetryStats {
         let c = &self.commands;
         format!(
             "ground link: frames {} crc-errors {} unknown-type {} out-of-range {} skipped-bytes {} \
-             | display frames {} | port errors {}",
+             | commands dropped {} | display frames {} | port errors {}",
             c.frames,
             c.crc_errors,
             c.unknown_type,
             c.out_of_range,
             c.skipped_bytes,
+            self.commands_dropped,
             self.display_frames,
             self.port_errors
         )
@@ -139,7 +207,7 @@ impl TelemetryStats {
 /// Spawns the telemetry thread.
 pub fn spawn_telemetry(
     mut open: Opener<SerialPort>,
-    mut commands: rtrb::Producer<Command>,
+    commands: rtrb::Producer<Command>,
     mut snapshot: triple_buffer::Output<Snapshot>,
     settings: TelemetrySettings,
     stop: Arc<AtomicBool>,
@@ -156,7 +224,7 @@ pub fn spawn_telemetry(
             let mut stats = TelemetryStats::default();
             let mut radio: Option<Transparent<SerialPort>> = None;
             let mut decoder = CommandDecoder::new();
-            let mut pending: VecDeque<Command> = VecDeque::new();
+            let mut hand_off = CommandHandOff::new(commands);
             let mut last_open: Option<Instant> = None;
             let mut failures = 0u64;
             let mut next_display = Instant::now() + settings.display_period;
@@ -181,12 +249,7 @@ pub fn spawn_telemetry(
                     }
                 }
                 // Commands still waiting for room in the ring go first, in order.
-                while let Some(&c) = pending.front() {
-                    if commands.push(c).is_err() {
-                        break;
-                    }
-                    pending.pop_front();
-                }
+                hand_off.flush();
                 let Some(r) = radio.as_mut() else {
                     std::thread::sleep(Duration::from_millis(20));
                     continue;
@@ -199,11 +262,10 @@ pub fn spawn_telemetry(
                     .wait_input(monotonic_ns() + wait.as_nanos() as u64)
                 {
                     Ok(_) => receive(r, &mut decoder, |c| {
+                        // Hand over first (a kill goes straight to the loop), then report.
+                        hand_off.push(c);
                         if matches!(c, Command::Kill | Command::Revive) {
                             tracing::info!("ground link: {c:?}");
-                        }
-                        if !pending.is_empty() || commands.push(c).is_err() {
-                            pending.push_back(c);
                         }
                     }),
                     Err(_) => Err(RadioFailed),
@@ -235,6 +297,62 @@ pub fn spawn_telemetry(
                 }
             }
             stats.commands = decoder.stats();
+            stats.commands_dropped = hand_off.dropped();
             stats
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dima_groundlink::Percent;
+
+    fn drain(ring: &mut rtrb::Consumer<Command>) -> Vec<Command> {
+        std::iter::from_fn(|| ring.pop().ok()).collect()
+    }
+
+    #[test]
+    fn commands_keep_their_order_through_a_full_ring() {
+        let (tx, mut rx) = rtrb::RingBuffer::new(2);
+        let mut h = CommandHandOff::new(tx);
+        let t = |p| Command::Throttle(Percent::new(p).unwrap());
+        for p in 0..5 {
+            h.push(t(p));
+        }
+        assert_eq!(drain(&mut rx), [t(0), t(1)]);
+        h.flush();
+        assert_eq!(drain(&mut rx), [t(2), t(3)]);
+        h.push(t(5));
+        assert_eq!(drain(&mut rx), [t(4), t(5)]);
+        assert_eq!(h.dropped(), 0);
+    }
+
+    #[test]
+    fn a_kill_goes_first_and_voids_what_waits() {
+        let (tx, mut rx) = rtrb::RingBuffer::new(2);
+        let mut h = CommandHandOff::new(tx);
+        // A revive waiting behind a full ring must not come after the kill.
+        h.push(Command::Heartbeat);
+        h.push(Command::Heartbeat);
+        h.push(Command::Revive);
+        h.push(Command::Kill);
+        assert_eq!(drain(&mut rx), [Command::Heartbeat, Command::Heartbeat]);
+        h.flush();
+        assert_eq!(drain(&mut rx), [Command::Kill]);
+        assert_eq!(h.dropped(), 1);
+        // With room in the ring the kill is pushed at once, before anything else.
+        h.push(Command::Kill);
+        assert_eq!(drain(&mut rx), [Command::Kill]);
+    }
+
+    #[test]
+    fn the_queue_is_bounded_and_counts_drops() {
+        let (tx, _rx) = rtrb::RingBuffer::new(1);
+        let mut h = CommandHandOff::new(tx);
+        for _ in 0..(1 + PENDING_COMMANDS + 10) {
+            h.push(Command::Heartbeat);
+        }
+        assert_eq!(h.dropped(), 10);
+        assert_eq!(h.pending.len(), PENDING_COMMANDS);
+    }
 }

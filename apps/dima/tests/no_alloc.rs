@@ -75,12 +75,17 @@ fn realtime_thread_never_allocates() {
     let dir = temp_dir("noalloc");
     let mut config = test_config(&dir);
     config.realtime.loop_rate_hz = 500;
-    config.sensor.packet_deadline_us = 1_800;
+    // 132 bytes x 11 bits at 1.5 Mbaud: 968 µs on the wire.
+    config.sensor.baud = 1_500_000;
+    config.sensor.packet_deadline_us = 1_700;
     config.maestro.servo_refresh_hz = 50;
     config.validate().unwrap();
 
     let (sensor_pty, maestro_pty, ground_pty) = (pty(), pty(), pty());
-    let board = FakeBoard::spawn(sensor_pty.master);
+    let board = FakeBoard::spawn_with_wire_time(
+        sensor_pty.master,
+        Duration::from_nanos(config.packet_wire_ns()),
+    );
     let maestro = FakeMaestro::spawn(maestro_pty.master);
     let pin = Mutex::new(Some(board.pin()));
     let (sp, mp, gp) = (
@@ -153,7 +158,7 @@ fn realtime_thread_never_allocates() {
     let settings = RtSettings::from(&config.realtime);
     let rt = std::thread::spawn(move || {
         let _setup = RtSetup::apply(&settings);
-        let mut rt_loop = RealtimeLoop::new(params, ends, sensor_link, servo_link);
+        let mut rt_loop = RealtimeLoop::new(params, ends, sensor_link, servo_link, false);
         let mut clock = PeriodicClock::new(period, monotonic_ns());
         COUNTING.with(|c| c.set(true));
         let cycles = rt_loop.run(&mut clock, Some(CYCLES));

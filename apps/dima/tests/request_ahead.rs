@@ -33,6 +33,7 @@ fn request_ahead_reads_the_previous_cycles_answer() {
     let options = RunOptions {
         duration: Some(Duration::from_millis(1_500)),
         observer: None,
+        busy: None,
     };
     let summary = app::run(&config, devices, options, Arc::new(AtomicBool::new(false))).unwrap();
     let m = &summary.metrics;

@@ -95,6 +95,17 @@ struct Errors {
     gyro_bias_dps: [f64; 3],
 }
 
+/// Faults of the board's sensors for one answer.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SensorFaultState {
+    /// Repeat the last NAV-PVT unchanged (no new epochs).
+    pub gnss_frozen: bool,
+    /// New epochs carry no fix (fix type 0, gnssFixOK clear).
+    pub gnss_lost: bool,
+    /// Keep the last accelerometer and gyroscope words.
+    pub imu_stuck: bool,
+}
+
 /// The board's answer to one request.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Answer {
@@ -172,9 +183,21 @@ impl BoardSim {
 
     /// The answer to a request at `now_s` (seconds since boot) with the car in `state`.
     pub fn answer(&mut self, now_s: f64, state: &VehicleState) -> Answer {
+        self.answer_with(now_s, state, SensorFaultState::default())
+    }
+
+    /// The answer with the sensors' faults at this time.
+    pub fn answer_with(
+        &mut self,
+        now_s: f64,
+        state: &VehicleState,
+        faults: SensorFaultState,
+    ) -> Answer {
         let info_due = self.last_request_s.is_none_or(|t| now_s - t >= 0.5);
         self.last_request_s = Some(now_s);
-        self.update_gnss(now_s, state);
+        if !faults.gnss_frozen {
+            self.update_gnss(now_s, state, faults.gnss_lost);
+        }
 
         let e = self.errors;
         let accel_mg = Xyz {
@@ -214,10 +237,10 @@ impl BoardSim {
             accel.copy_from_slice(&b[0..6]);
             gyro.copy_from_slice(&b[6..12]);
             mag.copy_from_slice(&b[12..20]);
-            self.builder
-                .accel_registers(accel)
-                .gyro_registers(gyro)
-                .mag_registers(mag);
+            if !faults.imu_stuck {
+                self.builder.accel_registers(accel).gyro_registers(gyro);
+            }
+            self.builder.mag_registers(mag);
         }
 
         let celsius = self.config.temperature_c + self.noise(0.02);
@@ -250,8 +273,9 @@ impl BoardSim {
         Answer { packet, info }
     }
 
-    /// A new NAV-PVT epoch every `1 / gnss_rate_hz` s of simulated time.
-    fn update_gnss(&mut self, now_s: f64, state: &VehicleState) {
+    /// A new NAV-PVT epoch every `1 / gnss_rate_hz` s of simulated time (without a fix when
+    /// `lost`).
+    fn update_gnss(&mut self, now_s: f64, state: &VehicleState, lost: bool) {
         let period = 1.0 / self.config.gnss_rate_hz.max(0.1);
         let epoch = (now_s / period).floor().max(0.0) as u64 + 1;
         if epoch <= self.gnss_epochs {
@@ -287,8 +311,12 @@ impl BoardSim {
                 | neo_m8t::nav_pvt::VALID_FULLY_RESOLVED,
             t_acc_ns: 25,
             nano_ns: ((epoch_s.fract()) * 1e9) as i32,
-            fix_type: 3,
-            flags: neo_m8t::nav_pvt::FLAG_GNSS_FIX_OK,
+            fix_type: if lost { 0 } else { 3 },
+            flags: if lost {
+                0
+            } else {
+                neo_m8t::nav_pvt::FLAG_GNSS_FIX_OK
+            },
             flags2: 0xE0,
             num_sv: 12,
             lon_deg_e7: (lon * 1e7).round() as i32,
@@ -426,6 +454,42 @@ mod tests {
         assert_eq!(pvt.head_mot_deg_e5, 9_000_000);
         assert!((pvt.lat_deg() - (-34.0885 + 100.0 / 111_194.9)).abs() < 1e-6);
         assert!(pvt.gnss_fix_ok());
+    }
+
+    #[test]
+    fn sensor_faults_freeze_gnss_and_imu_words() {
+        let mut b = exact();
+        let state = VehicleState::default();
+        let decoded = |a: &Answer| match decode(&a.packet).first() {
+            Some(Frame::Packet(raw)) => raw.decode(),
+            other => panic!("not a packet: {other:?}"),
+        };
+        let first = decoded(&b.answer(0.05, &state));
+        let moving = VehicleState {
+            yaw_rate_dps: 30.0,
+            accel_m_s2: 2.0,
+            ..state
+        };
+        let frozen = SensorFaultState {
+            gnss_frozen: true,
+            imu_stuck: true,
+            ..SensorFaultState::default()
+        };
+        let later = decoded(&b.answer_with(0.55, &moving, frozen));
+        assert_eq!(later.gnss, first.gnss, "the same NAV-PVT, byte for byte");
+        assert_eq!((later.accel, later.gyro), (first.accel, first.gyro));
+        let lost = SensorFaultState {
+            gnss_lost: true,
+            ..SensorFaultState::default()
+        };
+        let p = decoded(&b.answer_with(0.65, &moving, lost));
+        let pvt = p.nav_pvt().unwrap();
+        assert_eq!((pvt.fix_type, pvt.gnss_fix_ok()), (0, false));
+        assert!(
+            pvt.itow_ms > first.nav_pvt().unwrap().itow_ms,
+            "time goes on"
+        );
+        assert_ne!(p.gyro, first.gyro, "the IMU moves again");
     }
 
     #[test]

@@ -17,10 +17,10 @@ use std::time::Duration;
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use pololu_maestro::{CommandDecoder, DecoderConfig};
 
-use crate::board::{BoardConfig, BoardSim};
-use crate::faults::{FaultInjector, FaultSpec, FaultStats};
+use crate::board::{BoardConfig, BoardSim, SensorFaultState};
+use crate::faults::{FaultInjector, FaultSpec, FaultStats, SensorFaults};
 use crate::model::VehicleState;
-use crate::pty::SimPty;
+use crate::pty::{LinePace, SimPty};
 use crate::request::RequestLine;
 use crate::rng::SimRng;
 use crate::world::World;
@@ -108,18 +108,37 @@ pub struct BoardStats {
 /// deadline (3.7 ms).
 pub const LATE_ANSWER: Duration = Duration::from_micros(3_700);
 
-/// Runs the simulated sensor board until `stop`.
-#[allow(clippy::too_many_arguments)]
+/// The simulated sensor board's settings for a run.
+#[derive(Debug, Clone)]
+pub struct BoardSetup {
+    /// Where and how the board starts.
+    pub config: BoardConfig,
+    /// Faults of its link to the application.
+    pub link_faults: FaultSpec,
+    /// Faults of its sensors.
+    pub sensor_faults: SensorFaults,
+    /// Its UART's pace towards the application.
+    pub pace: LinePace,
+}
+
+/// Runs the simulated sensor board until `stop`. Like the firmware, it answers a request
+/// only when its line is idle: requests that arrive while an answer is still going out are
+/// skipped (and counted as unanswered).
 pub fn spawn_board(
     world: Arc<World>,
     line: Arc<RequestLine>,
     mut port: LinkPort,
-    config: BoardConfig,
-    spec: FaultSpec,
+    setup: BoardSetup,
     rng: SimRng,
     stats: Arc<BoardStats>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
+    let BoardSetup {
+        config,
+        link_faults: spec,
+        sensor_faults,
+        pace,
+    } = setup;
     std::thread::Builder::new()
         .name("sim-board".into())
         .spawn(move || {
@@ -146,6 +165,10 @@ pub fn spawn_board(
                 }
                 let edges = now - seen;
                 seen = now;
+                // The board's DMA starts sending within microseconds of the edge.
+                let edge_at = std::time::Instant::now()
+                    .checked_sub(line.since_last_edge())
+                    .unwrap_or_else(std::time::Instant::now);
                 stats.requests.fetch_add(edges, Ordering::Relaxed);
                 if edges > 1 {
                     // Requests while the previous answer was still going out.
@@ -159,11 +182,14 @@ pub fn spawn_board(
                     continue;
                 }
                 let state: VehicleState = world.state();
-                let answer = board.answer(t, &state);
-                let delay = injector.delay();
-                if !delay.is_zero() {
-                    std::thread::sleep(delay);
-                }
+                let faults = SensorFaultState {
+                    gnss_frozen: sensor_faults.gnss_frozen_at(t),
+                    gnss_lost: sensor_faults.gnss_lost_at(t),
+                    imu_stuck: sensor_faults.imu_stuck_at(t),
+                };
+                let answer = board.answer_with(t, &state, faults);
+                // A delay fault postpones the whole transmission.
+                let start = edge_at + injector.delay();
                 wire.clear();
                 injector.mangle(&answer.packet, &mut out);
                 wire.extend_from_slice(&out);
@@ -183,10 +209,21 @@ pub fn spawn_board(
                     stats.info_frames.fetch_add(1, Ordering::Relaxed);
                 }
                 if let Some(pty) = port.pty() {
-                    let _ = pty.write(&wire, Duration::from_millis(50));
+                    let _ = pty.write_paced_from(start, &wire, pace, Duration::from_millis(50));
                 }
-                if line.since_last_edge() > LATE_ANSWER && line.edges() == seen {
+                // Late: complete after the deadline, or after the next request already came.
+                if line.edges() != seen || line.since_last_edge() > LATE_ANSWER {
                     stats.late_answers.fetch_add(1, Ordering::Relaxed);
+                }
+                // Requests that came while the answer was going out are not answered.
+                let during = line.edges() - seen;
+                if during > 0 {
+                    seen += during;
+                    stats.requests.fetch_add(during, Ordering::Relaxed);
+                    stats.unanswered.fetch_add(during, Ordering::Relaxed);
+                    for _ in 0..during {
+                        board.skip_request();
+                    }
                 }
                 stats.answers.fetch_add(1, Ordering::Relaxed);
                 *lock(&stats.faults) = injector.stats();
@@ -405,6 +442,7 @@ pub fn spawn_ground(
     script: Vec<ScriptStep>,
     heartbeat: [u8; 10],
     spec: FaultSpec,
+    pace: LinePace,
     rng: SimRng,
     stats: Arc<GroundStats>,
     stop: Arc<AtomicBool>,
@@ -479,7 +517,10 @@ pub fn spawn_ground(
                     std::thread::sleep(delay);
                 }
                 if let Some(pty) = port.pty() {
-                    if pty.write(&wire, Duration::from_millis(50)).unwrap_or(0) == wire.len() {
+                    let written = pty
+                        .write_paced(&wire, pace, Duration::from_millis(50))
+                        .unwrap_or(0);
+                    if written == wire.len() {
                         let sent_at = world.now_s();
                         stats
                             .frames_sent
@@ -495,13 +536,14 @@ pub fn spawn_ground(
         })
 }
 
-/// Copies bytes both ways between the application's XBee pty and a second pty a ground-station
+/// Copies bytes (towards the robot at the radio's pace) both ways between the application's XBee pty and a second pty a ground-station
 /// GUI opens (a null-modem cable), applying the ground link's faults towards the robot.
 pub fn spawn_relay(
     world: Arc<World>,
     mut robot: LinkPort,
     station: SimPty,
     spec: FaultSpec,
+    pace: LinePace,
     rng: SimRng,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
@@ -520,7 +562,7 @@ pub fn spawn_relay(
                 if let Some(r) = robot_pty {
                     if n > 0 && !spec.silent_at(t) {
                         injector.mangle(&buf[..n], &mut out);
-                        let _ = r.write(&out, Duration::from_millis(20));
+                        let _ = r.write_paced(&out, pace, Duration::from_millis(20));
                     }
                     let m = r.read(&mut buf, Duration::from_millis(2)).unwrap_or(0);
                     if m > 0 {

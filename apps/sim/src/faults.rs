@@ -1,5 +1,7 @@
 //! Fault injection per link: bit errors, byte drops and insertions, added delay and jitter,
-//! silent periods and disconnects at given times.
+//! silent periods and disconnects at given times; and faults of the devices themselves: a
+//! frozen or lost GNSS solution, a stuck IMU, and extra work inside the application's realtime
+//! cycle.
 //!
 //! A [`FaultSpec`] is plain data (from the command line: `--fault sensor:ber=1e-3`); a
 //! [`FaultInjector`] applies it to each frame a simulated device sends and counts what it did,
@@ -134,7 +136,44 @@ impl FaultSpec {
     }
 }
 
-/// Faults for every link.
+/// Faults of the sensor board's sensors, in time windows of the run.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SensorFaults {
+    /// `gnss:freeze`: the board repeats the last NAV-PVT unchanged (a receiver gone quiet).
+    pub gnss_freezes: Vec<Window>,
+    /// `gnss:loss`: the receiver reports no fix (fix type 0, gnssFixOK clear).
+    pub gnss_losses: Vec<Window>,
+    /// `imu:stuck`: the accelerometer and gyroscope words stay frozen (failed reads).
+    pub imu_stuck: Vec<Window>,
+}
+
+impl SensorFaults {
+    /// Whether the GNSS solution is frozen at `t_s`.
+    pub fn gnss_frozen_at(&self, t_s: f64) -> bool {
+        self.gnss_freezes.iter().any(|w| w.contains(t_s))
+    }
+
+    /// Whether the receiver has no fix at `t_s`.
+    pub fn gnss_lost_at(&self, t_s: f64) -> bool {
+        self.gnss_losses.iter().any(|w| w.contains(t_s))
+    }
+
+    /// Whether the IMU is stuck at `t_s`.
+    pub fn imu_stuck_at(&self, t_s: f64) -> bool {
+        self.imu_stuck.iter().any(|w| w.contains(t_s))
+    }
+}
+
+/// `loop:busy`: extra work inside every realtime cycle of the application during a window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LoopBusy {
+    /// When, s from the start.
+    pub window: Window,
+    /// Work added per cycle, ms.
+    pub busy_ms: f64,
+}
+
+/// Faults for every link and device.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Faults {
     /// Sensor-board UART.
@@ -143,6 +182,10 @@ pub struct Faults {
     pub ground: FaultSpec,
     /// Maestro port.
     pub maestro: FaultSpec,
+    /// GNSS and IMU on the sensor board.
+    pub sensors: SensorFaults,
+    /// Overload of the application's realtime loop.
+    pub loop_busy: Option<LoopBusy>,
 }
 
 impl Faults {
@@ -155,20 +198,23 @@ impl Faults {
         }
     }
 
-    /// Applies a `LINK:KEY=VALUE[,KEY=VALUE...]` argument, e.g. `sensor:ber=1e-3,drop=1e-4`.
+    /// Applies a `LINK:KEY=VALUE[,KEY=VALUE...]` argument, e.g. `sensor:ber=1e-3,drop=1e-4`,
+    /// `gnss:freeze=5+2`, `imu:stuck=5+2` or `loop:busy=5+2,busy_ms=6`.
     pub fn apply_arg(&mut self, arg: &str) -> Result<(), FaultParseError> {
         let (link, settings) = arg.split_once(':').ok_or_else(|| {
             FaultParseError(format!(
-                "`{arg}`: expected LINK:KEY=VALUE (link: sensor, ground, maestro)"
+                "`{arg}`: expected LINK:KEY=VALUE (sensor, ground, maestro, gnss, imu, loop)"
             ))
         })?;
         let link = match link.trim() {
             "sensor" => Link::Sensor,
             "ground" | "xbee" => Link::Ground,
             "maestro" => Link::Maestro,
+            "gnss" | "imu" => return self.apply_sensor_fault(link.trim(), settings),
+            "loop" => return self.apply_loop_fault(settings),
             other => {
                 return Err(FaultParseError(format!(
-                    "unknown link `{other}` (sensor, ground, maestro)"
+                    "unknown link `{other}` (sensor, ground, maestro, gnss, imu, loop)"
                 )))
             }
         };
@@ -176,6 +222,69 @@ impl Faults {
             self.link_mut(link).set(setting)?;
         }
         Ok(())
+    }
+}
+
+impl Faults {
+    /// `gnss:freeze=W`, `gnss:loss=W`, `imu:stuck=W` (windows `START+DURATION`).
+    fn apply_sensor_fault(&mut self, device: &str, settings: &str) -> Result<(), FaultParseError> {
+        for setting in settings.split(',').filter(|s| !s.trim().is_empty()) {
+            let (key, value) = setting
+                .split_once('=')
+                .ok_or_else(|| FaultParseError(format!("`{setting}`: expected KEY=VALUE")))?;
+            let window: Window = value.parse()?;
+            let s = &mut self.sensors;
+            match (device, key.trim()) {
+                ("gnss", "freeze") => s.gnss_freezes.push(window),
+                ("gnss", "loss") => s.gnss_losses.push(window),
+                ("imu", "stuck") => s.imu_stuck.push(window),
+                ("gnss", other) => {
+                    return Err(FaultParseError(format!(
+                        "unknown gnss fault `{other}` (freeze, loss)"
+                    )))
+                }
+                (_, other) => {
+                    return Err(FaultParseError(format!(
+                        "unknown imu fault `{other}` (stuck)"
+                    )))
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `loop:busy=START+DURATION,busy_ms=MS`.
+    fn apply_loop_fault(&mut self, settings: &str) -> Result<(), FaultParseError> {
+        let (mut window, mut busy_ms) = (None, None);
+        for setting in settings.split(',').filter(|s| !s.trim().is_empty()) {
+            match setting.split_once('=').map(|(k, v)| (k.trim(), v.trim())) {
+                Some(("busy", v)) => window = Some(v.parse::<Window>()?),
+                Some(("busy_ms", v)) => {
+                    busy_ms = Some(
+                        v.parse::<f64>()
+                            .ok()
+                            .filter(|x| x.is_finite() && *x > 0.0 && *x <= 1_000.0)
+                            .ok_or_else(|| {
+                                FaultParseError(format!("`{setting}`: expected 0 < MS <= 1000"))
+                            })?,
+                    )
+                }
+                _ => {
+                    return Err(FaultParseError(format!(
+                        "`{setting}`: expected busy=START+DURATION or busy_ms=MS"
+                    )))
+                }
+            }
+        }
+        match (window, busy_ms) {
+            (Some(window), Some(busy_ms)) => {
+                self.loop_busy = Some(LoopBusy { window, busy_ms });
+                Ok(())
+            }
+            _ => Err(FaultParseError(
+                "loop: expected busy=START+DURATION,busy_ms=MS".into(),
+            )),
+        }
     }
 }
 
@@ -304,6 +413,39 @@ mod tests {
             "sensor:silence=5",
             "sensor:noise=1",
             "sensor:delay=-1",
+        ] {
+            assert!(Faults::default().apply_arg(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn device_faults_parse() {
+        let mut f = Faults::default();
+        f.apply_arg("gnss:freeze=5+2").unwrap();
+        f.apply_arg("gnss:loss=1+0.5").unwrap();
+        f.apply_arg("imu:stuck=3+4").unwrap();
+        f.apply_arg("loop:busy=2+1,busy_ms=6").unwrap();
+        assert!(f.sensors.gnss_frozen_at(6.9) && !f.sensors.gnss_frozen_at(7.0));
+        assert!(f.sensors.gnss_lost_at(1.2) && !f.sensors.gnss_lost_at(2.0));
+        assert!(f.sensors.imu_stuck_at(3.0) && !f.sensors.imu_stuck_at(2.9));
+        assert_eq!(
+            f.loop_busy,
+            Some(LoopBusy {
+                window: Window {
+                    start_s: 2.0,
+                    duration_s: 1.0
+                },
+                busy_ms: 6.0
+            })
+        );
+        for bad in [
+            "gnss:thaw=1+1",
+            "gnss:freeze=1",
+            "imu:stuck",
+            "loop:busy=1+1",
+            "loop:busy_ms=3",
+            "loop:busy=1+1,busy_ms=0",
+            "loop:busy=1+1,busy_ms=x",
         ] {
             assert!(Faults::default().apply_arg(bad).is_err(), "{bad}");
         }

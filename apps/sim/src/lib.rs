@@ -13,7 +13,8 @@
 //! - [`faults`]: bit errors, drops, insertions, delay, jitter, silence and disconnects per link;
 //! - [`scenario`]: scripts and the checks a run must pass, judged on the outputs at the Maestro,
 //!   the model, and the application's MCAP log ([`logcheck`]);
-//! - [`runner`] and [`cli`]: a whole run with a live status line and a verdict.
+//! - [`runner`] and [`cli`]: a whole run with a live status line and a verdict, against the
+//!   application configured by [`app_config`].
 //!
 //! The runner does not depend on the application: the caller passes the function that starts
 //! it against an [`runner::AppLaunch`].
@@ -35,6 +36,7 @@
 
 #![deny(missing_docs)]
 
+pub mod app_config;
 pub mod board;
 pub mod cli;
 pub mod devices;

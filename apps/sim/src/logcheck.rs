@@ -5,18 +5,21 @@ use std::collections::BTreeSet;
 use std::path::Path;
 
 use anyhow::Context;
+use dima_core::config::Config;
+use dima_core::schema::{self, CycleMessage, Event, StateMessage};
+use dima_core::{FailsafeCause, Mode};
 
-/// One `/dima/state` message.
+/// One `/dima/state` message, with its log time.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StateChange {
     /// Log time, ns since the Unix epoch.
     pub t_ns: u64,
-    /// Mode after the change (`KILLED`, `MANUAL`, `AUTO`, `FAILSAFE`).
-    pub mode: String,
-    /// Failsafe cause, if any (`CommsLoss`, `SensorLoss`, `Overruns`).
-    pub cause: Option<String>,
-    /// Event names of the cycle.
-    pub events: Vec<String>,
+    /// Mode after the change.
+    pub mode: Mode,
+    /// Failsafe cause, if any.
+    pub cause: Option<FailsafeCause>,
+    /// What happened in the cycle.
+    pub events: Vec<Event>,
 }
 
 /// One `/dima/cycle` message, the fields the checks use.
@@ -25,8 +28,8 @@ pub struct CycleEntry {
     /// Log time (the cycle's wake-up), ns since the Unix epoch.
     pub t_ns: u64,
     /// Mode after the cycle.
-    pub mode: String,
-    /// Whether a valid packet arrived this cycle.
+    pub mode: Mode,
+    /// Whether a valid packet, paired with the cycle's request, arrived in time.
     pub packet_ok: bool,
     /// Valid command frames applied so far.
     pub commands: u64,
@@ -49,10 +52,13 @@ pub struct LogSummary {
     pub metadata: BTreeSet<String>,
     /// Attachment names.
     pub attachments: BTreeSet<String>,
+    /// The configuration that ran, from the `dima` metadata record.
+    pub config: Option<Config>,
 }
 
 impl LogSummary {
-    /// Reads a finished MCAP file.
+    /// Reads a finished MCAP file: every message through the typed schema, the configuration
+    /// from its metadata. A message that does not match its schema is an error.
     pub fn read(path: &Path) -> anyhow::Result<LogSummary> {
         let bytes =
             std::fs::read(path).with_context(|| format!("reading the log {}", path.display()))?;
@@ -61,38 +67,38 @@ impl LogSummary {
             .with_context(|| format!("{}: not an MCAP file", path.display()))?;
         for message in stream {
             let m = message.with_context(|| format!("{}: damaged message", path.display()))?;
-            match m.channel.topic.as_str() {
-                "/sensor/raw" => out.raw_packets.push(crate::devices::fingerprint(&m.data)),
-                "/dima/state" => {
-                    let v: serde_json::Value = serde_json::from_slice(&m.data)?;
-                    out.states.push(StateChange {
-                        t_ns: m.log_time,
-                        mode: v["mode"].as_str().unwrap_or_default().to_owned(),
-                        cause: v["cause"].as_str().map(str::to_owned),
-                        events: v["events"]
-                            .as_array()
-                            .map(|a| {
-                                a.iter()
-                                    .filter_map(|e| e.as_str().map(str::to_owned))
-                                    .collect()
-                            })
-                            .unwrap_or_default(),
-                    });
+            let topic = m.channel.topic.as_str();
+            if topic == schema::SENSOR_RAW.topic {
+                out.raw_packets.push(crate::devices::fingerprint(&m.data));
+            } else if topic == schema::STATE.topic {
+                let v: StateMessage = serde_json::from_slice(&m.data)
+                    .with_context(|| format!("{topic} message at {}", m.log_time))?;
+                out.states.push(StateChange {
+                    t_ns: m.log_time,
+                    mode: v.mode,
+                    cause: v.cause,
+                    events: v.events,
+                });
+            } else if topic == schema::CYCLE.topic {
+                let v: CycleMessage = serde_json::from_slice(&m.data)
+                    .with_context(|| format!("{topic} message at {}", m.log_time))?;
+                out.cycles.push(CycleEntry {
+                    t_ns: m.log_time,
+                    mode: v.mode,
+                    packet_ok: v.packet_ok,
+                    commands: v.counters.commands,
+                    missed: u64::from(v.missed_periods),
+                    targets_us: v.targets_us,
+                });
+            }
+        }
+        for record in mcap::read::LinearReader::new(&bytes)? {
+            if let mcap::records::Record::Metadata(m) = record? {
+                if m.name == schema::METADATA_DIMA {
+                    if let Some(text) = m.metadata.get("config") {
+                        out.config = Some(Config::from_toml(text, "the log's config")?);
+                    }
                 }
-                "/dima/cycle" => {
-                    let v: serde_json::Value = serde_json::from_slice(&m.data)?;
-                    let t = &v["targets_us"];
-                    let target = |i: usize| t[i].as_u64().unwrap_or(0) as u16;
-                    out.cycles.push(CycleEntry {
-                        t_ns: m.log_time,
-                        mode: v["mode"].as_str().unwrap_or_default().to_owned(),
-                        packet_ok: v["packet_ok"].as_bool().unwrap_or(false),
-                        commands: v["counters"]["commands"].as_u64().unwrap_or(0),
-                        missed: v["missed_periods"].as_u64().unwrap_or(0),
-                        targets_us: [target(0), target(1), target(2)],
-                    });
-                }
-                _ => {}
             }
         }
         if let Some(summary) = mcap::Summary::read(&bytes)? {
@@ -110,26 +116,35 @@ impl LogSummary {
         Ok(out)
     }
 
+    /// The mode in force at `t_ns` by the cycle records (`None` before the first).
+    pub fn mode_at(&self, t_ns: u64) -> Option<Mode> {
+        self.cycles
+            .iter()
+            .take_while(|c| c.t_ns <= t_ns)
+            .last()
+            .map(|c| c.mode)
+    }
+
     /// The modes entered, in order, without repeats.
-    pub fn mode_sequence(&self) -> Vec<String> {
-        let mut seq: Vec<String> = Vec::new();
+    pub fn mode_sequence(&self) -> Vec<Mode> {
+        let mut seq: Vec<Mode> = Vec::new();
         for s in &self.states {
             if seq.last() != Some(&s.mode) {
-                seq.push(s.mode.clone());
+                seq.push(s.mode);
             }
         }
         seq
     }
 
     /// Entries into FAILSAFE: time and cause.
-    pub fn failsafes(&self) -> Vec<(u64, Option<String>)> {
+    pub fn failsafes(&self) -> Vec<(u64, Option<FailsafeCause>)> {
         let mut out = Vec::new();
-        let mut before = String::new();
+        let mut before = None;
         for s in &self.states {
-            if s.mode == "FAILSAFE" && before != "FAILSAFE" {
-                out.push((s.t_ns, s.cause.clone()));
+            if s.mode == Mode::Failsafe && before != Some(Mode::Failsafe) {
+                out.push((s.t_ns, s.cause));
             }
-            before = s.mode.clone();
+            before = Some(s.mode);
         }
         out
     }
@@ -161,19 +176,19 @@ impl LogSummary {
 mod tests {
     use super::*;
 
-    fn state(t_ns: u64, mode: &str, cause: Option<&str>) -> StateChange {
+    fn state(t_ns: u64, mode: Mode, cause: Option<FailsafeCause>) -> StateChange {
         StateChange {
             t_ns,
-            mode: mode.into(),
-            cause: cause.map(Into::into),
-            events: vec!["mode_changed".into()],
+            mode,
+            cause,
+            events: vec![Event::ModeChanged],
         }
     }
 
     fn cycle(t_ns: u64, commands: u64, missed: u64) -> CycleEntry {
         CycleEntry {
             t_ns,
-            mode: "MANUAL".into(),
+            mode: Mode::Manual,
             packet_ok: true,
             commands,
             missed,
@@ -185,12 +200,12 @@ mod tests {
     fn modes_failsafes_and_command_times() {
         let log = LogSummary {
             states: vec![
-                state(10, "MANUAL", None),
-                state(20, "MANUAL", None),
-                state(30, "FAILSAFE", Some("CommsLoss")),
-                state(35, "FAILSAFE", Some("CommsLoss")),
-                state(40, "MANUAL", None),
-                state(50, "FAILSAFE", Some("SensorLoss")),
+                state(10, Mode::Manual, None),
+                state(20, Mode::Manual, None),
+                state(30, Mode::Failsafe, Some(FailsafeCause::CommsLoss)),
+                state(35, Mode::Failsafe, Some(FailsafeCause::CommsLoss)),
+                state(40, Mode::Manual, None),
+                state(50, Mode::Failsafe, Some(FailsafeCause::SensorLoss)),
             ],
             cycles: vec![
                 cycle(1, 0, 0),
@@ -203,15 +218,17 @@ mod tests {
         };
         assert_eq!(
             log.mode_sequence(),
-            ["MANUAL", "FAILSAFE", "MANUAL", "FAILSAFE"]
+            [Mode::Manual, Mode::Failsafe, Mode::Manual, Mode::Failsafe]
         );
         assert_eq!(
             log.failsafes(),
             vec![
-                (30, Some("CommsLoss".to_owned())),
-                (50, Some("SensorLoss".to_owned()))
+                (30, Some(FailsafeCause::CommsLoss)),
+                (50, Some(FailsafeCause::SensorLoss))
             ]
         );
+        assert_eq!(log.mode_at(0), None);
+        assert_eq!(log.mode_at(4), Some(Mode::Manual));
         assert_eq!(log.last_command_before(3), Some(2));
         assert_eq!(log.last_command_before(5), Some(4));
         assert_eq!(log.last_command_before(1), None);

@@ -92,6 +92,45 @@ impl SimPty {
         Ok(total - bytes.len())
     }
 
+    /// Writes `bytes` at the pace of a UART: each chunk goes out when its last byte would
+    /// have finished on the wire, so the reader sees the last byte no sooner than the whole
+    /// frame's wire time after the call. Returns the number of bytes written (fewer when the
+    /// reader stops taking bytes for `timeout`).
+    pub fn write_paced(
+        &self,
+        bytes: &[u8],
+        pace: LinePace,
+        timeout: Duration,
+    ) -> io::Result<usize> {
+        self.write_paced_from(Instant::now(), bytes, pace, timeout)
+    }
+
+    /// [`write_paced`](Self::write_paced) for a transmission that started at `start` (e.g. a
+    /// request edge a UART with DMA answers within microseconds).
+    pub fn write_paced_from(
+        &self,
+        start: Instant,
+        bytes: &[u8],
+        pace: LinePace,
+        timeout: Duration,
+    ) -> io::Result<usize> {
+        const CHUNK: usize = 16;
+        let mut sent = 0;
+        for chunk in bytes.chunks(CHUNK) {
+            let due = start + pace.wire_time(sent + chunk.len());
+            let wait = due.saturating_duration_since(Instant::now());
+            if !wait.is_zero() {
+                std::thread::sleep(wait);
+            }
+            let n = self.write(chunk, timeout)?;
+            sent += n;
+            if n < chunk.len() {
+                break;
+            }
+        }
+        Ok(sent)
+    }
+
     /// Reads what arrives within `timeout` (0 bytes when nothing did).
     pub fn read(&self, buf: &mut [u8], timeout: Duration) -> io::Result<usize> {
         let mut fds = [PollFd::new(self.master.as_fd(), PollFlags::POLLIN)];
@@ -155,5 +194,26 @@ mod tests {
         let _ = first;
         drop(pty);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+/// The pace of a UART line: the time one byte takes on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LinePace {
+    /// Nanoseconds per byte (start, data and stop bits).
+    pub byte_ns: u64,
+}
+
+impl LinePace {
+    /// `baud` with `bits_per_byte` bits per byte (11 for 8N2, 10 for 8N1).
+    pub fn new(baud: u32, bits_per_byte: u64) -> LinePace {
+        LinePace {
+            byte_ns: bits_per_byte * 1_000_000_000 / u64::from(baud.max(1)),
+        }
+    }
+
+    /// Time `n` bytes take on the wire.
+    pub fn wire_time(&self, n: usize) -> Duration {
+        Duration::from_nanos(self.byte_ns * n as u64)
     }
 }

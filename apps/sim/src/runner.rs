@@ -1,38 +1,44 @@
 //! The simulation runner: builds the simulated devices on pseudo-terminals, hands their paths
 //! and the request line to the application, shows a live status line, and judges the run.
 //!
-//! The runner does not know the application's types: the caller passes a function that runs
-//! the real application against an [`AppLaunch`] (pty paths, request pin, stop flag) and
-//! reports an [`AppOutcome`]. `dima sim` passes the one that calls the application's `run`
-//! with its production device layer.
+//! The runner does not start the application itself: the caller passes a function that runs
+//! the real application against an [`AppLaunch`] (its configuration with the pty paths, the
+//! request pin, the stop flag) and reports an [`AppOutcome`]. `dima sim` passes the one that
+//! calls the application's `run` with its production device layer. Both sides share
+//! `dima-core`: the configuration, the modes, the counters and the log schema.
 
 use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, AtomicU64, AtomicU8, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
+use dima_core::config::{bits_per_byte, Config};
+use dima_core::control::OutputMap;
+use dima_core::counters::Counters;
+use dima_core::Mode;
 
+use crate::app_config::{app_config, SimPorts};
 use crate::board::BoardConfig;
 use crate::devices::{
-    lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardStats, GroundStats, LinkPort,
-    MaestroStats,
+    lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardSetup, BoardStats,
+    GroundStats, LinkPort, MaestroStats,
 };
-use crate::faults::Faults;
+use crate::faults::{Faults, LoopBusy};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
-use crate::pty::SimPty;
+use crate::pty::{LinePace, SimPty};
 use crate::request::{RequestLine, RequestPin};
 use crate::rng::SimRng;
-use crate::scenario::{evaluate, Evidence, Scenario, SAFE_US};
+use crate::scenario::{evaluate, Evidence, Scenario};
 use crate::world::World;
 
 /// The application's live state as its logger thread sees it, for the status line.
-#[derive(Debug)]
+#[derive(Debug, Default)]
 pub struct AppStatus {
-    /// Mode code: 0 KILLED, 1 MANUAL, 2 AUTO, 3 FAILSAFE; 255 before the first cycle.
-    pub mode: AtomicU8,
+    /// Mode; `None` before the first cycle.
+    pub mode: Mutex<Option<Mode>>,
     /// Cycles run.
     pub cycles: AtomicU64,
     /// Valid packets.
@@ -43,86 +49,29 @@ pub struct AppStatus {
     pub packets_missing: AtomicU64,
 }
 
-impl Default for AppStatus {
-    fn default() -> Self {
-        AppStatus {
-            mode: AtomicU8::new(u8::MAX),
-            cycles: AtomicU64::new(0),
-            packets_ok: AtomicU64::new(0),
-            crc_errors: AtomicU64::new(0),
-            packets_missing: AtomicU64::new(0),
-        }
-    }
-}
-
 impl AppStatus {
     /// The mode's name.
     pub fn mode_name(&self) -> &'static str {
-        match self.mode.load(Ordering::Relaxed) {
-            0 => "KILLED",
-            1 => "MANUAL",
-            2 => "AUTO",
-            3 => "FAILSAFE",
-            _ => "starting",
-        }
+        lock(&self.mode).map_or("starting", Mode::name)
     }
 }
 
 /// What the application gets to run against.
 #[derive(Debug)]
 pub struct AppLaunch {
-    /// Sensor-board serial port (a pty link).
-    pub sensor_port: PathBuf,
-    /// Maestro serial port.
-    pub maestro_port: PathBuf,
-    /// XBee serial port.
-    pub xbee_port: PathBuf,
+    /// The configuration to run with: ports are the simulation's pty links (see
+    /// [`crate::app_config`]).
+    pub config: Config,
     /// The request line (clone it for every open of the sensor board).
     pub request: RequestPin,
-    /// Directory for the MCAP log.
-    pub log_dir: PathBuf,
-    /// Loop rate, Hz.
-    pub loop_rate_hz: u32,
-    /// The application's configuration file, if one was given (its ports are replaced).
-    pub config: Option<PathBuf>,
-    /// Keep the configuration's realtime settings (SCHED_FIFO, pinning, mlockall) instead of
-    /// the unprivileged ones a simulation uses by default.
-    pub realtime: bool,
+    /// Extra work inside the realtime cycle (the `loop:busy` fault), from the loop's start.
+    pub busy: Option<LoopBusy>,
     /// Where the application reports its live state (optional: the status line shows what
     /// it gets).
     pub status: Arc<AppStatus>,
     /// Set to stop the application (the runner sets it at the end of the scenario; signal
     /// handlers may set it earlier).
     pub stop: Arc<AtomicBool>,
-}
-
-/// The application's counters at the end of a run.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct AppCounters {
-    /// Cycles run.
-    pub cycles: u64,
-    /// Periods missed.
-    pub missed_periods: u64,
-    /// Valid packets.
-    pub packets_ok: u64,
-    /// Cycles without a valid packet.
-    pub packets_missing: u64,
-    /// Packets rejected by the CRC.
-    pub packet_crc_errors: u64,
-    /// Bytes skipped by the stream decoder.
-    pub packet_bytes_skipped: u64,
-    /// Info frames received.
-    pub info_frames: u64,
-    /// FAILSAFE entries.
-    pub failsafes: u64,
-    /// Devices (re)connected.
-    pub device_connects: u64,
-    /// Command frames applied.
-    pub commands: u64,
-    /// Command frames the telemetry thread decoded.
-    pub ground_frames: u64,
-    /// Command frames it rejected (CRC, range, unknown type).
-    pub ground_rejected: u64,
 }
 
 /// What the application reports after its run.
@@ -132,8 +81,14 @@ pub struct AppOutcome {
     pub log_path: Option<PathBuf>,
     /// The application's own one-line summary.
     pub summary: String,
-    /// Counters.
-    pub counters: AppCounters,
+    /// The loop's counters at the end.
+    pub counters: Counters,
+    /// Command frames the telemetry thread decoded.
+    pub ground_frames: u64,
+    /// Command frames it rejected (CRC, range, unknown type).
+    pub ground_rejected: u64,
+    /// The safe targets were written at the end.
+    pub outputs_safe: bool,
 }
 
 /// How the status is shown.
@@ -248,6 +203,8 @@ pub struct DeviceCounts {
 /// The result of a run.
 #[derive(Debug, Clone)]
 pub struct SimReport {
+    /// The safe outputs of the configuration that ran, µs.
+    pub safe_us: [u16; 3],
     /// Every check held (skipped ones aside).
     pub passed: bool,
     /// Check results: description and failure reason.
@@ -303,7 +260,7 @@ impl SimReport {
                 o[0],
                 o[1],
                 o[2],
-                if o == SAFE_US { " (safe)" } else { "" }
+                if o == self.safe_us { " (safe)" } else { "" }
             ));
         }
         for (name, result) in &self.checks {
@@ -349,7 +306,15 @@ fn describe(check: &crate::scenario::Check) -> String {
             ..
         } => format!("AUTO holds {speed_m_s} m/s and {heading_deg}° {from_s}-{to_s} s"),
         CommsFailsafe { after_s, .. } => format!("comms-loss FAILSAFE in time after {after_s} s"),
-        ModesInOrder(m) => format!("modes {}", m.join(" -> ")),
+        ModesInOrder(m) => format!(
+            "modes {}",
+            m.iter().map(|m| m.name()).collect::<Vec<_>>().join(" -> ")
+        ),
+        FailsafeFor {
+            cause,
+            from_s,
+            to_s,
+        } => format!("FAILSAFE ({cause:?}) {from_s}-{to_s} s"),
         Failsafes(n) => format!("{n} failsafe(s) in the log"),
     }
 }
@@ -375,6 +340,19 @@ where
     let sensor_link = o.run_dir.join("sensor");
     let maestro_link = o.run_dir.join("maestro");
     let xbee_link = o.run_dir.join("xbee");
+    let config = app_config(
+        o.app_config.as_deref(),
+        SimPorts {
+            sensor: &sensor_link,
+            maestro: &maestro_link,
+            xbee: &xbee_link,
+        },
+        o.loop_rate_hz,
+        o.realtime,
+        &o.log_dir,
+    )?;
+    let outputs = OutputMap::new(&config.channels);
+    let channels = outputs.channel_numbers();
     let board_stats = Arc::new(BoardStats::default());
     let maestro_stats = Arc::new(MaestroStats::default());
     let ground_stats = Arc::new(GroundStats::default());
@@ -383,8 +361,12 @@ where
         world.clone(),
         line.clone(),
         LinkPort::open(&sensor_link).context("sensor-board pty")?,
-        o.board,
-        o.faults.sensor.clone(),
+        BoardSetup {
+            config: o.board,
+            link_faults: o.faults.sensor.clone(),
+            sensor_faults: o.faults.sensors.clone(),
+            pace: LinePace::new(config.sensor.baud, bits_per_byte(config.sensor.stop_bits)),
+        },
         rng.fork(10),
         board_stats.clone(),
         stop_devices.clone(),
@@ -392,13 +374,14 @@ where
     threads.push(spawn_maestro(
         world.clone(),
         LinkPort::open(&maestro_link).context("Maestro pty")?,
-        [0, 1, 2],
+        channels,
         o.faults.maestro.clone(),
         rng.fork(11),
         maestro_stats.clone(),
         stop_devices.clone(),
     )?);
     let xbee = LinkPort::open(&xbee_link).context("XBee pty")?;
+    let radio_pace = LinePace::new(config.xbee.baud, bits_per_byte(1));
     if o.ground_pty {
         let station = SimPty::open(&o.run_dir.join("ground-station")).context("ground pty")?;
         eprintln!(
@@ -410,6 +393,7 @@ where
             xbee,
             station,
             o.faults.ground.clone(),
+            radio_pace,
             rng.fork(12),
             stop_devices.clone(),
         )?);
@@ -420,6 +404,7 @@ where
             o.scenario.script.clone(),
             o.scenario.heartbeat,
             o.faults.ground.clone(),
+            radio_pace,
             rng.fork(13),
             ground_stats.clone(),
             stop_devices.clone(),
@@ -472,10 +457,13 @@ where
                     last_t = t;
                     last_print = t;
                     let line = status_line(
-                        t,
-                        run_length,
-                        scenario.phase_at(t),
-                        rate,
+                        StatusInputs {
+                            t,
+                            run_length,
+                            phase: scenario.phase_at(t),
+                            rate_hz: rate,
+                            channels,
+                        },
                         &app,
                         &board,
                         &maestro,
@@ -499,16 +487,12 @@ where
             })?
     };
 
+    let safe_us = outputs.safe().pulse_us;
     let launch = AppLaunch {
-        status: app_status.clone(),
-        sensor_port: sensor_link,
-        maestro_port: maestro_link,
-        xbee_port: xbee_link,
+        config,
         request: RequestPin::new(line),
-        log_dir: o.log_dir.clone(),
-        loop_rate_hz: o.loop_rate_hz,
-        config: o.app_config.clone(),
-        realtime: o.realtime,
+        busy: o.faults.loop_busy,
+        status: app_status.clone(),
         stop: stop_app.clone(),
     };
     let outcome = app(launch);
@@ -545,7 +529,7 @@ where
         truth: lock(&ground_stats.truth).clone(),
         log: log.clone(),
         start_wall_ns,
-        safe_us: SAFE_US,
+        safe_us,
         ran_s,
         // Cut short by a signal or by a --duration below the scenario's length: checks past
         // the end are skipped.
@@ -575,7 +559,7 @@ where
         maestro_opens: load(&maestro_stats.opens),
         maestro_commands_since_open: load(&maestro_stats.commands_since_open),
         ground_frames: load(&ground_stats.frames_sent),
-        final_outputs_us: Some(maestro_stats.targets_of([0, 1, 2]))
+        final_outputs_us: Some(maestro_stats.targets_of(channels))
             .filter(|t| !t.contains(&0xFFFF))
             .map(|t| t.map(|q| q / 4)),
         displays: load(&ground_stats.displays),
@@ -583,6 +567,7 @@ where
     };
     let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
     Ok(SimReport {
+        safe_us,
         passed,
         checks,
         app,
@@ -613,12 +598,17 @@ fn terminal_columns() -> usize {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn status_line(
+/// What the status line shows besides the devices' and the application's state.
+struct StatusInputs<'a> {
     t: f64,
     run_length: Option<f64>,
-    phase: &str,
+    phase: &'a str,
     rate_hz: f64,
+    channels: [u8; 3],
+}
+
+fn status_line(
+    inputs: StatusInputs<'_>,
     app: &AppStatus,
     board: &BoardStats,
     maestro: &MaestroStats,
@@ -626,6 +616,13 @@ fn status_line(
     world: &World,
     tty: bool,
 ) -> String {
+    let StatusInputs {
+        t,
+        run_length,
+        phase,
+        rate_hz,
+        channels,
+    } = inputs;
     let time = match run_length {
         Some(d) if tty && terminal_columns() >= 120 => {
             let width = 10usize;
@@ -639,7 +636,7 @@ fn status_line(
         Some(d) => format!("{t:4.1}/{d:.0}s"),
         None => format!("{t:5.1}s"),
     };
-    let out = maestro.targets_of([0, 1, 2]);
+    let out = maestro.targets_of(channels);
     let outputs = if out.contains(&0xFFFF) {
         "-".to_owned()
     } else {

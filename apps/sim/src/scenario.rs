@@ -2,14 +2,16 @@
 //! pass. Checks look only at what an outside observer sees: the outputs at the Maestro pty, the
 //! model driven by them, the frames at the ground pty, and the application's MCAP log.
 
+use dima_core::{FailsafeCause, Mode};
 use dima_groundlink::{Command, Percent};
 
 use crate::devices::{GroundAction, OutputChange, ScriptStep};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleState;
 
-/// Safe outputs of the DIMA car (DESIGN 2.4), µs: throttle, steering, tail.
-pub const SAFE_US: [u16; 3] = [1500, 1545, 1500];
+/// How long outputs must hold the expected values for [`Check::OutputsReach`], s: a value seen
+/// for one cycle on the way to another is not reached.
+pub const OUTPUTS_HOLD_S: f64 = 0.2;
 
 /// Manual mapping of percentages to µs (DESIGN 2.4): throttle 1000 + 10 d, steering
 /// 1250 + 590 d / 100, tail 1000 + 10 d, rounded to the nearest µs.
@@ -25,7 +27,8 @@ pub fn manual_us(throttle: u8, steering: u8, tail: u8) -> [u16; 3] {
 /// Something that must hold.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Check {
-    /// The Maestro shows `targets_us` at some time in `from_s..=to_s`.
+    /// The Maestro shows `targets_us` for at least [`OUTPUTS_HOLD_S`] without a break,
+    /// starting in `from_s..to_s` (or until `to_s`, when the window ends first).
     OutputsReach {
         /// Window start, s.
         from_s: f64,
@@ -34,7 +37,8 @@ pub enum Check {
         /// Expected outputs, µs.
         targets_us: [u16; 3],
     },
-    /// The Maestro shows safe outputs throughout `from_s..to_s`.
+    /// The Maestro shows safe outputs throughout `from_s..to_s`, and the log shows KILLED or
+    /// FAILSAFE there (safe outputs differ from MANUAL at neutral only by configuration).
     SafeThroughout {
         /// Window start, s.
         from_s: f64,
@@ -43,7 +47,7 @@ pub enum Check {
     },
     /// The Maestro shows safe outputs at some time in `from_s..to_s`, and from then on only
     /// safe outputs until `to_s` (a kill or a failsafe that stays latched), whatever the
-    /// machine's scheduling delays.
+    /// machine's scheduling delays; the log shows KILLED or FAILSAFE at `to_s`.
     SafeHeld {
         /// Window start, s.
         from_s: f64,
@@ -81,7 +85,16 @@ pub enum Check {
         timeout_s: f64,
     },
     /// The log's mode changes contain these modes in this order.
-    ModesInOrder(Vec<&'static str>),
+    ModesInOrder(Vec<Mode>),
+    /// The log has a FAILSAFE entry with this cause in `from_s..to_s`.
+    FailsafeFor {
+        /// The cause.
+        cause: FailsafeCause,
+        /// Window start, s.
+        from_s: f64,
+        /// Window end, s.
+        to_s: f64,
+    },
     /// The log has this many FAILSAFE entries.
     Failsafes(usize),
 }
@@ -215,7 +228,13 @@ impl Scenario {
                     from_s: 19.0,
                     to_s: 20.0,
                 },
-                Check::ModesInOrder(vec!["MANUAL", "AUTO", "FAILSAFE", "MANUAL", "KILLED"]),
+                Check::ModesInOrder(vec![
+                    Mode::Manual,
+                    Mode::Auto,
+                    Mode::Failsafe,
+                    Mode::Manual,
+                    Mode::Killed,
+                ]),
                 Check::Failsafes(1),
             ],
         }
@@ -315,6 +334,48 @@ impl Evidence {
     fn sim_s(&self, log_ns: u64) -> f64 {
         (log_ns as f64 - self.start_wall_ns as f64) * 1e-9
     }
+
+    fn log_ns(&self, sim_s: f64) -> u64 {
+        (self.start_wall_ns as f64 + sim_s * 1e9).max(0.0) as u64
+    }
+
+    /// The longest stretch in which the outputs showed `targets` without a break, starting in
+    /// `from_s..to_s`, s (a stretch still going at the end of the run lasts until then).
+    fn longest_hold(&self, targets: [u16; 3], from_s: f64, to_s: f64) -> f64 {
+        let us = |c: &OutputChange| c.targets_qus.map(|q| q / 4);
+        let mut best: f64 = 0.0;
+        let mut since: Option<f64> = (self.outputs_at(from_s) == Some(targets)).then_some(from_s);
+        for c in self.outputs.iter().filter(|c| c.t_s > from_s) {
+            match (since, us(c) == targets) {
+                (Some(t0), false) => {
+                    best = best.max(c.t_s - t0);
+                    since = None;
+                }
+                (None, true) if c.t_s < to_s => since = Some(c.t_s),
+                _ => {}
+            }
+        }
+        if let Some(t0) = since {
+            best = best.max(self.ran_s - t0);
+        }
+        best
+    }
+
+    /// Modes the log shows in `from_s..=to_s` that are not safe ones (none without a log).
+    fn unsafe_modes_in(&self, from_s: f64, to_s: f64) -> Vec<Mode> {
+        let Some(log) = &self.log else {
+            return Vec::new();
+        };
+        let (from, to) = (self.log_ns(from_s), self.log_ns(to_s));
+        let mut modes: Vec<Mode> = log
+            .cycles
+            .iter()
+            .filter(|c| c.t_ns >= from && c.t_ns <= to && !c.mode.is_safe())
+            .map(|c| c.mode)
+            .collect();
+        modes.dedup();
+        modes
+    }
 }
 
 /// The latest time a check looks at, s.
@@ -328,6 +389,7 @@ fn check_end(check: &Check) -> f64 {
         Check::CommsFailsafe {
             after_s, timeout_s, ..
         } => after_s + timeout_s + 0.5,
+        Check::FailsafeFor { to_s, .. } => *to_s,
         Check::ModesInOrder(_) | Check::Failsafes(_) => f64::INFINITY,
     }
 }
@@ -344,18 +406,25 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
             to_s,
             targets_us,
         } => {
-            let seen = e.outputs_in(*from_s, *to_s);
-            if seen.contains(targets_us) {
+            let held = e.longest_hold(*targets_us, *from_s, *to_s);
+            let needed = OUTPUTS_HOLD_S.min(to_s - from_s);
+            if held >= needed {
                 Ok(())
             } else {
                 Err(format!(
-                    "outputs {targets_us:?} µs expected between {from_s} s and {to_s} s; saw {seen:?}"
+                    "outputs {targets_us:?} µs expected for {needed} s from {from_s} s to {to_s} s; \
+                     held {held:.3} s; saw {:?}",
+                    e.outputs_in(*from_s, *to_s)
                 ))
             }
         }
         Check::SafeThroughout { from_s, to_s } => {
             let seen = e.outputs_in(*from_s, *to_s);
+            let modes = e.unsafe_modes_in(*from_s, *to_s);
             match seen.iter().find(|o| **o != e.safe_us) {
+                None if !modes.is_empty() => Err(format!(
+                    "safe outputs but the log shows {modes:?} between {from_s} s and {to_s} s"
+                )),
                 None if !seen.is_empty() => Ok(()),
                 None => Err(format!("no outputs at all by {from_s} s")),
                 Some(o) => Err(format!(
@@ -371,6 +440,9 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
                     "no safe outputs between {from_s} s and {to_s} s; saw {seen:?}"
                 )),
                 Some(i) => match seen[i..].iter().find(|o| **o != e.safe_us) {
+                    None if !e.unsafe_modes_in(*to_s - e.period_s, *to_s).is_empty() => Err(
+                        format!("safe outputs but the log shows no KILLED or FAILSAFE at {to_s} s"),
+                    ),
                     None => Ok(()),
                     Some(o) => Err(format!(
                         "outputs {o:?} µs after the safe ones before {to_s} s (not latched)"
@@ -426,10 +498,9 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
             let Some(log) = &e.log else {
                 return Some(Err("no log to check the failsafe timing".into()));
             };
-            let entry = log
-                .failsafes()
-                .into_iter()
-                .find(|(t, cause)| e.sim_s(*t) > *after_s && cause.as_deref() == Some("CommsLoss"));
+            let entry = log.failsafes().into_iter().find(|(t, cause)| {
+                e.sim_s(*t) > *after_s && *cause == Some(FailsafeCause::CommsLoss)
+            });
             let Some((t_fs, _)) = entry else {
                 return Some(Err(format!(
                     "no FAILSAFE for comms loss after {after_s} s in the log"
@@ -468,6 +539,29 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
                 )),
             }
         }
+        Check::FailsafeFor {
+            cause,
+            from_s,
+            to_s,
+        } => {
+            let Some(log) = &e.log else {
+                return Some(Err("no log to check the failsafe".into()));
+            };
+            let all = log.failsafes();
+            let found = all
+                .iter()
+                .any(|(t, c)| *c == Some(*cause) && (*from_s..=*to_s).contains(&e.sim_s(*t)));
+            if found {
+                Ok(())
+            } else {
+                Err(format!(
+                    "no FAILSAFE ({cause:?}) between {from_s} s and {to_s} s; log has {:?}",
+                    all.iter()
+                        .map(|(t, c)| format!("{:.2} s {c:?}", e.sim_s(*t)))
+                        .collect::<Vec<_>>()
+                ))
+            }
+        }
         Check::Failsafes(n) => {
             let Some(log) = &e.log else {
                 return Some(Err("no log to count failsafes".into()));
@@ -491,6 +585,8 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    const SAFE_US: [u16; 3] = [1500, 1545, 1400];
 
     #[test]
     fn manual_mapping_matches_the_design() {
@@ -548,6 +644,12 @@ mod tests {
             to_s: 1.0,
             targets_us: [1600, 1545, 1500]
         }));
+        // Starting right at the window's end but lasting: reached.
+        assert!(ok(Check::OutputsReach {
+            from_s: 0.0,
+            to_s: 1.25,
+            targets_us: [1600, 1545, 1500]
+        }));
         assert!(ok(Check::NeverSafe {
             from_s: 1.3,
             to_s: 4.9
@@ -565,6 +667,60 @@ mod tests {
             &e
         )
         .is_none());
+    }
+
+    #[test]
+    fn a_value_passed_through_for_one_cycle_is_not_reached() {
+        let e = evidence(vec![
+            change(0.1, SAFE_US),
+            change(1.000, [1600, 1545, 1500]),
+            change(1.004, [1700, 1545, 1500]),
+        ]);
+        let reach = |targets_us| {
+            evaluate(
+                &Check::OutputsReach {
+                    from_s: 0.5,
+                    to_s: 2.0,
+                    targets_us,
+                },
+                &e,
+            )
+            .unwrap()
+        };
+        assert!(reach([1600, 1545, 1500]).is_err());
+        assert!(reach([1700, 1545, 1500]).is_ok());
+    }
+
+    #[test]
+    fn safe_outputs_need_a_safe_mode_in_the_log() {
+        use crate::logcheck::{CycleEntry, LogSummary};
+        // MANUAL at outputs that look safe: a configuration whose safe values equal neutral
+        // could not tell them apart by outputs alone.
+        let mut e = evidence(vec![change(0.1, SAFE_US)]);
+        e.start_wall_ns = 1_000_000_000;
+        let start = e.start_wall_ns;
+        let cycle = |t_s: f64, mode| CycleEntry {
+            t_ns: start + (t_s * 1e9) as u64,
+            mode,
+            packet_ok: true,
+            commands: 0,
+            missed: 0,
+            targets_us: SAFE_US,
+        };
+        let check = Check::SafeThroughout {
+            from_s: 0.2,
+            to_s: 1.0,
+        };
+        e.log = Some(LogSummary {
+            cycles: vec![cycle(0.3, Mode::Killed), cycle(0.5, Mode::Killed)],
+            ..LogSummary::default()
+        });
+        assert!(evaluate(&check, &e).unwrap().is_ok());
+        e.log = Some(LogSummary {
+            cycles: vec![cycle(0.3, Mode::Killed), cycle(0.5, Mode::Manual)],
+            ..LogSummary::default()
+        });
+        assert!(evaluate(&check, &e).unwrap().is_err());
     }
 
     #[test]

@@ -13,9 +13,9 @@ use dima_groundlink::{Command, CommandDecoder, DisplayFrame};
 use dima_sensorboard::{Frame, StreamDecoder};
 use dima_sim::board::BoardConfig;
 use dima_sim::devices::*;
-use dima_sim::faults::FaultSpec;
+use dima_sim::faults::{FaultSpec, SensorFaults};
 use dima_sim::model::VehicleParams;
-use dima_sim::pty::SimPty;
+use dima_sim::pty::{LinePace, SimPty};
 use dima_sim::request::{RequestLine, RequestPin};
 use dima_sim::rng::SimRng;
 use dima_sim::scenario::send;
@@ -67,8 +67,12 @@ fn board_answers_each_rising_edge_with_a_packet_and_the_first_with_an_info_frame
         world(),
         line.clone(),
         LinkPort::open(&link).unwrap(),
-        BoardConfig::default(),
-        FaultSpec::default(),
+        BoardSetup {
+            config: BoardConfig::default(),
+            link_faults: FaultSpec::default(),
+            sensor_faults: SensorFaults::default(),
+            pace: LinePace::new(460_800, 11),
+        },
         SimRng::new(1),
         stats.clone(),
         stop.clone(),
@@ -81,8 +85,12 @@ fn board_answers_each_rising_edge_with_a_packet_and_the_first_with_an_info_frame
     let mut decoder = StreamDecoder::new();
     let mut frames = Vec::new();
     for _ in 0..3 {
+        let requested = Instant::now();
         pin.set_high().unwrap();
         let bytes = read_for(&mut app, 132, Duration::from_secs(2));
+        // Paced like the UART: 132 bytes x 11 bits at 460 800 baud take 3 151 µs.
+        let took = requested.elapsed();
+        assert!(took >= Duration::from_micros(3_151), "{took:?}");
         pin.set_low().unwrap();
         let mut input = bytes.as_slice();
         std::thread::sleep(Duration::from_millis(20));
@@ -177,6 +185,7 @@ fn ground_station_sends_script_and_heartbeats_and_reads_display_frames() {
         ],
         Command::Heartbeat.encode(),
         FaultSpec::default(),
+        LinePace::new(9_600, 10),
         SimRng::new(1),
         stats.clone(),
         stop.clone(),
@@ -209,6 +218,7 @@ fn relay_joins_the_application_and_a_gui_pty() {
         LinkPort::open(&robot_link).unwrap(),
         station,
         FaultSpec::default(),
+        LinePace::new(9_600, 10),
         SimRng::new(1),
         stop.clone(),
     )

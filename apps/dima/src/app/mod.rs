@@ -4,7 +4,7 @@ pub mod record;
 pub mod rt_loop;
 
 pub use record::{CycleRecord, Snapshot};
-pub use rt_loop::{LoopEnds, LoopParams, RealtimeLoop};
+pub use rt_loop::{BusyFault, LoopEnds, LoopParams, RealtimeLoop};
 pub mod run;
 
 pub use run::{

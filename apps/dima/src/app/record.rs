@@ -1,10 +1,14 @@
 //! What the realtime loop hands to the other threads: one fixed-size [`CycleRecord`] per cycle
 //! to the logger (through a ring), and the latest [`Snapshot`] to telemetry (latest value).
 
+use dima_core::counters::Counters;
+use dima_core::safety::Setpoints;
+use dima_core::schema::Event;
+use dima_core::step::CycleOutputs;
+use dima_core::{FailsafeCause, Mode, Nanos};
 use dima_sensorboard::{InfoFrame, RawPacket, SensorPacket};
 
-use crate::control::{Actuation, Nanos, SafetyState, SensorValues, ServoTargets};
-use crate::metrics::Counters;
+use crate::control::ServoTargets;
 use crate::rt::Tick;
 
 /// Event bits of a cycle record.
@@ -21,6 +25,35 @@ pub mod events {
     pub const MODE_CHANGED: u16 = 1 << 4;
     /// Last record: shutdown with safe outputs.
     pub const SHUTDOWN: u16 = 1 << 5;
+    /// A revive was refused.
+    pub const REVIVE_REFUSED: u16 = 1 << 6;
+    /// A speed setpoint was rejected.
+    pub const SETPOINT_REJECTED: u16 = 1 << 7;
+    /// The required realtime setup failed (first record of the run).
+    pub const REALTIME_SETUP_FAILED: u16 = 1 << 8;
+
+    use dima_core::schema::Event;
+
+    /// Each bit with the log's event name for it.
+    pub const ALL: [(u16, Event); 9] = [
+        (SENSOR_CONNECTED, Event::SensorConnected),
+        (SENSOR_LOST, Event::SensorLost),
+        (SERVO_CONNECTED, Event::ServoConnected),
+        (SERVO_LOST, Event::ServoLost),
+        (MODE_CHANGED, Event::ModeChanged),
+        (REVIVE_REFUSED, Event::ReviveRefused),
+        (SETPOINT_REJECTED, Event::SetpointRejected),
+        (REALTIME_SETUP_FAILED, Event::RealtimeSetupFailed),
+        (SHUTDOWN, Event::Shutdown),
+    ];
+}
+
+/// The log events of a record's event bits, in a fixed order.
+pub fn event_list(bits: u16) -> impl Iterator<Item = Event> {
+    events::ALL
+        .into_iter()
+        .filter(move |(bit, _)| bits & bit != 0)
+        .map(|(_, e)| e)
 }
 
 /// Everything about one cycle, fixed size, `Copy`: no allocation to produce or hand over.
@@ -38,18 +71,15 @@ pub struct CycleRecord {
     pub t_compute_ns: Nanos,
     /// Servo write done (0: nothing written).
     pub t_write_ns: Nanos,
-    /// The raw packet, CRC-checked, for replay through the real decoder.
-    pub packet: Option<RawPacket>,
+    /// The CRC-valid packet received this cycle (whatever its verdict), for replay through
+    /// the real decoder.
+    pub raw: Option<RawPacket>,
     /// An info frame that arrived this cycle.
     pub info: Option<InfoFrame>,
-    /// Controller inputs from the packet (held from the last good packet when missing).
-    pub values: SensorValues,
-    /// Controller output.
-    pub action: Actuation,
-    /// Outputs for this cycle.
-    pub targets: ServoTargets,
-    /// Safety state after this cycle.
-    pub safety: SafetyState,
+    /// What the control step decided.
+    pub outputs: CycleOutputs,
+    /// Manual values and setpoints in force after the cycle.
+    pub setpoints: Setpoints,
     /// Counters after this cycle.
     pub counters: Counters,
     /// [`events`] bits.
@@ -57,14 +87,28 @@ pub struct CycleRecord {
 }
 
 /// The latest state, for the telemetry thread's display frames.
-#[derive(Debug, Clone, Copy, Default)]
+#[derive(Debug, Clone, Copy)]
 pub struct Snapshot {
     /// Last valid packet, decoded.
     pub packet: Option<SensorPacket>,
-    /// Safety state.
-    pub safety: SafetyState,
+    /// Mode.
+    pub mode: Mode,
+    /// Why FAILSAFE was entered, while in FAILSAFE.
+    pub cause: Option<FailsafeCause>,
     /// Outputs.
     pub targets: ServoTargets,
     /// Monotonic time of this snapshot.
     pub time_ns: Nanos,
+}
+
+impl Default for Snapshot {
+    fn default() -> Self {
+        Snapshot {
+            packet: None,
+            mode: Mode::Killed,
+            cause: None,
+            targets: ServoTargets::default(),
+            time_ns: 0,
+        }
+    }
 }

@@ -1,19 +1,21 @@
 //! The realtime loop: one cycle per period, everything preallocated, no locks, no allocation,
 //! no printing, every wait bounded by a deadline.
+//!
+//! Each cycle is acquire (commands from the ground link; request, wait for and decode the
+//! sensor packet, with its timestamps) -> decide ([`Core::step`], pure) -> actuate (write the
+//! servo targets) -> publish (a record to the logger, a snapshot to telemetry).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
-use dima_groundlink::Command;
-use dima_sensorboard::{units, DecoderStats, FixType, Frame, InfoFrame, RawPacket, SensorPacket};
+use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
+use dima_core::{Command, Core, CoreState, Mode, Nanos};
+use dima_sensorboard::{DecoderStats, Frame, InfoFrame, SensorPacket};
 use embedded_hal::digital::OutputPin;
 
 use super::record::{events, CycleRecord, Snapshot};
 use crate::config::Config;
-use crate::control::{
-    Actuation, AutoController, AutoState, Controller, CycleHealth, Mode, Nanos, OutputMap,
-    SafetyLimits, SafetyState, SensorValues, ServoTargets,
-};
+use crate::control::ServoTargets;
 use crate::devices::sensor::SensorDevice;
 use crate::devices::servo::{ServoError, ServoOutput};
 use crate::devices::{DeviceLink, LinkEvent};
@@ -21,13 +23,26 @@ use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, Tick};
 
 /// Most command events applied per cycle (the rest wait for the next cycle).
-const MAX_COMMANDS_PER_CYCLE: usize = 64;
+pub const MAX_COMMANDS_PER_CYCLE: usize = 64;
 /// Most stale frames drained before a request.
 const MAX_STALE_POLLS: usize = 8;
 /// Time allowed for the final safe-output write at shutdown, ns.
 const SHUTDOWN_WRITE_NS: Nanos = 50_000_000;
 /// Wake-up latency histogram range (cyclictest `-h`), µs.
 pub const HISTOGRAM_US: usize = 10_000;
+
+/// Extra work inside the realtime cycle during a window of the run, to show what an overload
+/// does. Only a simulation sets it (`dima sim --fault loop:busy=START+DURATION,busy_ms=MS`);
+/// the configuration file cannot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BusyFault {
+    /// Window start after the loop's first cycle, ns.
+    pub start_ns: Nanos,
+    /// Window length, ns.
+    pub duration_ns: Nanos,
+    /// Work added to every cycle in the window, ns (a busy wait: the CPU is really used).
+    pub busy_ns: Nanos,
+}
 
 /// Settings of the loop, derived from the configuration before it starts.
 #[derive(Debug, Clone)]
@@ -36,30 +51,34 @@ pub struct LoopParams {
     pub period_ns: Nanos,
     /// Packet deadline after the request, ns.
     pub packet_deadline_ns: Nanos,
+    /// Time allowed for the servo write, ns.
+    pub write_budget_ns: Nanos,
     /// Request at the end of the cycle, read at the start of the next.
     pub request_ahead: bool,
     /// Servo targets written every n-th cycle (and whenever they change).
     pub servo_every: u64,
-    /// Failsafe thresholds.
-    pub limits: SafetyLimits,
-    /// Channel table.
-    pub outputs: OutputMap,
-    /// AUTO controller.
-    pub controller: AutoController,
+    /// The decisions.
+    pub core: Core,
+    /// Maestro channel numbers: throttle, steering, tail.
+    pub channels: [u8; 3],
+    /// Simulated overload, if any.
+    pub busy: Option<BusyFault>,
 }
 
 impl LoopParams {
     /// From a validated configuration.
     pub fn from_config(config: &Config) -> LoopParams {
         let rate = config.realtime.loop_rate_hz.max(1);
+        let core = Core::new(config);
         LoopParams {
             period_ns: config.period_ns(),
             packet_deadline_ns: u64::from(config.sensor.packet_deadline_us) * 1_000,
+            write_budget_ns: u64::from(config.maestro.write_budget_us) * 1_000,
             request_ahead: config.sensor.request_ahead,
             servo_every: u64::from((rate / config.maestro.servo_refresh_hz.max(1)).max(1)),
-            limits: SafetyLimits::from(&config.safety),
-            outputs: OutputMap::new(&config.channels),
-            controller: AutoController::new(&config.control),
+            channels: core.outputs().channel_numbers(),
+            core,
+            busy: None,
         }
     }
 }
@@ -76,84 +95,67 @@ pub struct LoopEnds {
     pub stop: Arc<AtomicBool>,
 }
 
-enum Acquired {
-    Packet(RawPacket, Nanos),
-    Missing,
-    DeviceError,
-}
-
 /// The realtime loop and all its state.
-pub struct RealtimeLoop<P, S> {
+pub struct RealtimeLoop<P: OutputPin, S: ServoOutput> {
     params: LoopParams,
     ends: LoopEnds,
     sensor: DeviceLink<SensorDevice<P>>,
     servo: DeviceLink<S>,
-    safety: SafetyState,
-    auto: AutoState,
-    action: Actuation,
-    values: SensorValues,
+    state: CoreState,
     last_packet: Option<SensorPacket>,
     last_written: Option<ServoTargets>,
     pending_request_ns: Option<Nanos>,
-    last_step_ns: Option<Nanos>,
+    /// An info frame that arrived since the last record.
     info: Option<InfoFrame>,
     decoder_base: DecoderStats,
+    first_wake_ns: Option<Nanos>,
     cycle: u64,
     metrics: LoopMetrics,
-}
-
-fn values_from(packet: &SensorPacket) -> SensorValues {
-    let gyro_z_dps = units::gyro_dps_2000(packet.gyro[2]);
-    match packet.nav_pvt() {
-        Some(pvt) => SensorValues {
-            gyro_z_dps,
-            gnss_fix_ok: pvt.gnss_fix_ok()
-                && matches!(
-                    pvt.fix(),
-                    FixType::Fix2D | FixType::Fix3D | FixType::GnssDeadReckoning
-                ),
-            gnss_itow_ms: pvt.itow_ms,
-            g_speed_mm_s: pvt.g_speed_mm_s,
-            head_mot_deg_e5: pvt.head_mot_deg_e5,
-        },
-        None => SensorValues {
-            gyro_z_dps,
-            ..SensorValues::default()
-        },
-    }
+    outputs_safe: bool,
+    shut_down: bool,
 }
 
 impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
-    /// Everything the loop will touch is allocated here.
+    /// Everything the loop will touch is allocated here. `realtime_fault`: the required
+    /// realtime setup failed, so every revive is refused.
     pub fn new(
         params: LoopParams,
         ends: LoopEnds,
         sensor: DeviceLink<SensorDevice<P>>,
         servo: DeviceLink<S>,
+        realtime_fault: bool,
     ) -> RealtimeLoop<P, S> {
+        let state = CoreState {
+            realtime_fault,
+            ..CoreState::new()
+        };
         RealtimeLoop {
             params,
             ends,
             sensor,
             servo,
-            safety: SafetyState::new(),
-            auto: AutoState::default(),
-            action: Actuation::default(),
-            values: SensorValues::default(),
+            state,
             last_packet: None,
             last_written: None,
             pending_request_ns: None,
-            last_step_ns: None,
             info: None,
             decoder_base: DecoderStats::default(),
+            first_wake_ns: None,
             cycle: 0,
             metrics: LoopMetrics::new(HISTOGRAM_US),
+            outputs_safe: false,
+            shut_down: false,
         }
     }
 
     /// Metrics so far.
     pub fn metrics(&self) -> &LoopMetrics {
         &self.metrics
+    }
+
+    /// Whether the last write of safe targets at shutdown succeeded.
+    pub fn outputs_safe(&self) -> bool {
+        self.outputs_safe
     }
 
     /// Runs until the stop flag is set (or `max_cycles`), then writes safe outputs. Returns the
@@ -176,7 +178,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         };
         for _ in 0..MAX_STALE_POLLS {
             match dev.board.poll() {
-                Ok(Frame::Info(info)) => self.info = Some(info),
+                Ok(Frame::Info(frame)) => self.info = Some(frame),
                 Ok(Frame::Packet(_)) => {}
                 Err(nb::Error::WouldBlock) => break,
                 Err(nb::Error::Other(_)) => return false,
@@ -190,34 +192,42 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         let dev = self.sensor.get()?;
         let t = monotonic_ns();
         let ok = dev.board.request().is_ok() && dev.board.end_request().is_ok();
-        if ok {
-            Some(t)
-        } else {
-            None
-        }
+        ok.then_some(t)
     }
 
-    fn wait_packet(&mut self, deadline_ns: Nanos) -> Acquired {
+    /// Waits for a packet until `t_request + deadline`.
+    fn wait_packet(&mut self, t_request: Nanos) -> SensorInput {
+        let give_up = t_request + self.params.packet_deadline_ns;
         let Some(dev) = self.sensor.get() else {
-            return Acquired::Missing;
+            return SensorInput::NotRequested;
         };
         loop {
             match dev.board.poll() {
-                Ok(Frame::Packet(raw)) => return Acquired::Packet(raw, monotonic_ns()),
-                Ok(Frame::Info(info)) => self.info = Some(info),
-                Err(nb::Error::WouldBlock) => match dev.wait_readable(deadline_ns) {
+                Ok(Frame::Packet(raw)) => {
+                    return SensorInput::Packet {
+                        raw,
+                        t_request_ns: t_request,
+                        t_complete_ns: monotonic_ns(),
+                    }
+                }
+                Ok(Frame::Info(frame)) => self.info = Some(frame),
+                Err(nb::Error::WouldBlock) => match dev.wait_readable(give_up) {
                     Ok(true) => {}
-                    Ok(false) => return Acquired::Missing,
-                    Err(_) => return Acquired::DeviceError,
+                    Ok(false) => {
+                        return SensorInput::NoAnswer {
+                            t_request_ns: t_request,
+                        }
+                    }
+                    Err(_) => return SensorInput::DeviceError,
                 },
-                Err(nb::Error::Other(_)) => return Acquired::DeviceError,
+                Err(nb::Error::Other(_)) => return SensorInput::DeviceError,
             }
         }
     }
 
     fn sensor_failed(&mut self, events: &mut u16) {
-        self.metrics.counters.sensor_errors += 1;
-        let c = &self.metrics.counters;
+        self.state.counters.sensor_errors += 1;
+        let c = &self.state.counters;
         self.decoder_base = DecoderStats {
             packets: 0,
             info_frames: c.info_frames,
@@ -229,121 +239,106 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         *events |= events::SENSOR_LOST;
     }
 
-    /// One cycle after the clock woke the thread.
-    pub fn cycle(&mut self, tick: Tick) {
-        let mut ev = 0u16;
-        self.metrics.counters.cycles += 1;
-        self.metrics.counters.missed_periods += u64::from(tick.missed);
-        self.metrics.wake_latency.record(tick.latency_ns);
-
-        if self.sensor.refresh() == LinkEvent::Connected {
-            ev |= events::SENSOR_CONNECTED;
-            self.metrics.counters.device_connects += 1;
-            self.pending_request_ns = None;
-        }
-        if self.servo.refresh() == LinkEvent::Connected {
-            ev |= events::SERVO_CONNECTED;
-            self.metrics.counters.device_connects += 1;
-            self.last_written = None;
-        }
-
-        // Commands, in arrival order.
-        let mode_before = self.safety.mode;
-        for _ in 0..MAX_COMMANDS_PER_CYCLE {
-            let Ok(command) = self.ends.commands.pop() else {
-                break;
-            };
-            self.safety = self
-                .safety
-                .on_command(&self.params.limits, command, tick.wake_ns);
-            self.metrics.counters.commands += 1;
-        }
-
-        // The packet: requested now, or (request-ahead) at the end of the last cycle.
-        self.info = None;
-        let (t_request, acquired) = if self.params.request_ahead {
+    /// The sensor phase: the packet requested now, or (request-ahead) at the end of the last
+    /// cycle.
+    fn acquire_sensor(&mut self, ev: &mut u16) -> SensorInput {
+        let sensor = if self.params.request_ahead {
             match self.pending_request_ns.take() {
-                Some(t) => (t, self.wait_packet(t + self.params.packet_deadline_ns)),
-                None => (0, Acquired::Missing),
+                Some(t) => self.wait_packet(t),
+                None => SensorInput::NotRequested,
             }
         } else if !self.sensor.is_connected() {
-            (0, Acquired::Missing)
+            SensorInput::NotRequested
         } else if !self.drain_stale() {
-            (0, Acquired::DeviceError)
+            SensorInput::DeviceError
         } else {
             match self.request() {
-                Some(t) => (t, self.wait_packet(t + self.params.packet_deadline_ns)),
-                None => (0, Acquired::DeviceError),
+                Some(t) => self.wait_packet(t),
+                None => SensorInput::DeviceError,
             }
         };
-        let (packet, t_packet) = match acquired {
-            Acquired::Packet(raw, t) => (Some(raw), t),
-            Acquired::Missing => (None, 0),
-            Acquired::DeviceError => {
-                self.sensor_failed(&mut ev);
-                (None, 0)
-            }
-        };
+        if sensor == SensorInput::DeviceError {
+            self.sensor_failed(ev);
+        }
         if let Some(s) = self.sensor.get().map(|d| d.board.stats()) {
             // The decoder's counters restart with each (re)opened device; keep totals.
-            let c = &mut self.metrics.counters;
+            let c = &mut self.state.counters;
             c.packet_crc_errors = self.decoder_base.crc_errors + s.crc_errors;
             c.packet_bytes_skipped = self.decoder_base.bytes_skipped + s.bytes_skipped;
             c.info_frames = self.decoder_base.info_frames + s.info_frames;
         }
-        if let Some(raw) = &packet {
-            self.metrics.counters.packets_ok += 1;
-            self.metrics
-                .request_to_packet
-                .record(t_packet.saturating_sub(t_request));
-            let decoded = raw.decode();
-            self.values = values_from(&decoded);
-            self.last_packet = Some(decoded);
-        } else {
-            self.metrics.counters.packets_missing += 1;
-        }
+        sensor
+    }
 
-        // Safety, then control. A missing packet holds the previous action.
-        let health = CycleHealth {
-            packet_ok: packet.is_some(),
-            overrun: tick.missed > 0,
+    /// Busy-waits inside the cycle while a simulated overload window is active.
+    fn simulated_work(&mut self, wake_ns: Nanos) {
+        let Some(busy) = self.params.busy else {
+            return;
         };
-        self.safety = self
-            .safety
-            .on_cycle(&self.params.limits, health, tick.wake_ns);
-        if self.safety.mode != mode_before {
-            ev |= events::MODE_CHANGED;
-            if self.safety.mode == Mode::Failsafe {
-                self.metrics.counters.failsafes += 1;
+        let since = wake_ns.saturating_sub(*self.first_wake_ns.get_or_insert(wake_ns));
+        if (busy.start_ns..busy.start_ns + busy.duration_ns).contains(&since) {
+            let until = monotonic_ns() + busy.busy_ns;
+            while monotonic_ns() < until {
+                std::hint::spin_loop();
             }
         }
-        if self.safety.mode == Mode::Auto {
-            if packet.is_some() {
-                let dt_s = self
-                    .last_step_ns
-                    .map_or(self.params.period_ns, |t| tick.wake_ns.saturating_sub(t))
-                    as f32
-                    * 1e-9;
-                let (state, action) = self.params.controller.step(
-                    self.auto,
-                    &self.safety.setpoints,
-                    &self.values,
-                    dt_s,
-                );
-                self.auto = state;
-                self.action = action;
-                self.last_step_ns = Some(tick.wake_ns);
-            }
-        } else {
-            self.auto = AutoState::default();
-            self.action = Actuation::default();
-            self.last_step_ns = None;
+    }
+
+    /// One cycle after the clock woke the thread.
+    pub fn cycle(&mut self, tick: Tick) {
+        let mut ev = 0u16;
+        self.metrics.wake_latency.record(tick.latency_ns);
+        if self.sensor.refresh() == LinkEvent::Connected {
+            ev |= events::SENSOR_CONNECTED;
+            self.state.counters.device_connects += 1;
+            self.pending_request_ns = None;
         }
-        let targets =
-            self.params
-                .outputs
-                .outputs(self.safety.mode, &self.safety.setpoints, &self.action);
+        if self.servo.refresh() == LinkEvent::Connected {
+            ev |= events::SERVO_CONNECTED;
+            self.state.counters.device_connects += 1;
+            self.last_written = None;
+        }
+        self.simulated_work(tick.wake_ns);
+
+        // Acquire: commands in arrival order, then the packet.
+        let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
+        let mut n = 0;
+        while n < MAX_COMMANDS_PER_CYCLE {
+            let Ok(command) = self.ends.commands.pop() else {
+                break;
+            };
+            commands[n] = command;
+            n += 1;
+        }
+        let sensor = self.acquire_sensor(&mut ev);
+
+        // Decide.
+        let out = self.params.core.step(
+            &mut self.state,
+            &CycleInputs {
+                missed_periods: tick.missed,
+                commands: &commands[..n],
+                sensor: sensor,
+            },
+            tick.wake_ns,
+        );
+        ev |= decision_events(&out, self.state.realtime_fault && self.cycle == 0);
+        if let Some(p) = out.packet {
+            self.last_packet = Some(p);
+        }
         let t_compute = monotonic_ns();
+        let (t_request, t_packet) = match sensor {
+            SensorInput::Packet {
+                t_request_ns,
+                t_complete_ns,
+                ..
+            } => (t_request_ns, t_complete_ns),
+            SensorInput::NoAnswer { t_request_ns } => (t_request_ns, 0),
+            _ => (0, 0),
+        };
+        if let Some(ns) = out.request_to_packet_ns {
+            self.metrics.request_to_packet.record(ns);
+        }
         let compute_from = if t_packet != 0 {
             t_packet
         } else {
@@ -353,11 +348,15 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             .compute
             .record(t_compute.saturating_sub(compute_from));
 
-        // Outputs: at the servo refresh rate, and at once whenever they change.
+        // Actuate: at the servo refresh rate, and at once whenever the targets change.
         let due = self.cycle.is_multiple_of(self.params.servo_every)
-            || self.last_written != Some(targets);
+            || self.last_written != Some(out.targets);
         let t_write = if due {
-            self.write_targets(targets, t_compute + self.params.period_ns / 2, &mut ev)
+            self.write_targets(
+                out.targets,
+                t_compute + self.params.write_budget_ns,
+                &mut ev,
+            )
         } else {
             0
         };
@@ -370,6 +369,13 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             }
         }
 
+        // Publish.
+        self.metrics.counters = self.state.counters;
+        let raw = match sensor {
+            SensorInput::Packet { raw, .. } => Some(raw),
+            _ => None,
+        };
+        let info = self.info.take();
         self.publish(CycleRecord {
             cycle: self.cycle,
             tick,
@@ -377,22 +383,20 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             t_packet_ns: t_packet,
             t_compute_ns: t_compute,
             t_write_ns: t_write,
-            packet,
-            info: self.info,
-            values: self.values,
-            action: self.action,
-            targets,
-            safety: self.safety,
-            counters: self.metrics.counters,
+            raw,
+            info,
+            outputs: out,
+            setpoints: self.state.safety.setpoints,
+            counters: self.state.counters,
             events: ev,
         });
         self.cycle += 1;
     }
 
     fn write_targets(&mut self, targets: ServoTargets, deadline_ns: Nanos, ev: &mut u16) -> Nanos {
-        let channels = self.params.outputs.channel_numbers();
+        let channels = self.params.channels;
         let Some(servo) = self.servo.get() else {
-            self.metrics.counters.servo_missing += 1;
+            self.state.counters.servo_missing += 1;
             return 0;
         };
         let t0 = monotonic_ns();
@@ -400,19 +404,19 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             Ok(()) => {
                 let t = monotonic_ns();
                 self.metrics.servo_write.record(t - t0);
-                self.metrics.counters.servo_writes += 1;
+                self.state.counters.servo_writes += 1;
                 self.last_written = Some(targets);
                 t
             }
             Err(ServoError::Timeout | ServoError::InvalidInput) => {
                 // Still there, just slow to take bytes (or a target the configuration should
                 // have refused): counted, resent next cycle.
-                self.metrics.counters.servo_errors += 1;
+                self.state.counters.servo_errors += 1;
                 self.last_written = None;
                 0
             }
             Err(ServoError::Device) => {
-                self.metrics.counters.servo_errors += 1;
+                self.state.counters.servo_errors += 1;
                 self.servo.fail();
                 self.last_written = None;
                 *ev |= events::SERVO_LOST;
@@ -424,24 +428,44 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
     fn publish(&mut self, record: CycleRecord) {
         self.ends.snapshot.write(Snapshot {
             packet: self.last_packet,
-            safety: record.safety,
-            targets: record.targets,
+            mode: record.outputs.mode,
+            cause: record.outputs.cause,
+            targets: record.outputs.targets,
             time_ns: record.tick.wake_ns,
         });
         if self.ends.log.push(record).is_err() {
-            self.metrics.counters.log_dropped += 1;
+            self.state.counters.log_dropped += 1;
         }
     }
 
-    /// Safe outputs, written whatever the refresh schedule, and a last record.
+    /// Safe outputs, written whatever the refresh schedule, and a last record. Runs once: at
+    /// the end of [`run`](Self::run), or from `Drop` when the loop unwinds from a panic.
     fn shutdown(&mut self) {
+        if self.shut_down {
+            return;
+        }
+        self.shut_down = true;
         let mut ev = events::SHUTDOWN;
-        let targets = self.params.outputs.safe();
+        let targets = self.params.core.safe_targets();
         let now = monotonic_ns();
         let t_write = self.write_targets(targets, now + SHUTDOWN_WRITE_NS, &mut ev);
-        self.safety = SafetyState {
+        self.outputs_safe = t_write != 0;
+        self.state.safety.mode = Mode::Killed;
+        self.metrics.counters = self.state.counters;
+        let outputs = CycleOutputs {
+            targets,
             mode: Mode::Killed,
-            ..self.safety
+            cause: None,
+            mode_changed: false,
+            verdict: dima_core::monitor::PacketVerdict::NotRequested,
+            request_to_packet_ns: None,
+            packet: None,
+            refused: None,
+            setpoints_rejected: 0,
+            gnss_new: false,
+            gnss_age_ns: None,
+            action: Default::default(),
+            values: self.state.values,
         };
         self.publish(CycleRecord {
             cycle: self.cycle,
@@ -455,53 +479,37 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             t_packet_ns: 0,
             t_compute_ns: now,
             t_write_ns: t_write,
-            packet: None,
+            raw: None,
             info: None,
-            values: self.values,
-            action: Actuation::default(),
-            targets,
-            safety: self.safety,
-            counters: self.metrics.counters,
+            outputs,
+            setpoints: Default::default(),
+            counters: self.state.counters,
             events: ev,
         });
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::values_from;
-    use dima_sensorboard::gnss::nav_pvt::FLAG_GNSS_FIX_OK;
-    use dima_sensorboard::{GnssFrame, NavPvt, SensorPacket};
-
-    fn packet_with_fix(fix_type: u8, flags: u8) -> SensorPacket {
-        SensorPacket {
-            gnss: GnssFrame::from_nav_pvt(&NavPvt {
-                itow_ms: 1_000,
-                fix_type,
-                flags,
-                g_speed_mm_s: 2_500,
-                ..NavPvt::default()
-            }),
-            ..SensorPacket::default()
-        }
+impl<P: OutputPin, S: ServoOutput> Drop for RealtimeLoop<P, S> {
+    /// A panic inside the loop unwinds through here: the servos still get their safe targets.
+    fn drop(&mut self) {
+        self.shutdown();
     }
+}
 
-    #[test]
-    fn a_fix_counts_only_when_flagged_ok_and_positional() {
-        // 2-D, 3-D and GNSS + dead reckoning are position fixes.
-        for fix_type in [2, 3, 4] {
-            let v = values_from(&packet_with_fix(fix_type, FLAG_GNSS_FIX_OK));
-            assert!(v.gnss_fix_ok, "fix type {fix_type}");
-            assert_eq!((v.gnss_itow_ms, v.g_speed_mm_s), (1_000, 2_500));
-        }
-        // No fix, dead reckoning only, time only, reserved: not a position fix.
-        for fix_type in [0, 1, 5, 6] {
-            let v = values_from(&packet_with_fix(fix_type, FLAG_GNSS_FIX_OK));
-            assert!(!v.gnss_fix_ok, "fix type {fix_type}");
-        }
-        // A 3-D fix outside the receiver's masks (gnssFixOK clear).
-        assert!(!values_from(&packet_with_fix(3, 0)).gnss_fix_ok);
-        // No NAV-PVT in the packet yet.
-        assert!(!values_from(&SensorPacket::default()).gnss_fix_ok);
+/// The event bits of what the step decided.
+fn decision_events(out: &CycleOutputs, realtime_fault_reported: bool) -> u16 {
+    let mut ev = 0;
+    if out.mode_changed {
+        ev |= events::MODE_CHANGED;
     }
+    if out.refused.is_some() {
+        ev |= events::REVIVE_REFUSED;
+    }
+    if out.setpoints_rejected > 0 {
+        ev |= events::SETPOINT_REJECTED;
+    }
+    if realtime_fault_reported {
+        ev |= events::REALTIME_SETUP_FAILED;
+    }
+    ev
 }

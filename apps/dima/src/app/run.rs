@@ -14,7 +14,7 @@ use embedded_hal::digital::OutputPin;
 use linux_embedded_hal::CdevPin;
 
 use super::record::CycleRecord;
-use super::rt_loop::{LoopEnds, LoopParams, RealtimeLoop};
+use super::rt_loop::{BusyFault, LoopEnds, LoopParams, RealtimeLoop};
 use crate::config::Config;
 use crate::devices::sensor::{open_hardware_sensor, SensorDevice};
 use crate::devices::serial::{LineSettings, SerialPort};
@@ -24,6 +24,7 @@ use crate::logging::{spawn_logger, LoggerSettings, McapLog};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport};
 use crate::telemetry::{spawn_telemetry, TelemetrySettings, TelemetryStats};
+use dima_core::schema;
 
 /// One opener per device.
 pub struct Devices<P, S> {
@@ -73,10 +74,17 @@ pub struct RunOptions {
     pub duration: Option<Duration>,
     /// Sees every cycle record (e.g. a simulation's status line).
     pub observer: Option<Observer>,
+    /// Extra work inside the realtime cycle (a simulation's `loop:busy` fault).
+    pub busy: Option<BusyFault>,
 }
 
 /// What a run did.
 pub struct RunSummary {
+    /// The safe targets were written at the end (false: the Maestro was missing or the write
+    /// failed, and the outputs are whatever the Maestro last had).
+    pub outputs_safe: bool,
+    /// Why the required realtime setup failed, if it did (the run stayed KILLED).
+    pub realtime_fault: Option<String>,
     /// Loop metrics.
     pub metrics: LoopMetrics,
     /// Telemetry counters.
@@ -98,8 +106,27 @@ pub fn install_signal_handlers(stop: &Arc<AtomicBool>) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Sets `stop` and waits for the realtime thread when dropped, also while unwinding from a
+/// panic on the calling thread: the loop then writes the safe targets before the process
+/// goes on to exit.
+struct StopRealtimeOnDrop {
+    stop: Arc<AtomicBool>,
+    realtime: Option<std::thread::JoinHandle<(LoopMetrics, bool)>>,
+}
+
+impl Drop for StopRealtimeOnDrop {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(handle) = self.realtime.take() {
+            let _ = handle.join();
+        }
+    }
+}
+
 /// Runs the whole application until `stop` is set or the duration passes; outputs go safe,
-/// the log is flushed and closed, and the summary is returned.
+/// the log is flushed and closed, and the summary is returned. A panic of any thread stops
+/// the loop, which writes the safe targets first (the realtime thread's own panic too, as it
+/// unwinds), and the run returns an error.
 pub fn run<P, S>(
     config: &Config,
     devices: Devices<P, S>,
@@ -111,7 +138,8 @@ where
     S: ServoOutput + Send + 'static,
 {
     config.validate()?;
-    let params = LoopParams::from_config(config);
+    let mut params = LoopParams::from_config(config);
+    params.busy = options.busy;
     let rt = &config.realtime;
     if rt.lock_memory {
         crate::rt::setup::prepare_allocator_for_locking();
@@ -150,7 +178,7 @@ where
     };
     if let Some(l) = log.as_mut() {
         l.metadata(
-            "dima",
+            schema::METADATA_DIMA,
             &[
                 ("version", env!("CARGO_PKG_VERSION").to_owned()),
                 ("config", toml::to_string(config)?),
@@ -199,51 +227,87 @@ where
         .stack_size(settings.prefault_stack_kib.max(256) * 1024 + 256 * 1024)
         .spawn(move || {
             let setup = RtSetup::apply(&settings);
+            let fault = settings.required && setup.report.failures().is_some();
             let _ = rt_report_tx.send(setup.report.clone());
-            let mut rt_loop = RealtimeLoop::new(params, ends, sensor_link, servo_link);
+            let mut rt_loop = RealtimeLoop::new(params, ends, sensor_link, servo_link, fault);
             let mut clock = PeriodicClock::new(period_ns, monotonic_ns());
             rt_loop.run(&mut clock, None);
             drop(setup);
-            rt_loop.metrics().clone()
+            (rt_loop.metrics().clone(), rt_loop.outputs_safe())
         })?;
+    let mut guard = StopRealtimeOnDrop {
+        stop: Arc::clone(&stop),
+        realtime: Some(realtime),
+    };
     let rt_report = rt_report_rx.recv().ok();
+    let mut realtime_fault = None;
     if let Some(report) = &rt_report {
         tracing::info!("{report}");
+        if let Some(failed) = report.failures().filter(|_| config.realtime.required) {
+            tracing::error!(
+                "realtime setup failed ({failed}): staying KILLED and refusing every revive \
+                 (run as root or with CAP_SYS_NICE and CAP_IPC_LOCK, see docs/jetson.md; \
+                 realtime.required = false drives without these guarantees)"
+            );
+            realtime_fault = Some(failed);
+        }
         let _ = report_tx.send(report.clone());
     }
 
     let started = Instant::now();
-    while !realtime.is_finished() {
+    let mut failed_thread = None;
+    while guard.realtime.as_ref().is_some_and(|h| !h.is_finished()) {
         if options.duration.is_some_and(|d| started.elapsed() >= d) {
             stop.store(true, Ordering::Relaxed);
         }
+        // A thread that ends before the stop has panicked: stop the loop (safe outputs).
+        if failed_thread.is_none() {
+            if telemetry.is_finished() {
+                failed_thread = Some("telemetry");
+            } else if logger.is_finished() {
+                failed_thread = Some("logger");
+            }
+            if failed_thread.is_some() {
+                stop.store(true, Ordering::Relaxed);
+            }
+        }
         std::thread::sleep(Duration::from_millis(20));
     }
-    let metrics = realtime
-        .join()
-        .map_err(|_| anyhow::anyhow!("the realtime thread panicked"))?;
+    let realtime = guard.realtime.take().expect("joined only here");
+    let (metrics, outputs_safe) = realtime.join().map_err(|_| {
+        anyhow::anyhow!("the realtime thread panicked (safe targets written as it unwound)")
+    })?;
     aux_stop.store(true, Ordering::Relaxed);
-    let telemetry = telemetry.join().unwrap_or_default();
+    let telemetry = telemetry.join();
     let _ = supervisors.join();
     logger_stop.store(true, Ordering::Release);
-    let outcome = logger
-        .join()
-        .map_err(|_| anyhow::anyhow!("the logger thread panicked"))?;
+    let outcome = logger.join();
+    let (Ok(telemetry), Ok(outcome)) = (telemetry, outcome) else {
+        anyhow::bail!(
+            "the {} thread panicked; the loop stopped with safe outputs{}",
+            failed_thread.unwrap_or("telemetry or logger"),
+            if outputs_safe {
+                ""
+            } else {
+                " (not confirmed: the Maestro write failed)"
+            }
+        );
+    };
 
     let summary = metrics.summary();
     let histogram = metrics.wake_latency.cyclictest_format();
     let log_path = match outcome.log {
         Some(mut log) => {
             log.metadata(
-                "summary",
+                schema::METADATA_SUMMARY,
                 &[
                     ("summary", summary.clone()),
                     ("ground_link", telemetry.summary()),
-                    ("counters", serde_json::to_string(&metrics.counters)?),
+                    ("json", serde_json::to_string(&metrics.summary_record())?),
                 ],
             )?;
             log.attach(
-                "wake_latency_histogram.txt",
+                schema::ATTACHMENT_HISTOGRAM,
                 "text/plain",
                 histogram.as_bytes(),
             )?;
@@ -256,6 +320,8 @@ where
         None => None,
     };
     Ok(RunSummary {
+        outputs_safe,
+        realtime_fault,
         metrics,
         telemetry,
         rt_report,

@@ -12,7 +12,7 @@ use linux_embedded_hal::CdevPin;
 
 use super::serial::{LineSettings, SerialError, SerialPort};
 use crate::config::SensorConfig;
-use crate::control::Nanos;
+use dima_core::Nanos;
 
 /// The sensor board: driver plus a descriptor to wait on.
 pub struct SensorDevice<P> {

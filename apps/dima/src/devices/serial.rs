@@ -12,8 +12,8 @@ use nix::sys::stat::Mode;
 use nix::sys::termios::{self, BaudRate, ControlFlags, SetArg, SpecialCharacterIndices};
 use nix::sys::time::TimeSpec;
 
-use crate::control::Nanos;
 use crate::rt::monotonic_ns;
+use dima_core::Nanos;
 
 /// Line settings. Always 8 data bits, no parity, no flow control.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

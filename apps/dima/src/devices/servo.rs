@@ -5,7 +5,7 @@ use pololu_maestro::{encode_set_targets, Channel, Framing, Mini24, QuarterMicros
 
 use super::serial::{LineSettings, SerialError, SerialPort};
 use crate::config::MaestroConfig;
-use crate::control::Nanos;
+use dima_core::Nanos;
 
 /// Why a servo write failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, thiserror::Error)]

@@ -29,6 +29,8 @@ pub struct RtSettings {
     pub prefault_stack_kib: usize,
     /// Hold `/dev/cpu_dma_latency` at 0.
     pub cpu_dma_latency: bool,
+    /// SCHED_FIFO, pinning and memory locking must succeed (see [`RtSetupReport::failures`]).
+    pub required: bool,
 }
 
 impl From<&RealtimeConfig> for RtSettings {
@@ -39,6 +41,7 @@ impl From<&RealtimeConfig> for RtSettings {
             lock_memory: c.lock_memory,
             prefault_stack_kib: c.prefault_stack_kib,
             cpu_dma_latency: c.cpu_dma_latency,
+            required: c.required,
         }
     }
 }
@@ -72,6 +75,19 @@ pub struct RtSetupReport {
     pub timer_slack_ns: i64,
     /// The kernel's `uname -v` (shows `PREEMPT RT` on a realtime kernel).
     pub kernel: String,
+}
+
+impl RtSetupReport {
+    /// What of the realtime setup that was asked for failed (SCHED_FIFO, CPU pinning,
+    /// `mlockall`), joined into one line; `None` when all of it holds.
+    pub fn failures(&self) -> Option<String> {
+        let failed: Vec<&str> = [&self.fifo_error, &self.affinity_error, &self.mlock_error]
+            .into_iter()
+            .flatten()
+            .map(String::as_str)
+            .collect();
+        (!failed.is_empty()).then(|| failed.join("; "))
+    }
 }
 
 /// Holds what must stay alive for the settings to hold (the `/dev/cpu_dma_latency` file).
@@ -337,6 +353,7 @@ mod tests {
                     lock_memory: false,
                     prefault_stack_kib: 64,
                     cpu_dma_latency: false,
+                    required: false,
                 })
             })
             .unwrap();
@@ -360,6 +377,7 @@ mod tests {
                 lock_memory: false,
                 prefault_stack_kib: 0,
                 cpu_dma_latency: false,
+                required: false,
             })
             .report
         })
@@ -371,5 +389,25 @@ mod tests {
             assert_eq!(r.policy, "SCHED_OTHER");
             assert_eq!(r.timer_slack_ns, 1);
         }
+    }
+
+    #[test]
+    fn failures_name_what_was_asked_for_and_refused() {
+        let mut r = RtSetup::apply(&RtSettings {
+            priority: 0,
+            cpus: vec![],
+            lock_memory: false,
+            prefault_stack_kib: 0,
+            cpu_dma_latency: false,
+            required: true,
+        })
+        .report;
+        assert_eq!(r.failures(), None, "nothing asked, nothing failed");
+        r.fifo_error = Some("SCHED_FIFO 80: EPERM".into());
+        r.mlock_error = Some("mlockall: ENOMEM".into());
+        assert_eq!(
+            r.failures().as_deref(),
+            Some("SCHED_FIFO 80: EPERM; mlockall: ENOMEM")
+        );
     }
 }

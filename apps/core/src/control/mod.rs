@@ -7,29 +7,22 @@
 pub mod controllers;
 pub mod mapping;
 pub mod pid;
-pub mod safety;
 
 pub use controllers::{AutoController, AutoState, Controller};
 pub use mapping::{OutputMap, ServoTargets};
 pub use pid::{Pid, PidState};
-pub use safety::{CycleHealth, FailsafeCause, Mode, SafetyLimits, SafetyState, Setpoints};
 
-/// Monotonic time in nanoseconds (CLOCK_MONOTONIC in the application, anything in tests).
-pub type Nanos = u64;
+use crate::monitor::FreshFix;
 
-/// What the controllers need from one sensor packet, in physical units.
+/// What the controllers need from the sensors, in physical units.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SensorValues {
-    /// Gyroscope Z rate, degrees per second (board frame).
+    /// Gyroscope Z rate, degrees per second (board frame), from the last good packet.
     pub gyro_z_dps: f32,
-    /// GNSS fix usable (gnssFixOK with a 2D/3D fix).
-    pub gnss_fix_ok: bool,
-    /// GNSS time of week of the solution, ms: a change means a new fix.
-    pub gnss_itow_ms: u32,
-    /// GNSS ground speed, mm/s.
-    pub g_speed_mm_s: i32,
-    /// GNSS heading of motion, 1e-5 degrees.
-    pub head_mot_deg_e5: i32,
+    /// The newest fresh GNSS fix (valid, iTOW advancing) if it is within the GNSS timeout.
+    pub gnss: Option<FreshFix>,
+    /// That fix arrived this cycle.
+    pub gnss_new: bool,
 }
 
 /// Controller output: fractions of each channel's travel around neutral, -1..=1 (+1 is

@@ -2,12 +2,12 @@
 
 use dima_groundlink::Percent;
 
-use super::safety::{Mode, Setpoints};
 use super::Actuation;
 use crate::config::{ChannelConfig, ChannelsConfig};
+use crate::safety::{Mode, Setpoints};
 
 /// Pulse widths for throttle, steering and tail, in microseconds; 0 means "no pulses".
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct ServoTargets {
     /// Throttle, steering, tail.
     pub pulse_us: [u16; 3],

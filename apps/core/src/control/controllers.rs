@@ -1,9 +1,9 @@
 //! AUTO-mode controllers: the [`Controller`] trait and the speed + heading controller.
 
 use super::pid::{Pid, PidState};
-use super::safety::Setpoints;
 use super::{Actuation, SensorValues};
 use crate::config::ControlConfig;
+use crate::safety::Setpoints;
 
 /// A controller as a pure function: its state, the setpoints, the sensor values and the time
 /// step in; the new state and the actuation out. No clock, no I/O, no allocation.
@@ -23,9 +23,13 @@ pub trait Controller {
 
 /// Ground speed -> throttle, heading -> steering; the tail stays neutral.
 ///
-/// Heading comes from GNSS heading of motion at each new fix (while moving faster than
-/// `min_heading_speed_mm_s`) and is carried between fixes (10 Hz) by integrating the gyro yaw
-/// rate. Without a heading estimate or a heading setpoint the steering is neutral.
+/// Only fresh GNSS is used ([`SensorValues::gnss`]: valid, iTOW advancing, within the GNSS
+/// timeout). Heading comes from GNSS heading of motion at each new fix (while moving faster
+/// than `min_heading_speed_mm_s`) and is carried between fixes (10 Hz) by integrating the gyro
+/// yaw rate, but only while the last fix is fresh: without GNSS the estimate is dropped.
+/// Without a heading estimate or a heading setpoint the steering is neutral; without fresh
+/// GNSS or a speed setpoint the throttle is neutral. The throttle never goes below neutral:
+/// AUTO is forward-only.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AutoController {
     speed: Pid,
@@ -43,8 +47,6 @@ pub struct AutoState {
     pub heading: PidState,
     /// Heading estimate, degrees clockwise from north in `0..360`.
     pub heading_deg: Option<f32>,
-    /// Time of week of the last GNSS fix used, ms.
-    pub last_itow_ms: Option<u32>,
 }
 
 /// Wraps an angle difference into `-180..180` degrees.
@@ -65,15 +67,15 @@ impl AutoController {
 
     fn estimate_heading(&self, state: &mut AutoState, s: &SensorValues, dt_s: f32) -> f32 {
         let yaw_rate_dps = self.gyro_yaw_sign * s.gyro_z_dps;
-        let new_fix = s.gnss_fix_ok && state.last_itow_ms != Some(s.gnss_itow_ms);
-        if new_fix {
-            state.last_itow_ms = Some(s.gnss_itow_ms);
-        }
-        if new_fix && s.g_speed_mm_s >= self.min_heading_speed_mm_s {
-            state.heading_deg = Some((s.head_mot_deg_e5 as f32 * 1e-5).rem_euclid(360.0));
-        } else if let Some(h) = state.heading_deg {
-            state.heading_deg = Some((h + yaw_rate_dps * dt_s).rem_euclid(360.0));
-        }
+        state.heading_deg = match s.gnss {
+            None => None,
+            Some(fix) if s.gnss_new && fix.g_speed_mm_s >= self.min_heading_speed_mm_s => {
+                Some((fix.head_mot_deg_e5 as f32 * 1e-5).rem_euclid(360.0))
+            }
+            Some(_) => state
+                .heading_deg
+                .map(|h| (h + yaw_rate_dps * dt_s).rem_euclid(360.0)),
+        };
         yaw_rate_dps
     }
 }
@@ -90,12 +92,12 @@ impl Controller for AutoController {
     ) -> (AutoState, Actuation) {
         let yaw_rate_dps = self.estimate_heading(&mut state, sensors, dt_s);
 
-        let throttle = match setpoints.speed_mm_s {
-            Some(target) if sensors.gnss_fix_ok => {
-                let error_m_s = (target as f32 - sensors.g_speed_mm_s as f32) * 1e-3;
+        let throttle = match (setpoints.speed_mm_s, sensors.gnss) {
+            (Some(target), Some(fix)) => {
+                let error_m_s = (target as f32 - fix.g_speed_mm_s as f32) * 1e-3;
                 let (s, u) = self.speed.step(state.speed, error_m_s, 0.0, dt_s);
                 state.speed = s;
-                u
+                u.max(0.0)
             }
             // No setpoint or no speed measurement: coast at neutral, forget the integral.
             _ => {
@@ -133,18 +135,31 @@ impl Controller for AutoController {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::monitor::FreshFix;
 
     fn controller() -> AutoController {
         AutoController::new(&ControlConfig::default())
     }
 
+    /// A new fresh fix at 2 m/s.
     fn moving(head_deg_e5: i32, itow: u32) -> SensorValues {
         SensorValues {
             gyro_z_dps: 0.0,
-            gnss_fix_ok: true,
-            gnss_itow_ms: itow,
-            g_speed_mm_s: 2_000,
-            head_mot_deg_e5: head_deg_e5,
+            gnss: Some(FreshFix {
+                itow_ms: itow,
+                g_speed_mm_s: 2_000,
+                head_mot_deg_e5: head_deg_e5,
+                at_ns: 0,
+            }),
+            gnss_new: true,
+        }
+    }
+
+    /// The same fix, still fresh, no new epoch.
+    fn between_fixes(v: SensorValues) -> SensorValues {
+        SensorValues {
+            gnss_new: false,
+            ..v
         }
     }
 
@@ -184,7 +199,7 @@ mod tests {
         // reads -50 °/s with the default sign.
         let turning = SensorValues {
             gyro_z_dps: -50.0,
-            ..moving(9_000_000, 100)
+            ..between_fixes(moving(9_000_000, 100))
         };
         for _ in 0..25 {
             s = c.step(s, &sp, &turning, 0.004).0;
@@ -198,10 +213,8 @@ mod tests {
     #[test]
     fn slow_fixes_do_not_set_the_heading() {
         let c = controller();
-        let slow = SensorValues {
-            g_speed_mm_s: 100,
-            ..moving(4_500_000, 1)
-        };
+        let mut slow = moving(4_500_000, 1);
+        slow.gnss.as_mut().unwrap().g_speed_mm_s = 100;
         let (s, _) = c.step(AutoState::default(), &Setpoints::default(), &slow, 0.004);
         assert_eq!(s.heading_deg, None);
     }
@@ -216,7 +229,12 @@ mod tests {
         let mut s = AutoState::default();
         let mut last = 0.0;
         for i in 0..2_000 {
-            let (ns, a) = c.step(s, &sp, &moving(0, i), 0.004);
+            let v = if i % 25 == 0 {
+                moving(0, i)
+            } else {
+                between_fixes(moving(0, i - i % 25))
+            };
+            let (ns, a) = c.step(s, &sp, &v, 0.004);
             s = ns;
             assert!(
                 a.throttle >= last - 1e-6,
@@ -226,6 +244,32 @@ mod tests {
             last = a.throttle;
         }
         assert!((last - 0.5).abs() < 1e-6, "{last} {s:?}");
+    }
+
+    #[test]
+    fn without_fresh_gnss_the_gyro_heading_is_dropped() {
+        let c = controller();
+        let sp = Setpoints::default();
+        let (s, _) = c.step(AutoState::default(), &sp, &moving(9_000_000, 100), 0.004);
+        assert_eq!(s.heading_deg, Some(90.0));
+        let no_gnss = SensorValues {
+            gyro_z_dps: -50.0,
+            ..SensorValues::default()
+        };
+        let (s, _) = c.step(s, &sp, &no_gnss, 0.004);
+        assert_eq!(s.heading_deg, None);
+    }
+
+    #[test]
+    fn auto_never_reverses() {
+        let c = controller();
+        let sp = Setpoints {
+            speed_mm_s: Some(0),
+            ..Setpoints::default()
+        };
+        // Far too fast for the setpoint: the speed loop wants to brake, AUTO coasts.
+        let (_, a) = c.step(AutoState::default(), &sp, &moving(0, 1), 0.004);
+        assert_eq!(a.throttle, 0.0);
     }
 
     #[test]

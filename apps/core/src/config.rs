@@ -1,0 +1,836 @@
+//! The application's configuration: one TOML file, every setting with a documented default.
+//!
+//! [`DEFAULT_TOML`] is the commented default file printed by `dima config --print-default`; a test
+//! pins that it parses back to [`Config::default`].
+
+use std::path::PathBuf;
+
+use serde::{Deserialize, Serialize};
+
+/// The whole configuration.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct Config {
+    /// Sensor-board link.
+    pub sensor: SensorConfig,
+    /// Pololu Maestro servo controller.
+    pub maestro: MaestroConfig,
+    /// XBee ground link.
+    pub xbee: XbeeConfig,
+    /// Realtime loop and thread settings.
+    pub realtime: RealtimeConfig,
+    /// Failsafe thresholds.
+    pub safety: SafetyConfig,
+    /// Output channels.
+    pub channels: ChannelsConfig,
+    /// AUTO-mode controllers.
+    pub control: ControlConfig,
+    /// MCAP log.
+    pub log: LogConfig,
+}
+
+/// Sensor-board link: UART and request line.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SensorConfig {
+    /// Serial device of the sensor board.
+    pub port: PathBuf,
+    /// Baud rate (must match the board's firmware).
+    pub baud: u32,
+    /// Stop bits, 1 or 2 (the v1 link uses 2).
+    pub stop_bits: u8,
+    /// GPIO character device of the request line.
+    pub request_chip: PathBuf,
+    /// Line offset of the request line on `request_chip`.
+    pub request_line: u32,
+    /// Request at the end of cycle k and read the answer at the start of k+1 (hides the
+    /// 3.15 ms transfer at 460800 baud behind the period; data is one period older).
+    pub request_ahead: bool,
+    /// Latest time after the request at which a packet still counts, in microseconds; later is
+    /// a `late` packet, treated as missing. With the servo write budget it must fit in the
+    /// period.
+    pub packet_deadline_us: u32,
+    /// A packet that completes sooner after its request than its time on the wire (132 bytes
+    /// at `baud` with `stop_bits`) less this tolerance cannot be the answer to it: it is counted
+    /// `stale` and treated as missing. In microseconds.
+    pub wire_tolerance_us: u32,
+    /// Pause between attempts to reopen a missing device, in milliseconds.
+    pub reopen_interval_ms: u32,
+}
+
+impl Default for SensorConfig {
+    fn default() -> Self {
+        SensorConfig {
+            port: "/dev/ttyTHS1".into(),
+            baud: 460_800,
+            stop_bits: 2,
+            request_chip: "/dev/gpiochip0".into(),
+            request_line: 216,
+            request_ahead: false,
+            packet_deadline_us: 3_700,
+            wire_tolerance_us: 100,
+            reopen_interval_ms: 1_000,
+        }
+    }
+}
+
+/// Pololu Maestro: USB serial command port.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MaestroConfig {
+    /// Serial device of the Maestro's command port.
+    pub port: PathBuf,
+    /// Baud rate (ignored by the USB command port, used on a TTL UART).
+    pub baud: u32,
+    /// How often servo targets are written, in Hz (hobby ESCs want 50 Hz pulses; the Maestro
+    /// repeats the last target by itself). Safe outputs are written in the next cycle whatever
+    /// this rate.
+    pub servo_refresh_hz: u32,
+    /// Time the loop allows for writing the servo targets, in microseconds; the packet
+    /// deadline plus this budget must fit in the period.
+    pub write_budget_us: u32,
+    /// Pause between attempts to reopen a missing device, in milliseconds.
+    pub reopen_interval_ms: u32,
+}
+
+impl Default for MaestroConfig {
+    fn default() -> Self {
+        MaestroConfig {
+            port: "/dev/ttyACM0".into(),
+            baud: 115_200,
+            servo_refresh_hz: 50,
+            write_budget_us: 300,
+            reopen_interval_ms: 1_000,
+        }
+    }
+}
+
+/// XBee radio in transparent mode.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct XbeeConfig {
+    /// Serial device of the XBee.
+    pub port: PathBuf,
+    /// Baud rate (the XBee's `BD` setting).
+    pub baud: u32,
+    /// Display frames sent per second.
+    pub display_rate_hz: f64,
+    /// Pause between attempts to reopen a missing device, in milliseconds.
+    pub reopen_interval_ms: u32,
+}
+
+impl Default for XbeeConfig {
+    fn default() -> Self {
+        XbeeConfig {
+            port: "/dev/ttyUSB0".into(),
+            baud: 9_600,
+            display_rate_hz: 2.0,
+            reopen_interval_ms: 1_000,
+        }
+    }
+}
+
+/// The realtime thread and its neighbours.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RealtimeConfig {
+    /// Control-loop rate, in Hz.
+    pub loop_rate_hz: u32,
+    /// The realtime setup (SCHED_FIFO at `priority`, pinning to `cpus`, `mlockall`) must
+    /// succeed: if any part fails the robot stays KILLED, says why, and refuses every revive.
+    /// `dima sim` sets it to false unless given `--realtime`.
+    pub required: bool,
+    /// SCHED_FIFO priority of the loop (1-99); 0 keeps SCHED_OTHER.
+    pub priority: u8,
+    /// SCHED_FIFO priority of the telemetry thread (below the loop); 0 keeps SCHED_OTHER.
+    pub telemetry_priority: u8,
+    /// CPUs the loop is pinned to (e.g. the one isolated with `isolcpus`); empty: not pinned.
+    pub cpus: Vec<usize>,
+    /// `mlockall(MCL_CURRENT | MCL_FUTURE)` before the loop starts.
+    pub lock_memory: bool,
+    /// Stack prefaulted by the loop thread before its first cycle, in KiB.
+    pub prefault_stack_kib: usize,
+    /// Hold `/dev/cpu_dma_latency` at 0 while running (keeps CPUs out of deep idle states).
+    pub cpu_dma_latency: bool,
+    /// Records the logger ring holds (drop and count when full).
+    pub log_ring_records: usize,
+    /// Command events the telemetry -> loop ring holds.
+    pub command_ring: usize,
+}
+
+impl Default for RealtimeConfig {
+    fn default() -> Self {
+        RealtimeConfig {
+            loop_rate_hz: 250,
+            required: true,
+            priority: 80,
+            telemetry_priority: 40,
+            cpus: vec![3],
+            lock_memory: true,
+            prefault_stack_kib: 256,
+            cpu_dma_latency: true,
+            log_ring_records: 4_096,
+            command_ring: 256,
+        }
+    }
+}
+
+/// Failsafe thresholds.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SafetyConfig {
+    /// No valid command frame for this long trips FAILSAFE, in milliseconds.
+    pub comms_timeout_ms: u32,
+    /// This many consecutive missing or bad sensor packets trip FAILSAFE.
+    pub sensor_loss_packets: u32,
+    /// More than this many missed periods within any sliding second trip FAILSAFE.
+    pub overrun_limit: u32,
+    /// In AUTO, no fresh GNSS fix (valid, with an advancing iTOW) for this long trips
+    /// FAILSAFE; heading may be carried on the gyro alone only this long. In milliseconds.
+    pub gnss_timeout_ms: u32,
+    /// This many consecutive packets with identical accelerometer and gyroscope words are a
+    /// stuck IMU: FAILSAFE, and revives are refused while it lasts.
+    pub imu_stuck_packets: u32,
+}
+
+impl Default for SafetyConfig {
+    fn default() -> Self {
+        SafetyConfig {
+            comms_timeout_ms: 1_000,
+            sensor_loss_packets: 25,
+            overrun_limit: 10,
+            gnss_timeout_ms: 500,
+            imu_stuck_packets: 50,
+        }
+    }
+}
+
+/// What a channel outputs when the robot is KILLED or in FAILSAFE.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum SafeOutput {
+    /// A pulse width, in microseconds.
+    PulseUs(u16),
+    /// `"off"`: no pulses (Maestro target 0).
+    Off(OffKeyword),
+}
+
+/// The keyword `"off"` in the configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OffKeyword {
+    /// No pulses.
+    Off,
+}
+
+impl SafeOutput {
+    /// No pulses.
+    pub const OFF: SafeOutput = SafeOutput::Off(OffKeyword::Off);
+
+    /// The pulse width in microseconds, 0 for "off" (the Maestro's "stop pulses" target).
+    pub fn pulse_us(self) -> u16 {
+        match self {
+            SafeOutput::PulseUs(us) => us,
+            SafeOutput::Off(_) => 0,
+        }
+    }
+}
+
+/// One output channel on the Maestro.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelConfig {
+    /// Maestro channel number.
+    pub channel: u8,
+    /// Pulse width at 0 %, in microseconds.
+    pub min_us: u16,
+    /// Pulse width at 100 %, in microseconds.
+    pub max_us: u16,
+    /// Neutral (stopped / centred) pulse width, in microseconds.
+    pub neutral_us: u16,
+    /// Output when KILLED or in FAILSAFE.
+    pub safe: SafeOutput,
+    /// `safe = "off"` (no pulses) is accepted only with this set: an ESC or servo without
+    /// pulses holds whatever it last did, so "off" is never the default for the throttle.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub allow_off: bool,
+}
+
+/// The three outputs of the DIMA car.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ChannelsConfig {
+    /// Throttle ESC.
+    pub throttle: ChannelConfig,
+    /// Steering servo.
+    pub steering: ChannelConfig,
+    /// Active tail servo.
+    pub tail: ChannelConfig,
+}
+
+impl Default for ChannelsConfig {
+    fn default() -> Self {
+        ChannelsConfig {
+            throttle: ChannelConfig {
+                channel: 0,
+                min_us: 1000,
+                max_us: 2000,
+                neutral_us: 1500,
+                safe: SafeOutput::PulseUs(1500),
+                allow_off: false,
+            },
+            steering: ChannelConfig {
+                channel: 1,
+                min_us: 1250,
+                max_us: 1840,
+                neutral_us: 1545,
+                safe: SafeOutput::PulseUs(1545),
+                allow_off: false,
+            },
+            tail: ChannelConfig {
+                channel: 2,
+                min_us: 1000,
+                max_us: 2000,
+                neutral_us: 1500,
+                safe: SafeOutput::PulseUs(1500),
+                allow_off: false,
+            },
+        }
+    }
+}
+
+impl ChannelsConfig {
+    /// The channels in output order: throttle, steering, tail.
+    pub fn all(&self) -> [&ChannelConfig; 3] {
+        [&self.throttle, &self.steering, &self.tail]
+    }
+}
+
+/// PID gains and limits. Output is a fraction of the channel's travel, -1..=1 around neutral.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PidConfig {
+    /// Proportional gain, output per unit of error.
+    pub kp: f32,
+    /// Integral gain, output per unit of error-second.
+    pub ki: f32,
+    /// Derivative gain (on the measurement), output per unit of measurement rate.
+    pub kd: f32,
+    /// Output limit, fraction of travel (0..=1).
+    pub output_limit: f32,
+    /// Largest output change, fraction of travel per second.
+    pub rate_limit_per_s: f32,
+}
+
+/// AUTO-mode controllers.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ControlConfig {
+    /// Speed controller: error in m/s -> throttle.
+    pub speed: PidConfig,
+    /// Heading controller: error in degrees -> steering.
+    pub heading: PidConfig,
+    /// Sign from gyro Z to heading rate (clockwise positive): -1 when the board's Z axis
+    /// points up.
+    pub gyro_yaw_sign: f32,
+    /// Below this ground speed the GNSS heading of motion is not trusted, in mm/s.
+    pub min_heading_speed_mm_s: i32,
+    /// Largest speed setpoint accepted, in mm/s; setpoints below 0 (AUTO is forward-only) or
+    /// above this are rejected, counted and change nothing.
+    pub max_speed_mm_s: i32,
+    /// A GNSS fix is used only while its speed accuracy estimate (`sAcc`) is at most this, in
+    /// mm/s.
+    pub max_speed_accuracy_mm_s: u32,
+}
+
+impl Default for ControlConfig {
+    fn default() -> Self {
+        ControlConfig {
+            speed: PidConfig {
+                kp: 0.15,
+                ki: 0.10,
+                kd: 0.0,
+                output_limit: 0.5,
+                rate_limit_per_s: 2.0,
+            },
+            heading: PidConfig {
+                kp: 0.02,
+                ki: 0.0,
+                kd: 0.002,
+                output_limit: 1.0,
+                rate_limit_per_s: 8.0,
+            },
+            gyro_yaw_sign: -1.0,
+            min_heading_speed_mm_s: 500,
+            max_speed_mm_s: 5_000,
+            max_speed_accuracy_mm_s: 1_000,
+        }
+    }
+}
+
+/// MCAP log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LogConfig {
+    /// Write a log at all.
+    pub enabled: bool,
+    /// Directory for `dima-YYYYMMDDTHHMMSSZ.mcap` files (created if missing).
+    pub directory: PathBuf,
+    /// Longest time between chunk flushes, in milliseconds (what a crash can lose).
+    pub flush_interval_ms: u32,
+    /// Decoded values are logged every n-th cycle (raw packets and timings every cycle).
+    pub decoded_every: u32,
+}
+
+impl Default for LogConfig {
+    fn default() -> Self {
+        LogConfig {
+            enabled: true,
+            directory: "/var/log/dima".into(),
+            flush_interval_ms: 1_000,
+            decoded_every: 1,
+        }
+    }
+}
+
+/// The commented default configuration file.
+pub const DEFAULT_TOML: &str = include_str!("default-config.toml");
+
+/// Baud rates a Linux serial port (termios `B*` constants) can be set to.
+pub const STANDARD_BAUD_RATES: [u32; 26] = [
+    50, 75, 110, 134, 150, 200, 300, 600, 1_200, 1_800, 2_400, 4_800, 9_600, 19_200, 38_400,
+    57_600, 115_200, 230_400, 460_800, 500_000, 576_000, 921_600, 1_000_000, 1_500_000, 2_000_000,
+    3_000_000,
+];
+
+/// A configuration problem a user can fix.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The text is not valid TOML for this configuration.
+    #[error("config file {origin}: {reason}")]
+    Parse {
+        /// Where the text came from (a path).
+        origin: String,
+        /// Where and why (the TOML parser's message).
+        reason: String,
+    },
+    /// A value is out of its allowed range.
+    #[error("config: {key} = {value}: {allowed}")]
+    Invalid {
+        /// The key, e.g. `safety.comms_timeout_ms`.
+        key: String,
+        /// The value found.
+        value: String,
+        /// What is allowed, e.g. `expected 100..=5000`.
+        allowed: String,
+    },
+}
+
+fn invalid(key: impl Into<String>, value: impl std::fmt::Display, allowed: &str) -> ConfigError {
+    ConfigError::Invalid {
+        key: key.into(),
+        value: value.to_string(),
+        allowed: allowed.to_owned(),
+    }
+}
+
+/// `Ok` when `value` is within `range`, else the error naming `key` and the range.
+fn within<T>(key: &str, value: T, range: std::ops::RangeInclusive<T>) -> Result<(), ConfigError>
+where
+    T: PartialOrd + std::fmt::Display + Copy,
+{
+    if range.contains(&value) {
+        Ok(())
+    } else {
+        Err(invalid(
+            key,
+            value,
+            &format!("expected {}..={}", range.start(), range.end()),
+        ))
+    }
+}
+
+/// Bits one byte takes on an 8-data-bit, no-parity UART line: start, data and stop bits.
+pub fn bits_per_byte(stop_bits: u8) -> u64 {
+    1 + 8 + u64::from(stop_bits)
+}
+
+impl Config {
+    /// Parses and validates a configuration from TOML text; `origin` names it in errors.
+    pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
+        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            origin: origin.to_owned(),
+            reason: e.to_string().trim_end().to_owned(),
+        })?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Loop period in nanoseconds.
+    pub fn period_ns(&self) -> u64 {
+        1_000_000_000 / u64::from(self.realtime.loop_rate_hz.max(1))
+    }
+
+    /// Time a 132-byte sensor packet takes on the wire at the configured line settings, in
+    /// nanoseconds (3.15 ms at 460 800 baud 8N2).
+    pub fn packet_wire_ns(&self) -> u64 {
+        let bits = dima_sensorboard::PACKET_LEN as u64 * bits_per_byte(self.sensor.stop_bits);
+        bits * 1_000_000_000 / u64::from(self.sensor.baud.max(1))
+    }
+
+    /// Checks every value against its allowed range and the rules across fields; the error
+    /// names the key and what is allowed.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.validate_realtime()?;
+        self.validate_links()?;
+        self.validate_safety()?;
+        self.validate_channels()?;
+        self.validate_control()?;
+        within("log.decoded_every", self.log.decoded_every, 1..=u32::MAX)
+    }
+
+    fn validate_realtime(&self) -> Result<(), ConfigError> {
+        let rt = &self.realtime;
+        within("realtime.loop_rate_hz", rt.loop_rate_hz, 1..=10_000)?;
+        within("realtime.priority", rt.priority, 0..=99)?;
+        within("realtime.telemetry_priority", rt.telemetry_priority, 0..=99)?;
+        if rt.priority != 0 && rt.telemetry_priority >= rt.priority {
+            return Err(invalid(
+                "realtime.telemetry_priority",
+                rt.telemetry_priority,
+                &format!("must be below realtime.priority ({})", rt.priority),
+            ));
+        }
+        within(
+            "realtime.log_ring_records",
+            rt.log_ring_records,
+            1..=1 << 20,
+        )?;
+        within("realtime.command_ring", rt.command_ring, 1..=1 << 16)
+    }
+
+    fn validate_links(&self) -> Result<(), ConfigError> {
+        for (key, baud) in [
+            ("sensor.baud", self.sensor.baud),
+            ("maestro.baud", self.maestro.baud),
+            ("xbee.baud", self.xbee.baud),
+        ] {
+            if !STANDARD_BAUD_RATES.contains(&baud) {
+                return Err(invalid(
+                    key,
+                    baud,
+                    "expected a standard rate (9600, 19200, 38400, 57600, 115200, 230400, \
+                     460800, 921600, 1000000, 2000000, ...)",
+                ));
+            }
+        }
+        within("sensor.stop_bits", self.sensor.stop_bits, 1..=2)?;
+        let period_us = self.period_ns() / 1_000;
+        let wire_us = self.packet_wire_ns() / 1_000;
+        let deadline_us = u64::from(self.sensor.packet_deadline_us);
+        if deadline_us <= wire_us {
+            return Err(invalid(
+                "sensor.packet_deadline_us",
+                deadline_us,
+                &format!(
+                    "must exceed the packet's {wire_us} µs on the wire at sensor.baud = {}",
+                    self.sensor.baud
+                ),
+            ));
+        }
+        let budget_us = u64::from(self.maestro.write_budget_us);
+        if deadline_us + budget_us > period_us {
+            return Err(invalid(
+                "sensor.packet_deadline_us",
+                deadline_us,
+                &format!(
+                    "plus maestro.write_budget_us ({budget_us}) must fit in the period \
+                     ({period_us} µs at realtime.loop_rate_hz = {})",
+                    self.realtime.loop_rate_hz
+                ),
+            ));
+        }
+        within(
+            "sensor.wire_tolerance_us",
+            self.sensor.wire_tolerance_us,
+            0..=1_000,
+        )?;
+        within(
+            "maestro.write_budget_us",
+            self.maestro.write_budget_us,
+            1..=100_000,
+        )?;
+        within(
+            "maestro.servo_refresh_hz",
+            self.maestro.servo_refresh_hz,
+            1..=self.realtime.loop_rate_hz,
+        )?;
+        let rate = self.xbee.display_rate_hz;
+        if !(rate > 0.0 && rate <= 100.0) {
+            return Err(invalid("xbee.display_rate_hz", rate, "expected (0, 100]"));
+        }
+        Ok(())
+    }
+
+    fn validate_safety(&self) -> Result<(), ConfigError> {
+        let s = &self.safety;
+        within("safety.comms_timeout_ms", s.comms_timeout_ms, 100..=5_000)?;
+        within("safety.sensor_loss_packets", s.sensor_loss_packets, 1..=250)?;
+        within(
+            "safety.overrun_limit",
+            s.overrun_limit,
+            1..=crate::safety::MAX_OVERRUN_LIMIT,
+        )?;
+        within("safety.gnss_timeout_ms", s.gnss_timeout_ms, 100..=5_000)?;
+        within("safety.imu_stuck_packets", s.imu_stuck_packets, 2..=10_000)
+    }
+
+    fn validate_channels(&self) -> Result<(), ConfigError> {
+        let c = &self.channels;
+        for (name, ch) in [
+            ("throttle", &c.throttle),
+            ("steering", &c.steering),
+            ("tail", &c.tail),
+        ] {
+            let key = |field: &str| format!("channels.{name}.{field}");
+            within(&key("channel"), ch.channel, 0..=23)?;
+            within(&key("max_us"), ch.max_us, 1..=4_000)?;
+            within(&key("min_us"), ch.min_us, 1..=ch.max_us.saturating_sub(1))?;
+            within(&key("neutral_us"), ch.neutral_us, ch.min_us..=ch.max_us)?;
+            match ch.safe {
+                SafeOutput::PulseUs(us) => within(&key("safe"), us, ch.min_us..=ch.max_us)?,
+                SafeOutput::Off(_) if !ch.allow_off => {
+                    return Err(invalid(
+                        key("safe"),
+                        "\"off\"",
+                        &format!(
+                            "no pulses leave the {name} where it was; give a pulse width, or \
+                             set {} = true if this output is safe without pulses",
+                            key("allow_off")
+                        ),
+                    ))
+                }
+                SafeOutput::Off(_) => {}
+            }
+        }
+        if c.throttle.channel == c.steering.channel
+            || c.throttle.channel == c.tail.channel
+            || c.steering.channel == c.tail.channel
+        {
+            return Err(invalid(
+                "channels.*.channel",
+                format!(
+                    "{}, {}, {}",
+                    c.throttle.channel, c.steering.channel, c.tail.channel
+                ),
+                "throttle, steering and tail need distinct channels",
+            ));
+        }
+        Ok(())
+    }
+
+    fn validate_control(&self) -> Result<(), ConfigError> {
+        let c = &self.control;
+        for (name, pid) in [("speed", &c.speed), ("heading", &c.heading)] {
+            for (field, gain) in [("kp", pid.kp), ("ki", pid.ki), ("kd", pid.kd)] {
+                if !(gain.is_finite() && gain >= 0.0) {
+                    return Err(invalid(
+                        format!("control.{name}.{field}"),
+                        gain,
+                        "expected a finite gain >= 0",
+                    ));
+                }
+            }
+            if !(0.0..=1.0).contains(&pid.output_limit) {
+                return Err(invalid(
+                    format!("control.{name}.output_limit"),
+                    pid.output_limit,
+                    "expected 0..=1 (a fraction of the channel's travel)",
+                ));
+            }
+            if !(pid.rate_limit_per_s.is_finite() && pid.rate_limit_per_s > 0.0) {
+                return Err(invalid(
+                    format!("control.{name}.rate_limit_per_s"),
+                    pid.rate_limit_per_s,
+                    "expected a finite rate > 0",
+                ));
+            }
+        }
+        if c.gyro_yaw_sign != 1.0 && c.gyro_yaw_sign != -1.0 {
+            return Err(invalid(
+                "control.gyro_yaw_sign",
+                c.gyro_yaw_sign,
+                "expected 1 or -1 (-1 when the board's Z axis points up)",
+            ));
+        }
+        within(
+            "control.min_heading_speed_mm_s",
+            c.min_heading_speed_mm_s,
+            0..=20_000,
+        )?;
+        within("control.max_speed_mm_s", c.max_speed_mm_s, 1..=50_000)?;
+        within(
+            "control.max_speed_accuracy_mm_s",
+            c.max_speed_accuracy_mm_s,
+            1..=100_000,
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_file_parses_back_to_the_defaults() {
+        let parsed: Config = toml::from_str(DEFAULT_TOML).expect("default file parses");
+        assert_eq!(parsed, Config::default());
+        parsed.validate().expect("defaults are valid");
+    }
+
+    #[test]
+    fn default_file_mentions_every_setting() {
+        // Every key the serialiser writes must appear in the commented file.
+        let serialised = toml::to_string(&Config::default()).unwrap();
+        for line in serialised.lines() {
+            if let Some((key, _)) = line.split_once(" = ") {
+                let found = DEFAULT_TOML
+                    .lines()
+                    .any(|l| l.trim_start().starts_with(&format!("{key} =")));
+                assert!(found, "default-config.toml lacks {key}");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_file_is_the_defaults() {
+        assert_eq!(toml::from_str::<Config>("").unwrap(), Config::default());
+    }
+
+    #[test]
+    fn safe_output_off_or_pulse() {
+        let c: Config = toml::from_str(
+            "[channels.tail]\nchannel = 2\nmin_us = 1000\nmax_us = 2000\nneutral_us = 1500\nsafe = \"off\"\n",
+        )
+        .unwrap();
+        assert_eq!(c.channels.tail.safe, SafeOutput::OFF);
+        assert_eq!(c.channels.tail.safe.pulse_us(), 0);
+        assert_eq!(c.channels.throttle.safe.pulse_us(), 1500);
+    }
+
+    #[test]
+    fn unknown_keys_are_errors() {
+        assert!(toml::from_str::<Config>("[sensor]\nbaudrate = 9600\n").is_err());
+    }
+
+    #[test]
+    fn validation_rejects_bad_values() {
+        let mut c = Config::default();
+        c.sensor.packet_deadline_us = 5_000;
+        assert!(c.validate().is_err());
+        let mut c = Config::default();
+        c.channels.tail.channel = 0;
+        assert!(c.validate().is_err());
+        let mut c = Config::default();
+        c.realtime.telemetry_priority = 90;
+        assert!(c.validate().is_err());
+        let mut c = Config::default();
+        c.channels.steering.safe = SafeOutput::PulseUs(900);
+        assert!(c.validate().is_err());
+    }
+
+    /// The error for `toml` (parsed over the defaults), as text.
+    fn error_for(toml: &str) -> String {
+        Config::from_toml(toml, "test.toml")
+            .expect_err(toml)
+            .to_string()
+    }
+
+    #[test]
+    fn settings_that_disable_protections_are_refused_naming_key_and_range() {
+        for (toml, key, range) in [
+            ("[safety]\ncomms_timeout_ms = 0", "safety.comms_timeout_ms", "100..=5000"),
+            ("[safety]\ncomms_timeout_ms = 3600000", "safety.comms_timeout_ms", "100..=5000"),
+            ("[safety]\nsensor_loss_packets = 0", "safety.sensor_loss_packets", "1..=250"),
+            ("[safety]\nsensor_loss_packets = 251", "safety.sensor_loss_packets", "1..=250"),
+            ("[safety]\noverrun_limit = 0", "safety.overrun_limit", "1..=250"),
+            ("[safety]\noverrun_limit = 100000", "safety.overrun_limit", "1..=250"),
+            ("[control]\ngyro_yaw_sign = 0", "control.gyro_yaw_sign", "1 or -1"),
+            ("[control]\ngyro_yaw_sign = 0.5", "control.gyro_yaw_sign", "1 or -1"),
+            ("[sensor]\nbaud = 12345", "sensor.baud", "standard rate"),
+            ("[xbee]\nbaud = 9601", "xbee.baud", "standard rate"),
+            ("[maestro]\nbaud = 0", "maestro.baud", "standard rate"),
+            (
+                "[control.speed]\nkp = -1\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 1",
+                "control.speed.kp",
+                ">= 0",
+            ),
+            (
+                "[control.speed]\nkp = nan\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 1",
+                "control.speed.kp",
+                "finite",
+            ),
+            (
+                "[control.heading]\nkp = 1\nki = 0\nkd = inf\noutput_limit = 0.5\nrate_limit_per_s = 1",
+                "control.heading.kd",
+                "finite",
+            ),
+            (
+                "[control.speed]\nkp = 1\nki = 0\nkd = 0\noutput_limit = 1.5\nrate_limit_per_s = 1",
+                "control.speed.output_limit",
+                "0..=1",
+            ),
+            (
+                "[control.speed]\nkp = 1\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 0",
+                "control.speed.rate_limit_per_s",
+                "> 0",
+            ),
+            (
+                "[channels.throttle]\nchannel = 0\nmin_us = 1000\nmax_us = 2000\nneutral_us = 1500\nsafe = \"off\"",
+                "channels.throttle.safe",
+                "channels.throttle.allow_off = true",
+            ),
+            ("[sensor]\npacket_deadline_us = 3000", "sensor.packet_deadline_us", "on the wire"),
+            (
+                "[maestro]\nwrite_budget_us = 400",
+                "sensor.packet_deadline_us",
+                "must fit in the period",
+            ),
+        ] {
+            let e = error_for(toml);
+            assert!(e.contains(key), "{toml}: {e}");
+            assert!(e.contains(range), "{toml}: {e}");
+        }
+    }
+
+    #[test]
+    fn off_is_accepted_where_the_channel_allows_it() {
+        let c = Config::from_toml(
+            "[channels.tail]\nchannel = 2\nmin_us = 1000\nmax_us = 2000\nneutral_us = 1500\n\
+             safe = \"off\"\nallow_off = true\n",
+            "test.toml",
+        )
+        .unwrap();
+        assert_eq!(c.channels.tail.safe, SafeOutput::OFF);
+    }
+
+    #[test]
+    fn a_parse_error_says_where_once() {
+        let e = error_for("[safety]\ncomms_timeout_ms = \"soon\"");
+        assert!(e.starts_with("config file test.toml: "), "{e}");
+        assert_eq!(e.matches("comms_timeout_ms").count(), 1, "{e}");
+        // Nothing is chained below it that would print the same text again.
+        let parse = Config::from_toml("x = 1", "t").unwrap_err();
+        assert!(std::error::Error::source(&parse).is_none());
+    }
+
+    #[test]
+    fn packet_wire_time_follows_the_line_settings() {
+        let mut c = Config::default();
+        // 132 bytes x 11 bits / 460800 baud = 3.151 ms.
+        assert_eq!(c.packet_wire_ns(), 3_151_041);
+        c.sensor.stop_bits = 1;
+        c.sensor.baud = 921_600;
+        assert_eq!(c.packet_wire_ns(), 1_432_291);
+    }
+}

@@ -1,0 +1,47 @@
+//! The DIMA robot's deterministic core: everything the robot decides, with no I/O, no threads
+//! and no clocks, so the realtime loop, the simulator, the tests and log replays run the very
+//! same code.
+//!
+//! - [`config`]: the TOML configuration with documented defaults and bounds;
+//! - [`safety`]: the safety state machine (KILLED, MANUAL, AUTO, FAILSAFE) and its causes;
+//! - [`monitor`]: request/answer pairing, GNSS freshness, stuck IMU, overruns by rate;
+//! - [`control`]: the AUTO controllers and the mapping from modes to servo targets;
+//! - [`step`]: [`Core::step`], one cycle as a pure function of state, inputs, time and
+//!   configuration;
+//! - [`counters`], [`schema`]: the counters and the typed log messages, whose JSON schemas are
+//!   generated from the structs.
+//!
+//! ```
+//! use dima_core::config::Config;
+//! use dima_core::step::{CycleInputs, SensorInput};
+//! use dima_core::{Core, CoreState, Command, Mode};
+//!
+//! let core = Core::new(&Config::default());
+//! let mut state = CoreState::new();
+//! let inputs = CycleInputs {
+//!     missed_periods: 0,
+//!     commands: &[Command::Revive],
+//!     sensor: SensorInput::NotRequested,
+//! };
+//! let out = core.step(&mut state, &inputs, 4_000_000);
+//! // No sensor packet: the revive is accepted only while the sensor link is healthy, and the
+//! // first missing packet starts counting towards the sensor-loss threshold.
+//! assert_eq!(out.mode, Mode::Manual);
+//! assert_eq!(out.targets.pulse_us, [1500, 1545, 1500]);
+//! ```
+#![deny(missing_docs)]
+
+pub mod config;
+pub mod control;
+pub mod counters;
+pub mod monitor;
+pub mod safety;
+pub mod schema;
+pub mod step;
+
+pub use dima_groundlink::Command;
+pub use safety::{FailsafeCause, Mode, ReviveRefusal};
+pub use step::{Core, CoreState, CycleInputs, CycleOutputs, SensorInput};
+
+/// Monotonic time in nanoseconds (CLOCK_MONOTONIC in the application, anything in tests).
+pub type Nanos = u64;

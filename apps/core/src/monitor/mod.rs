@@ -1,0 +1,18 @@
+//! Monitors: small pure state machines that judge one aspect of the inputs each cycle and
+//! feed the safety state machine.
+//!
+//! - [`AnswerWindow`]: pairs a packet with this cycle's request (not sooner than its wire time,
+//!   not later than the deadline);
+//! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances;
+//! - [`ImuStuckDetector`]: identical IMU words packet after packet are a sensor fault;
+//! - [`OverrunWindow`]: missed periods within a sliding second.
+
+mod answer;
+pub mod gnss;
+mod imu;
+mod overrun;
+
+pub use answer::{AnswerWindow, PacketVerdict};
+pub use gnss::{FreshFix, GnssFreshness};
+pub use imu::ImuStuckDetector;
+pub use overrun::OverrunWindow;

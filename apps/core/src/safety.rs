@@ -1,0 +1,644 @@
+//! The safety state machine: KILLED (start-up), MANUAL, AUTO, FAILSAFE.
+//!
+//! Two pure transition functions: [`SafetyState::on_command`] for every command event (in
+//! arrival order) and [`SafetyState::on_cycle`] once per loop cycle, after the commands. Time is
+//! an argument, so tests drive it like a table.
+//!
+//! Rules:
+//! - any valid command frame is link activity;
+//! - kill -> KILLED from any state, immediately;
+//! - revive leaves KILLED or FAILSAFE for MANUAL at neutral, only while nothing blocks it (see
+//!   [`ReviveRefusal`]); a revive in MANUAL or AUTO changes nothing;
+//! - a manual command in AUTO switches to MANUAL with every channel at neutral except the one
+//!   just commanded, and forgets the AUTO setpoints;
+//! - a speed or heading setpoint switches MANUAL to AUTO and forgets the manual values; a speed
+//!   setpoint below 0 or above the configured maximum is rejected and changes nothing (AUTO is
+//!   forward-only);
+//! - in KILLED or FAILSAFE manual values and setpoints change no mode and are not kept;
+//! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
+//!   missing packets, a stuck IMU, or too many overruns within a second -> FAILSAFE; in AUTO
+//!   also GNSS older than its timeout. FAILSAFE latches until a revive;
+//! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
+//!   from neutral.
+
+use dima_groundlink::{Command, Percent};
+
+use crate::config::{ControlConfig, SafetyConfig};
+use crate::Nanos;
+
+/// Largest `safety.overrun_limit` (the overrun window keeps that many miss times).
+pub const MAX_OVERRUN_LIMIT: u32 = 250;
+
+/// Operating mode. In logs: `KILLED`, `MANUAL`, `AUTO`, `FAILSAFE`.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Hash,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
+#[serde(rename_all = "SCREAMING_SNAKE_CASE")]
+pub enum Mode {
+    /// Start-up and after a kill: safe outputs.
+    Killed,
+    /// Outputs follow the ground station's percentages.
+    Manual,
+    /// Outputs from the speed and heading controllers.
+    Auto,
+    /// Safe outputs after a failure; latched until a revive.
+    Failsafe,
+}
+
+impl Mode {
+    /// Outputs are the configured safe values in this mode.
+    pub fn is_safe(self) -> bool {
+        matches!(self, Mode::Killed | Mode::Failsafe)
+    }
+
+    /// The name used in logs, status lines and on the ground link.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Killed => "KILLED",
+            Mode::Manual => "MANUAL",
+            Mode::Auto => "AUTO",
+            Mode::Failsafe => "FAILSAFE",
+        }
+    }
+}
+
+impl core::fmt::Display for Mode {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Why FAILSAFE was entered. In logs by its variant name, e.g. `CommsLoss`.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Hash,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
+pub enum FailsafeCause {
+    /// No valid command frame within the comms timeout.
+    CommsLoss,
+    /// K consecutive bad, missing, stale or late sensor packets.
+    SensorLoss,
+    /// Identical accelerometer and gyroscope words for many packets.
+    ImuStuck,
+    /// More missed periods within a second than the overrun limit.
+    Overrun,
+    /// In AUTO, no fresh GNSS fix within the GNSS timeout.
+    GnssStale,
+}
+
+/// Why a revive was refused. In logs by its variant name.
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Hash,
+    serde::Serialize,
+    serde::Deserialize,
+    schemars::JsonSchema,
+)]
+pub enum ReviveRefusal {
+    /// The sensor link is down (the last K packets were not all good).
+    SensorLoss,
+    /// The IMU is stuck.
+    ImuStuck,
+    /// The loop is overrunning.
+    Overrun,
+    /// The required realtime setup failed (`realtime.required`).
+    RealtimeSetup,
+}
+
+/// Thresholds, in the units the transition functions use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SafetyLimits {
+    /// Comms timeout, ns.
+    pub comms_timeout_ns: Nanos,
+    /// K: consecutive bad packets that trip FAILSAFE.
+    pub sensor_loss_packets: u32,
+    /// Largest speed setpoint accepted, mm/s.
+    pub max_speed_mm_s: i32,
+}
+
+impl SafetyLimits {
+    /// From the (validated) configuration.
+    pub fn new(safety: &SafetyConfig, control: &ControlConfig) -> SafetyLimits {
+        SafetyLimits {
+            comms_timeout_ns: u64::from(safety.comms_timeout_ms) * 1_000_000,
+            sensor_loss_packets: safety.sensor_loss_packets.max(1),
+            max_speed_mm_s: control.max_speed_mm_s,
+        }
+    }
+}
+
+/// What the ground station asked for. `None`: not given since the last reset (neutral for
+/// manual channels, no setpoint for the controllers).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Setpoints {
+    /// Manual throttle.
+    pub throttle: Option<Percent>,
+    /// Manual steering.
+    pub steering: Option<Percent>,
+    /// Manual tail.
+    pub tail: Option<Percent>,
+    /// AUTO ground speed, mm/s (0..=max, forward only).
+    pub speed_mm_s: Option<i32>,
+    /// AUTO heading, 1e-5 degrees.
+    pub heading_deg_e5: Option<i32>,
+}
+
+/// One cycle's health, as the monitors of the step judged it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CycleHealth {
+    /// A valid packet, paired with this cycle's request, arrived in time.
+    pub packet_ok: bool,
+    /// More missed periods within the last second than the overrun limit.
+    pub overrunning: bool,
+    /// The IMU words have not changed for the stuck threshold.
+    pub imu_stuck: bool,
+    /// No fresh GNSS fix within the GNSS timeout.
+    pub gnss_stale: bool,
+}
+
+impl CycleHealth {
+    /// Everything fine.
+    pub const GOOD: CycleHealth = CycleHealth {
+        packet_ok: true,
+        overrunning: false,
+        imu_stuck: false,
+        gnss_stale: false,
+    };
+}
+
+/// What a command did besides changing the state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CommandEffect {
+    /// A setpoint was out of range and ignored.
+    pub rejected: bool,
+    /// A revive was refused, and why.
+    pub refused: Option<ReviveRefusal>,
+}
+
+/// The whole state of the safety logic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SafetyState {
+    /// Current mode.
+    pub mode: Mode,
+    /// Why the last FAILSAFE was entered (kept until a revive).
+    pub cause: Option<FailsafeCause>,
+    /// Time of the last valid command frame.
+    pub last_link_ns: Option<Nanos>,
+    /// Consecutive bad or missing packets.
+    pub bad_packets: u32,
+    /// Current manual values and setpoints.
+    pub setpoints: Setpoints,
+}
+
+impl Default for SafetyState {
+    fn default() -> Self {
+        SafetyState::new()
+    }
+}
+
+impl SafetyState {
+    /// Start-up: KILLED, no link seen yet.
+    pub const fn new() -> SafetyState {
+        SafetyState {
+            mode: Mode::Killed,
+            cause: None,
+            last_link_ns: None,
+            bad_packets: 0,
+            setpoints: Setpoints {
+                throttle: None,
+                steering: None,
+                tail: None,
+                speed_mm_s: None,
+                heading_deg_e5: None,
+            },
+        }
+    }
+
+    /// Why a revive would be refused now: the sensor link, then `blocked` (a stuck IMU, an
+    /// overrunning loop or a failed realtime setup, as the step knows them).
+    pub fn revive_refusal(
+        &self,
+        limits: &SafetyLimits,
+        blocked: Option<ReviveRefusal>,
+    ) -> Option<ReviveRefusal> {
+        if self.bad_packets >= limits.sensor_loss_packets {
+            Some(ReviveRefusal::SensorLoss)
+        } else {
+            blocked
+        }
+    }
+
+    fn enter_safe(&mut self, mode: Mode, cause: Option<FailsafeCause>) {
+        self.mode = mode;
+        self.cause = cause;
+        self.setpoints = Setpoints::default();
+    }
+
+    /// A manual value: in AUTO it switches to MANUAL from neutral; only MANUAL keeps it.
+    fn manual(&mut self, command: Command) {
+        match self.mode {
+            Mode::Manual => {}
+            Mode::Auto => {
+                self.mode = Mode::Manual;
+                self.setpoints = Setpoints::default();
+            }
+            Mode::Killed | Mode::Failsafe => return,
+        }
+        let sp = &mut self.setpoints;
+        match command {
+            Command::Throttle(p) => sp.throttle = Some(p),
+            Command::Steering(p) => sp.steering = Some(p),
+            Command::Tail(p) => sp.tail = Some(p),
+            _ => {}
+        }
+    }
+
+    /// A setpoint: in MANUAL it switches to AUTO without the manual values; only AUTO keeps it.
+    fn setpoint(&mut self, command: Command) {
+        match self.mode {
+            Mode::Auto => {}
+            Mode::Manual => {
+                self.mode = Mode::Auto;
+                self.setpoints = Setpoints::default();
+            }
+            Mode::Killed | Mode::Failsafe => return,
+        }
+        let sp = &mut self.setpoints;
+        match command {
+            Command::SpeedSetpoint { mm_s } => sp.speed_mm_s = Some(mm_s),
+            Command::HeadingSetpoint { deg_e5 } => sp.heading_deg_e5 = Some(deg_e5),
+            _ => {}
+        }
+    }
+
+    /// A valid command arrived at `now`; `blocked` says what besides the sensor link would
+    /// refuse a revive.
+    pub fn on_command(
+        &mut self,
+        limits: &SafetyLimits,
+        command: Command,
+        now: Nanos,
+        blocked: Option<ReviveRefusal>,
+    ) -> CommandEffect {
+        self.last_link_ns = Some(now);
+        let mut effect = CommandEffect::default();
+        match command {
+            Command::Heartbeat => {}
+            Command::Kill => self.enter_safe(Mode::Killed, None),
+            Command::Revive => {
+                if self.mode.is_safe() {
+                    match self.revive_refusal(limits, blocked) {
+                        Some(why) => effect.refused = Some(why),
+                        None => {
+                            self.mode = Mode::Manual;
+                            self.cause = None;
+                            self.setpoints = Setpoints::default();
+                        }
+                    }
+                }
+            }
+            Command::Throttle(_) | Command::Steering(_) | Command::Tail(_) => self.manual(command),
+            Command::SpeedSetpoint { mm_s } if !(0..=limits.max_speed_mm_s).contains(&mm_s) => {
+                effect.rejected = true;
+            }
+            Command::SpeedSetpoint { .. } | Command::HeadingSetpoint { .. } => {
+                self.setpoint(command)
+            }
+        }
+        effect
+    }
+
+    /// End of the command phase of a cycle at `now`.
+    pub fn on_cycle(&mut self, limits: &SafetyLimits, health: CycleHealth, now: Nanos) {
+        self.bad_packets = if health.packet_ok {
+            0
+        } else {
+            self.bad_packets.saturating_add(1)
+        };
+        if self.mode.is_safe() {
+            return;
+        }
+        let link_lost = match self.last_link_ns {
+            Some(t) => now.saturating_sub(t) > limits.comms_timeout_ns,
+            None => true,
+        };
+        let cause = if link_lost {
+            Some(FailsafeCause::CommsLoss)
+        } else if self.bad_packets >= limits.sensor_loss_packets {
+            Some(FailsafeCause::SensorLoss)
+        } else if health.imu_stuck {
+            Some(FailsafeCause::ImuStuck)
+        } else if health.overrunning {
+            Some(FailsafeCause::Overrun)
+        } else if health.gnss_stale && self.mode == Mode::Auto {
+            Some(FailsafeCause::GnssStale)
+        } else {
+            None
+        };
+        if let Some(cause) = cause {
+            self.enter_safe(Mode::Failsafe, Some(cause));
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use Mode::*;
+
+    const MS: Nanos = 1_000_000;
+    const LIMITS: SafetyLimits = SafetyLimits {
+        comms_timeout_ns: 1_000 * MS,
+        sensor_loss_packets: 3,
+        max_speed_mm_s: 5_000,
+    };
+    const OK: CycleHealth = CycleHealth::GOOD;
+    const BAD: CycleHealth = CycleHealth {
+        packet_ok: false,
+        ..CycleHealth::GOOD
+    };
+
+    fn pct(v: u8) -> Percent {
+        Percent::new(v).unwrap()
+    }
+
+    /// One step of a scripted run.
+    enum Ev {
+        Cmd(Command),
+        Cycle(CycleHealth),
+    }
+
+    /// Runs `(time_ms, event, expected mode after it)` rows from the start-up state.
+    fn run_table(rows: &[(u64, Ev, Mode)]) -> SafetyState {
+        let mut s = SafetyState::new();
+        for (i, (t, ev, want)) in rows.iter().enumerate() {
+            match ev {
+                Ev::Cmd(c) => {
+                    s.on_command(&LIMITS, *c, t * MS, None);
+                }
+                Ev::Cycle(h) => s.on_cycle(&LIMITS, *h, t * MS),
+            }
+            assert_eq!(s.mode, *want, "row {i} at {t} ms: {s:?}");
+        }
+        s
+    }
+
+    use Ev::{Cmd, Cycle};
+
+    #[test]
+    fn starts_killed_and_stays_killed_without_a_revive() {
+        let s = run_table(&[
+            (0, Cycle(OK), Killed),
+            (10, Cmd(Command::Heartbeat), Killed),
+            (20, Cmd(Command::Throttle(pct(80))), Killed),
+            (5_000, Cycle(OK), Killed),
+        ]);
+        assert_eq!(
+            s.setpoints,
+            Setpoints::default(),
+            "nothing kept while KILLED"
+        );
+    }
+
+    #[test]
+    fn revive_manual_auto_manual_kill() {
+        let s = run_table(&[
+            (0, Cmd(Command::Revive), Manual),
+            (4, Cycle(OK), Manual),
+            (8, Cmd(Command::Throttle(pct(60))), Manual),
+            (12, Cmd(Command::SpeedSetpoint { mm_s: 2000 }), Auto),
+            (
+                16,
+                Cmd(Command::HeadingSetpoint { deg_e5: 9_000_000 }),
+                Auto,
+            ),
+            (20, Cycle(OK), Auto),
+            (24, Cmd(Command::Steering(pct(50))), Manual),
+            (28, Cmd(Command::Revive), Manual),
+            (32, Cmd(Command::Kill), Killed),
+        ]);
+        assert_eq!(s.setpoints, Setpoints::default(), "kill forgets setpoints");
+    }
+
+    #[test]
+    fn entering_auto_forgets_the_manual_values() {
+        let s = run_table(&[
+            (0, Cmd(Command::Revive), Manual),
+            (8, Cmd(Command::Throttle(pct(80))), Manual),
+            (9, Cmd(Command::Tail(pct(10))), Manual),
+            (12, Cmd(Command::SpeedSetpoint { mm_s: 2000 }), Auto),
+        ]);
+        assert_eq!(
+            s.setpoints,
+            Setpoints {
+                speed_mm_s: Some(2000),
+                ..Setpoints::default()
+            }
+        );
+    }
+
+    #[test]
+    fn leaving_auto_keeps_only_the_channel_just_commanded() {
+        // Throttle 80 % before AUTO must not come back when a steering command leaves AUTO.
+        let s = run_table(&[
+            (0, Cmd(Command::Revive), Manual),
+            (8, Cmd(Command::Throttle(pct(80))), Manual),
+            (12, Cmd(Command::SpeedSetpoint { mm_s: 2000 }), Auto),
+            (16, Cmd(Command::HeadingSetpoint { deg_e5: 100 }), Auto),
+            (20, Cmd(Command::Steering(pct(30))), Manual),
+        ]);
+        assert_eq!(
+            s.setpoints,
+            Setpoints {
+                steering: Some(pct(30)),
+                ..Setpoints::default()
+            }
+        );
+    }
+
+    #[test]
+    fn speed_setpoints_outside_zero_to_max_are_rejected_and_change_nothing() {
+        let mut s = SafetyState::new();
+        s.on_command(&LIMITS, Command::Revive, 0, None);
+        s.on_command(&LIMITS, Command::Throttle(pct(55)), 1, None);
+        let before = s;
+        for mm_s in [-1, -1000, 5_001, i32::MAX, i32::MIN] {
+            let effect = s.on_command(&LIMITS, Command::SpeedSetpoint { mm_s }, 2, None);
+            assert!(effect.rejected, "{mm_s}");
+            assert_eq!(s.mode, Manual, "{mm_s}: no mode change");
+            assert_eq!(s.setpoints, before.setpoints, "{mm_s}");
+        }
+        for mm_s in [0, 5_000] {
+            let mut t = before;
+            let effect = t.on_command(&LIMITS, Command::SpeedSetpoint { mm_s }, 3, None);
+            assert!(!effect.rejected, "{mm_s}");
+            assert_eq!((t.mode, t.setpoints.speed_mm_s), (Auto, Some(mm_s)));
+        }
+    }
+
+    #[test]
+    fn comms_loss_trips_within_one_period_of_the_deadline() {
+        let period = 4;
+        let mut rows = vec![(0, Cmd(Command::Revive), Manual)];
+        // Cycles every 4 ms; the link is silent after t = 0.
+        let mut t = period;
+        while t <= 1_000 {
+            rows.push((t, Cycle(OK), Manual));
+            t += period;
+        }
+        rows.push((t, Cycle(OK), Failsafe));
+        let s = run_table(&rows);
+        assert!(t <= 1_000 + period);
+        assert_eq!(s.cause, Some(FailsafeCause::CommsLoss));
+    }
+
+    #[test]
+    fn failsafe_latches_until_revive() {
+        let s = run_table(&[
+            (0, Cmd(Command::Revive), Manual),
+            (1_001, Cycle(OK), Failsafe),
+            (1_010, Cmd(Command::Heartbeat), Failsafe),
+            (1_014, Cycle(OK), Failsafe),
+            (1_018, Cmd(Command::Throttle(pct(90))), Failsafe),
+            (1_019, Cmd(Command::SpeedSetpoint { mm_s: 1 }), Failsafe),
+            (1_022, Cycle(OK), Failsafe),
+            (1_026, Cmd(Command::Revive), Manual),
+            (1_030, Cycle(OK), Manual),
+        ]);
+        assert_eq!(s.cause, None);
+        assert_eq!(s.setpoints, Setpoints::default());
+    }
+
+    #[test]
+    fn sensor_loss_after_k_consecutive_bad_packets() {
+        let s = run_table(&[
+            (0, Cmd(Command::Revive), Manual),
+            (4, Cycle(BAD), Manual),
+            (8, Cycle(BAD), Manual),
+            (12, Cycle(OK), Manual), // the run is broken: count restarts
+            (16, Cycle(BAD), Manual),
+            (20, Cycle(BAD), Manual),
+            (24, Cycle(BAD), Failsafe),
+            // A revive is refused while the sensor link is still down...
+            (25, Cmd(Command::Revive), Failsafe),
+            (28, Cycle(OK), Failsafe),
+            // ...and accepted once it is healthy again.
+            (29, Cmd(Command::Revive), Manual),
+        ]);
+        assert_eq!(s.bad_packets, 0);
+    }
+
+    #[test]
+    fn a_blocked_revive_is_refused_with_its_reason() {
+        for why in [
+            ReviveRefusal::ImuStuck,
+            ReviveRefusal::Overrun,
+            ReviveRefusal::RealtimeSetup,
+        ] {
+            let mut s = SafetyState::new();
+            let effect = s.on_command(&LIMITS, Command::Revive, 0, Some(why));
+            assert_eq!((s.mode, effect.refused), (Killed, Some(why)));
+        }
+    }
+
+    #[test]
+    fn monitors_trip_failsafe_with_their_cause() {
+        for (health, cause) in [
+            (
+                CycleHealth {
+                    imu_stuck: true,
+                    ..OK
+                },
+                FailsafeCause::ImuStuck,
+            ),
+            (
+                CycleHealth {
+                    overrunning: true,
+                    ..OK
+                },
+                FailsafeCause::Overrun,
+            ),
+        ] {
+            let mut s = SafetyState::new();
+            s.on_command(&LIMITS, Command::Revive, 0, None);
+            s.on_cycle(&LIMITS, health, 4 * MS);
+            assert_eq!((s.mode, s.cause), (Failsafe, Some(cause)));
+        }
+    }
+
+    #[test]
+    fn stale_gnss_trips_only_in_auto() {
+        let stale = CycleHealth {
+            gnss_stale: true,
+            ..OK
+        };
+        let mut s = SafetyState::new();
+        s.on_command(&LIMITS, Command::Revive, 0, None);
+        s.on_cycle(&LIMITS, stale, MS);
+        assert_eq!(s.mode, Manual, "manual driving needs no GNSS");
+        s.on_command(
+            &LIMITS,
+            Command::HeadingSetpoint { deg_e5: 0 },
+            2 * MS,
+            None,
+        );
+        s.on_cycle(&LIMITS, stale, 3 * MS);
+        assert_eq!(
+            (s.mode, s.cause),
+            (Failsafe, Some(FailsafeCause::GnssStale))
+        );
+    }
+
+    #[test]
+    fn kill_wins_from_every_mode() {
+        for start in [Killed, Manual, Auto, Failsafe] {
+            let mut s = SafetyState {
+                mode: start,
+                ..SafetyState::new()
+            };
+            s.on_command(&LIMITS, Command::Kill, 0, Some(ReviveRefusal::ImuStuck));
+            assert_eq!(s.mode, Killed);
+        }
+    }
+
+    #[test]
+    fn killed_does_not_become_failsafe() {
+        run_table(&[(0, Cycle(BAD), Killed), (2_000, Cycle(BAD), Killed)]);
+    }
+
+    #[test]
+    fn mode_names_are_the_log_contract() {
+        for (mode, name) in [
+            (Killed, "KILLED"),
+            (Manual, "MANUAL"),
+            (Auto, "AUTO"),
+            (Failsafe, "FAILSAFE"),
+        ] {
+            assert_eq!(mode.name(), name);
+            assert_eq!(serde_json::to_string(&mode).unwrap(), format!("\"{name}\""));
+        }
+        assert_eq!(
+            serde_json::to_string(&FailsafeCause::GnssStale).unwrap(),
+            "\"GnssStale\""
+        );
+    }
+}

@@ -1,0 +1,303 @@
+//! The typed log schema: one struct per MCAP message and record, used by the logger to write,
+//! by the simulator's checks and the log tools to read, and to generate the JSON schema each
+//! channel declares (so the schema can never drift from what is written).
+//!
+//! Channels (topics), their message encodings and schema names are in [`CHANNELS`]. Log times
+//! are Unix-epoch nanoseconds. A field that can be absent is an `Option`, written as `null`,
+//! and declared so in the schema.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::counters::Counters;
+use crate::monitor::PacketVerdict;
+use crate::safety::{FailsafeCause, Mode, ReviveRefusal};
+
+/// One MCAP channel of the log.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ChannelSpec {
+    /// Topic.
+    pub topic: &'static str,
+    /// Message encoding.
+    pub encoding: &'static str,
+    /// Schema name (empty: no schema).
+    pub schema_name: &'static str,
+}
+
+/// Every valid 132-byte sensor packet exactly as received, for replay through the decoder.
+pub const SENSOR_RAW: ChannelSpec = ChannelSpec {
+    topic: "/sensor/raw",
+    encoding: "dima-sensor-v1",
+    schema_name: "",
+};
+/// One [`CycleMessage`] per cycle (or every n-th).
+pub const CYCLE: ChannelSpec = ChannelSpec {
+    topic: "/dima/cycle",
+    encoding: "json",
+    schema_name: "dima.Cycle",
+};
+/// A [`StateMessage`] on every mode change and event.
+pub const STATE: ChannelSpec = ChannelSpec {
+    topic: "/dima/state",
+    encoding: "json",
+    schema_name: "dima.State",
+};
+/// A [`SensorInfoMessage`] per info frame from the sensor board.
+pub const SENSOR_INFO: ChannelSpec = ChannelSpec {
+    topic: "/sensor/info",
+    encoding: "json",
+    schema_name: "dima.SensorInfo",
+};
+
+/// All channels, in the order the logger declares them.
+pub const CHANNELS: [ChannelSpec; 4] = [SENSOR_RAW, CYCLE, STATE, SENSOR_INFO];
+
+/// Metadata record holding the version and the configuration that ran (`config`: TOML).
+pub const METADATA_DIMA: &str = "dima";
+/// Metadata record holding the realtime setup report.
+pub const METADATA_RT_SETUP: &str = "rt_setup";
+/// Metadata record holding the [`SummaryRecord`] (key `json`) at exit.
+pub const METADATA_SUMMARY: &str = "summary";
+/// Attachment holding the wake-up latency histogram in cyclictest's format.
+pub const ATTACHMENT_HISTOGRAM: &str = "wake_latency_histogram.txt";
+
+/// The JSON schema (draft 2020-12) of `T`, as the channel declares it.
+pub fn json_schema<T: JsonSchema>() -> String {
+    serde_json::to_string_pretty(&schemars::schema_for!(T)).unwrap_or_default()
+}
+
+/// The schema of a JSON channel by its spec (`None` for a channel without schema).
+pub fn schema_of(channel: &ChannelSpec) -> Option<String> {
+    match channel.schema_name {
+        "dima.Cycle" => Some(json_schema::<CycleMessage>()),
+        "dima.State" => Some(json_schema::<StateMessage>()),
+        "dima.SensorInfo" => Some(json_schema::<SensorInfoMessage>()),
+        _ => None,
+    }
+}
+
+/// One control cycle.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima.Cycle")]
+pub struct CycleMessage {
+    /// Cycle number from 0.
+    pub cycle: u64,
+    /// Mode after the cycle.
+    pub mode: Mode,
+    /// Why FAILSAFE was entered, while in FAILSAFE.
+    pub cause: Option<FailsafeCause>,
+    /// Wake-up latency: deadline to wake-up, µs.
+    pub wake_latency_us: f64,
+    /// Whole periods the clock skipped before this wake-up.
+    pub missed_periods: u32,
+    /// What became of this cycle's sensor packet.
+    pub packet: PacketVerdict,
+    /// A valid packet, paired with this cycle's request, arrived in time (`packet` is `ok`).
+    pub packet_ok: bool,
+    /// Request line raised to packet complete, µs; null when no packet arrived.
+    pub request_to_packet_us: Option<f64>,
+    /// Packet (or wake-up, without one) to outputs computed, µs.
+    pub compute_us: f64,
+    /// Servo write time, µs; null in cycles without a write.
+    pub servo_write_us: Option<f64>,
+    /// The packet used this cycle, decoded; null without one.
+    pub sensor: Option<SensorMessage>,
+    /// Age of the newest fresh GNSS fix, ms; null before the first.
+    pub gnss_age_ms: Option<f64>,
+    /// What the ground station asked for.
+    pub setpoints: SetpointsMessage,
+    /// Controller output, fractions of travel around neutral (-1..=1).
+    pub action: ActionMessage,
+    /// Servo targets: throttle, steering, tail, µs (0: no pulses).
+    pub targets_us: [u16; 3],
+    /// Counters since start-up.
+    pub counters: Counters,
+}
+
+/// One decoded sensor packet.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SensorMessage {
+    /// Accelerometer X, Y, Z, raw 12-bit counts (±2 g: 0.98 mg per count).
+    pub accel: [i16; 3],
+    /// Gyroscope X, Y, Z, raw counts (±2000 °/s: 1/16.4 °/s per count).
+    pub gyro: [i16; 3],
+    /// Magnetometer X, Y, Z, raw counts.
+    pub mag: [i16; 3],
+    /// Magnetometer Hall resistance, raw.
+    pub rhall: u16,
+    /// BMP280 raw 20-bit pressure ADC value.
+    pub press_raw: u32,
+    /// BMP280 raw 20-bit temperature ADC value.
+    pub temp_raw: u32,
+    /// Gyroscope Z rate, °/s.
+    pub gyro_z_dps: f32,
+    /// The NAV-PVT carried is a valid position fix (gnssFixOK, 2-D/3-D).
+    pub gnss_fix_ok: bool,
+    /// GNSS time of week, ms; null without NAV-PVT.
+    pub itow_ms: Option<u32>,
+    /// Latitude, degrees; null without NAV-PVT.
+    pub lat_deg: Option<f64>,
+    /// Longitude, degrees; null without NAV-PVT.
+    pub lon_deg: Option<f64>,
+    /// Ground speed, mm/s; null without NAV-PVT.
+    pub g_speed_mm_s: Option<i32>,
+    /// Heading of motion, degrees; null without NAV-PVT.
+    pub head_mot_deg: Option<f64>,
+    /// Satellites used; null without NAV-PVT.
+    pub num_sv: Option<u8>,
+}
+
+/// The ground station's manual values and setpoints in force.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct SetpointsMessage {
+    /// Manual throttle, percent; null: neutral.
+    pub throttle_pct: Option<u8>,
+    /// Manual steering, percent; null: neutral.
+    pub steering_pct: Option<u8>,
+    /// Manual tail, percent; null: neutral.
+    pub tail_pct: Option<u8>,
+    /// AUTO ground speed setpoint, mm/s; null: none.
+    pub speed_mm_s: Option<i32>,
+    /// AUTO heading setpoint, degrees clockwise from north; null: none.
+    pub heading_deg: Option<f64>,
+}
+
+/// Controller output.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct ActionMessage {
+    /// Throttle, fraction of travel around neutral (+ forward).
+    pub throttle: f32,
+    /// Steering, fraction of travel around neutral.
+    pub steering: f32,
+    /// Tail, fraction of travel around neutral.
+    pub tail: f32,
+}
+
+/// Something that happened in a cycle. In logs in snake case.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Event {
+    /// The sensor board was (re)connected.
+    SensorConnected,
+    /// The sensor board failed and was handed back for reopening.
+    SensorLost,
+    /// The Maestro was (re)connected.
+    ServoConnected,
+    /// The Maestro failed and was handed back for reopening.
+    ServoLost,
+    /// The mode changed.
+    ModeChanged,
+    /// A revive was refused (see `refused`).
+    ReviveRefused,
+    /// A speed setpoint was rejected as out of range.
+    SetpointRejected,
+    /// The required realtime setup failed: KILLED for the whole run.
+    RealtimeSetupFailed,
+    /// Last record: shutdown with safe outputs.
+    Shutdown,
+}
+
+/// A mode change or device event.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima.State")]
+pub struct StateMessage {
+    /// Cycle number.
+    pub cycle: u64,
+    /// Mode after the cycle.
+    pub mode: Mode,
+    /// Why FAILSAFE was entered, while in FAILSAFE.
+    pub cause: Option<FailsafeCause>,
+    /// Why a revive was refused this cycle.
+    pub refused: Option<ReviveRefusal>,
+    /// What happened.
+    pub events: Vec<Event>,
+}
+
+/// A sensor-board info frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima.SensorInfo")]
+pub struct SensorInfoMessage {
+    /// Info frame layout version.
+    pub version: u8,
+    /// Firmware version, major, minor, patch.
+    pub firmware: [u8; 3],
+    /// Status bits (accel, gyro, mag, BMP280 found; GNSS seen).
+    pub status: u8,
+    /// BMP280 calibration registers 0x88..0xA1 as read.
+    pub bmp280_calibration: Vec<u8>,
+    /// BMM150 trim registers as read.
+    pub bmm150_trim: Vec<u8>,
+    /// Board uptime, ms.
+    pub uptime_ms: u32,
+    /// Requests the board skipped because an answer was still going out.
+    pub requests_skipped: u32,
+}
+
+impl From<&dima_sensorboard::InfoFrame> for SensorInfoMessage {
+    fn from(info: &dima_sensorboard::InfoFrame) -> Self {
+        SensorInfoMessage {
+            version: info.version,
+            firmware: info.firmware,
+            status: info.status.bits(),
+            bmp280_calibration: info.bmp280_calibration.to_vec(),
+            bmm150_trim: info.bmm150_trim.to_vec(),
+            uptime_ms: info.uptime_ms,
+            requests_skipped: info.requests_skipped,
+        }
+    }
+}
+
+/// Minimum, mean and maximum of a duration, µs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+pub struct DurationStats {
+    /// Samples.
+    pub count: u64,
+    /// Smallest, µs.
+    pub min_us: f64,
+    /// Mean, µs.
+    pub mean_us: f64,
+    /// Largest, µs.
+    pub max_us: f64,
+}
+
+/// The run's totals, in the `summary` metadata record (key `json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima.Summary")]
+pub struct SummaryRecord {
+    /// Counters at exit.
+    pub counters: Counters,
+    /// Wake-up latency.
+    pub wake_latency: DurationStats,
+    /// Request to packet complete.
+    pub request_to_packet: DurationStats,
+    /// Packet (or wake-up) to outputs computed.
+    pub compute: DurationStats,
+    /// Maestro write.
+    pub servo_write: DurationStats,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn schemas_carry_the_contract_names_and_units() {
+        let cycle: serde_json::Value =
+            serde_json::from_str(&json_schema::<CycleMessage>()).unwrap();
+        assert_eq!(cycle["title"], "dima.Cycle");
+        assert_eq!(
+            cycle["$schema"],
+            "https://json-schema.org/draft/2020-12/schema"
+        );
+        let latency = &cycle["properties"]["request_to_packet_us"];
+        assert!(latency["description"].as_str().unwrap().contains("µs"));
+        assert_eq!(latency["type"], serde_json::json!(["number", "null"]));
+        for name in ["dima.Cycle", "dima.State", "dima.SensorInfo"] {
+            let spec = CHANNELS.iter().find(|c| c.schema_name == name).unwrap();
+            let schema: serde_json::Value =
+                serde_json::from_str(&schema_of(spec).unwrap()).unwrap();
+            assert_eq!(schema["title"], name);
+        }
+        assert_eq!(schema_of(&SENSOR_RAW), None);
+    }
+}

@@ -1,0 +1,307 @@
+//! The deterministic control step: everything the robot decides in one cycle, as a pure
+//! function of the previous [`CoreState`], the cycle's [`CycleInputs`], the time and the
+//! configuration ([`Core`]).
+//!
+//! The realtime loop is acquire (I/O: commands from the ground link, the sensor packet and its
+//! timestamps) -> [`Core::step`] -> actuate (write the targets) -> publish (log, telemetry).
+//! Tests and replays call the step directly, thousands of cycles per second, with no devices,
+//! threads or clocks.
+
+use dima_groundlink::Command;
+use dima_sensorboard::{units, RawPacket, SensorPacket};
+
+use crate::config::Config;
+use crate::control::ServoTargets;
+use crate::control::{Actuation, AutoController, AutoState, Controller, OutputMap, SensorValues};
+use crate::counters::Counters;
+use crate::monitor::{AnswerWindow, GnssFreshness, ImuStuckDetector, OverrunWindow, PacketVerdict};
+use crate::safety::{CycleHealth, FailsafeCause, Mode, ReviveRefusal, SafetyLimits, SafetyState};
+use crate::Nanos;
+
+/// What the acquire phase got from the sensor board this cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorInput {
+    /// No request was made: the board is not connected (or, in request-ahead mode, nothing
+    /// was pending).
+    NotRequested,
+    /// The port or the request line failed.
+    DeviceError,
+    /// Requested at `t_request_ns`; no valid packet by the deadline.
+    NoAnswer {
+        /// When the request line was raised, ns.
+        t_request_ns: Nanos,
+    },
+    /// A CRC-valid packet, completed at `t_complete_ns`, after a request at `t_request_ns`.
+    Packet {
+        /// The packet as received.
+        raw: RawPacket,
+        /// When the request line was raised, ns.
+        t_request_ns: Nanos,
+        /// When its last byte was read, ns.
+        t_complete_ns: Nanos,
+    },
+}
+
+/// Everything one cycle brings in.
+#[derive(Debug, Clone, Copy)]
+pub struct CycleInputs<'a> {
+    /// Whole periods the clock skipped before this cycle's wake-up.
+    pub missed_periods: u32,
+    /// Valid command frames from the ground link, in arrival order.
+    pub commands: &'a [Command],
+    /// The sensor packet, or why there is none.
+    pub sensor: SensorInput,
+}
+
+/// What one cycle decided.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CycleOutputs {
+    /// Servo targets for this cycle.
+    pub targets: ServoTargets,
+    /// Mode after the cycle.
+    pub mode: Mode,
+    /// Why FAILSAFE was entered (while in FAILSAFE).
+    pub cause: Option<FailsafeCause>,
+    /// The mode changed this cycle.
+    pub mode_changed: bool,
+    /// What became of the sensor packet.
+    pub verdict: PacketVerdict,
+    /// Request to packet complete, ns, when a packet arrived (whatever its verdict).
+    pub request_to_packet_ns: Option<Nanos>,
+    /// The packet used this cycle, decoded.
+    pub packet: Option<SensorPacket>,
+    /// A revive was refused this cycle, and why.
+    pub refused: Option<ReviveRefusal>,
+    /// Speed setpoints rejected this cycle.
+    pub setpoints_rejected: u32,
+    /// A new fresh GNSS fix was used this cycle.
+    pub gnss_new: bool,
+    /// Age of the newest fresh GNSS fix, ns.
+    pub gnss_age_ns: Option<Nanos>,
+    /// Controller output (held from the last good packet in AUTO; zero otherwise).
+    pub action: Actuation,
+    /// Controller inputs.
+    pub values: SensorValues,
+}
+
+/// Everything the step remembers between cycles.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CoreState {
+    /// Mode, setpoints, link time, bad-packet run.
+    pub safety: SafetyState,
+    /// Controller state.
+    pub auto: AutoState,
+    /// The last controller output, held while packets are missing.
+    pub action: Actuation,
+    /// Controller inputs from the last good packet.
+    pub values: SensorValues,
+    /// GNSS freshness.
+    pub gnss: GnssFreshness,
+    /// Stuck-IMU run.
+    pub imu: ImuStuckDetector,
+    /// Missed periods within the last second.
+    pub overruns: OverrunWindow,
+    /// Time of the last controller step.
+    pub last_step_ns: Option<Nanos>,
+    /// The required realtime setup failed: revives are refused for the whole run.
+    pub realtime_fault: bool,
+    /// Decision counters (the application adds its I/O counters to the same struct).
+    pub counters: Counters,
+}
+
+impl CoreState {
+    /// Start-up: KILLED.
+    pub fn new() -> CoreState {
+        CoreState::default()
+    }
+}
+
+/// The configuration in the form the step uses.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Core {
+    limits: SafetyLimits,
+    outputs: OutputMap,
+    controller: AutoController,
+    answer: AnswerWindow,
+    period_ns: Nanos,
+    gnss_timeout_ns: Nanos,
+    max_speed_accuracy_mm_s: u32,
+    imu_stuck_packets: u32,
+    overrun_limit: u32,
+}
+
+impl Core {
+    /// From a validated configuration.
+    pub fn new(config: &Config) -> Core {
+        let us = |v: u32| u64::from(v) * 1_000;
+        Core {
+            limits: SafetyLimits::new(&config.safety, &config.control),
+            outputs: OutputMap::new(&config.channels),
+            controller: AutoController::new(&config.control),
+            answer: AnswerWindow::new(
+                config.packet_wire_ns(),
+                us(config.sensor.wire_tolerance_us),
+                us(config.sensor.packet_deadline_us),
+            ),
+            period_ns: config.period_ns(),
+            gnss_timeout_ns: u64::from(config.safety.gnss_timeout_ms) * 1_000_000,
+            max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
+            imu_stuck_packets: config.safety.imu_stuck_packets,
+            overrun_limit: config.safety.overrun_limit,
+        }
+    }
+
+    /// The channel table.
+    pub fn outputs(&self) -> &OutputMap {
+        &self.outputs
+    }
+
+    /// What blocks a revive besides the sensor link.
+    fn revive_blocker(&self, state: &CoreState, now: Nanos) -> Option<ReviveRefusal> {
+        if state.realtime_fault {
+            Some(ReviveRefusal::RealtimeSetup)
+        } else if state.imu.is_stuck(self.imu_stuck_packets) {
+            Some(ReviveRefusal::ImuStuck)
+        } else if state.overruns.exceeded(now, self.overrun_limit) {
+            Some(ReviveRefusal::Overrun)
+        } else {
+            None
+        }
+    }
+
+    /// Judges the sensor input; on a good packet updates the sensor monitors.
+    fn acquire(
+        &self,
+        state: &mut CoreState,
+        sensor: &SensorInput,
+        now: Nanos,
+    ) -> (PacketVerdict, Option<Nanos>, Option<SensorPacket>) {
+        let (verdict, latency, raw) = match *sensor {
+            SensorInput::NotRequested => (PacketVerdict::NotRequested, None, None),
+            SensorInput::DeviceError => (PacketVerdict::DeviceError, None, None),
+            SensorInput::NoAnswer { .. } => (PacketVerdict::Missing, None, None),
+            SensorInput::Packet {
+                raw,
+                t_request_ns,
+                t_complete_ns,
+            } => (
+                self.answer.judge(t_request_ns, t_complete_ns),
+                Some(t_complete_ns.saturating_sub(t_request_ns)),
+                Some(raw),
+            ),
+        };
+        let c = &mut state.counters;
+        match verdict {
+            PacketVerdict::Ok => c.packets_ok += 1,
+            PacketVerdict::Stale => c.packets_stale += 1,
+            PacketVerdict::Late => c.packets_late += 1,
+            _ => c.packets_missing += 1,
+        }
+        let packet = raw.filter(|_| verdict.is_ok()).map(|raw| raw.decode());
+        if let Some(p) = &packet {
+            state.imu.update(p.accel, p.gyro, self.imu_stuck_packets);
+            state.values.gyro_z_dps = units::gyro_dps_2000(p.gyro[2]);
+        }
+        let new_fix = state.gnss.update(
+            packet.as_ref().and_then(SensorPacket::nav_pvt).as_ref(),
+            self.max_speed_accuracy_mm_s,
+            now,
+        );
+        if new_fix.is_some() {
+            state.counters.gnss_fixes += 1;
+        }
+        state.values.gnss = state.gnss.current(now, self.gnss_timeout_ns);
+        state.values.gnss_new = new_fix.is_some();
+        (verdict, latency, packet)
+    }
+
+    /// The controller, in AUTO on a good packet; the last action is held on a missing one.
+    fn control(&self, state: &mut CoreState, packet_ok: bool, now: Nanos) {
+        if state.safety.mode != Mode::Auto {
+            state.auto = AutoState::default();
+            state.action = Actuation::default();
+            state.last_step_ns = None;
+            return;
+        }
+        if !packet_ok {
+            return;
+        }
+        let dt_ns = state
+            .last_step_ns
+            .map_or(self.period_ns, |t| now.saturating_sub(t));
+        let (auto, action) = self.controller.step(
+            state.auto,
+            &state.safety.setpoints,
+            &state.values,
+            dt_ns as f32 * 1e-9,
+        );
+        state.auto = auto;
+        state.action = action;
+        state.last_step_ns = Some(now);
+    }
+
+    /// One cycle at `now` (the cycle's wake-up time, ns, on the same clock as the inputs'
+    /// timestamps).
+    pub fn step(&self, state: &mut CoreState, inputs: &CycleInputs, now: Nanos) -> CycleOutputs {
+        let mode_before = state.safety.mode;
+        state.counters.cycles += 1;
+        state.counters.missed_periods += u64::from(inputs.missed_periods);
+        let overrunning = state
+            .overruns
+            .record(inputs.missed_periods, now, self.overrun_limit);
+
+        let mut refused = None;
+        let mut rejected = 0;
+        for &command in inputs.commands {
+            let blocked = self.revive_blocker(state, now);
+            let effect = state.safety.on_command(&self.limits, command, now, blocked);
+            state.counters.commands += 1;
+            if effect.rejected {
+                rejected += 1;
+                state.counters.setpoints_rejected += 1;
+            }
+            if effect.refused.is_some() {
+                refused = effect.refused;
+                state.counters.revives_refused += 1;
+            }
+        }
+
+        let (verdict, request_to_packet_ns, packet) = self.acquire(state, &inputs.sensor, now);
+        let health = CycleHealth {
+            packet_ok: verdict.is_ok(),
+            overrunning,
+            imu_stuck: state.imu.is_stuck(self.imu_stuck_packets),
+            gnss_stale: state.values.gnss.is_none(),
+        };
+        state.safety.on_cycle(&self.limits, health, now);
+        let mode_changed = state.safety.mode != mode_before;
+        if mode_changed && state.safety.mode == Mode::Failsafe {
+            state.counters.failsafes += 1;
+        }
+        self.control(state, verdict.is_ok(), now);
+
+        let targets =
+            self.outputs
+                .outputs(state.safety.mode, &state.safety.setpoints, &state.action);
+        CycleOutputs {
+            targets,
+            mode: state.safety.mode,
+            cause: state.safety.cause,
+            mode_changed,
+            verdict,
+            request_to_packet_ns,
+            packet,
+            refused,
+            setpoints_rejected: rejected,
+            gnss_new: state.values.gnss_new,
+            gnss_age_ns: state.gnss.age_ns(now),
+            action: state.action,
+            values: state.values,
+        }
+    }
+
+    /// The safe targets (KILLED, FAILSAFE, shutdown).
+    pub fn safe_targets(&self) -> ServoTargets {
+        self.outputs.safe()
+    }
+}

@@ -1,0 +1,125 @@
+//! The configuration the application runs with in a simulation: the given file (or the
+//! defaults, with the tail's safe position tucked to 1400 µs so that safe outputs differ from
+//! MANUAL at neutral), with the simulation's pty links as ports, the chosen loop rate, a
+//! sensor link fast enough for it, short reopen intervals, and (unless `--realtime`) no
+//! realtime privileges required.
+
+use std::path::Path;
+
+use anyhow::Context;
+use dima_core::config::{Config, SafeOutput, STANDARD_BAUD_RATES};
+
+/// The tail's safe position in the simulation's default configuration, µs.
+pub const SIM_TAIL_SAFE_US: u16 = 1_400;
+
+/// Where the simulated devices are.
+#[derive(Debug, Clone, Copy)]
+pub struct SimPorts<'a> {
+    /// Sensor board.
+    pub sensor: &'a Path,
+    /// Maestro.
+    pub maestro: &'a Path,
+    /// XBee.
+    pub xbee: &'a Path,
+}
+
+/// Builds and validates the application's configuration for a simulation run.
+pub fn app_config(
+    file: Option<&Path>,
+    ports: SimPorts<'_>,
+    loop_rate_hz: u32,
+    realtime: bool,
+    log_dir: &Path,
+) -> anyhow::Result<Config> {
+    let mut config = match file {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read config file {}", path.display()))?;
+            Config::from_toml(&text, &path.display().to_string())?
+        }
+        None => {
+            let mut c = Config::default();
+            c.channels.tail.safe = SafeOutput::PulseUs(SIM_TAIL_SAFE_US);
+            c
+        }
+    };
+    config.sensor.port = ports.sensor.to_owned();
+    config.maestro.port = ports.maestro.to_owned();
+    config.xbee.port = ports.xbee.to_owned();
+    config.realtime.loop_rate_hz = loop_rate_hz;
+    fit_sensor_link(&mut config);
+    config.maestro.servo_refresh_hz = config.maestro.servo_refresh_hz.min(loop_rate_hz);
+    for interval in [
+        &mut config.sensor.reopen_interval_ms,
+        &mut config.maestro.reopen_interval_ms,
+        &mut config.xbee.reopen_interval_ms,
+    ] {
+        *interval = (*interval).min(200);
+    }
+    if !realtime {
+        // SCHED_FIFO where the system allows it (it falls back by itself), nothing that needs
+        // a dedicated machine or privileges.
+        config.realtime.cpus = Vec::new();
+        config.realtime.lock_memory = false;
+        config.realtime.cpu_dma_latency = false;
+        config.realtime.required = false;
+    }
+    config.log.enabled = true;
+    config.log.directory = log_dir.to_owned();
+    config.validate()?;
+    Ok(config)
+}
+
+/// Fits the packet deadline in the period (less the servo write budget) and, at loop rates
+/// where a packet would not fit at the configured baud rate, raises the sensor link to the
+/// first standard rate that leaves 15 % margin (the board's USART reaches several Mbaud).
+fn fit_sensor_link(config: &mut Config) {
+    let period_us = (config.period_ns() / 1_000) as u32;
+    let s = &mut config.sensor;
+    s.packet_deadline_us = s
+        .packet_deadline_us
+        .min(period_us.saturating_sub(config.maestro.write_budget_us));
+    let deadline_ns = u64::from(config.sensor.packet_deadline_us) * 1_000;
+    let configured = config.sensor.baud;
+    for &baud in STANDARD_BAUD_RATES.iter().filter(|&&b| b >= configured) {
+        config.sensor.baud = baud;
+        if config.packet_wire_ns() * 115 / 100 < deadline_ns {
+            break;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn build(rate: u32) -> Config {
+        let p = Path::new("/tmp/x");
+        let ports = SimPorts {
+            sensor: p,
+            maestro: p,
+            xbee: p,
+        };
+        app_config(None, ports, rate, false, p).unwrap()
+    }
+
+    #[test]
+    fn the_default_rate_keeps_the_v1_link() {
+        let c = build(250);
+        assert_eq!(
+            (c.sensor.baud, c.sensor.packet_deadline_us),
+            (460_800, 3_700)
+        );
+        assert!(!c.realtime.required);
+        assert_eq!(c.channels.tail.safe, SafeOutput::PulseUs(1_400));
+        assert_ne!(c.channels.tail.safe.pulse_us(), c.channels.tail.neutral_us);
+    }
+
+    #[test]
+    fn a_fast_loop_gets_a_fast_sensor_link() {
+        let c = build(1_000);
+        assert_eq!(c.sensor.packet_deadline_us, 700);
+        assert_eq!(c.sensor.baud, 3_000_000);
+        assert!(c.packet_wire_ns() < 700_000);
+    }
+}
