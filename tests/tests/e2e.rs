@@ -14,6 +14,7 @@ use dima_core::schema::Event;
 use dima_core::{FailsafeCause, Mode};
 use dima_e2e::run_app;
 use dima_groundlink::Command;
+use dima_sensorboard::{INFO_V1_LEN, PACKET_LEN};
 use dima_sim::devices::{GroundAction, ScriptStep};
 use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
@@ -53,9 +54,11 @@ fn assert_passed(r: &SimReport) {
 }
 
 /// Packets a stall of the machine may cost: one per period the loop missed, one per answer
-/// the board thread completed after the packet deadline.
+/// the board thread completed after the packet deadline, one per answer the loop read after
+/// the deadline (the links are paced at their baud rates: a 132-byte packet takes 3.15 of the
+/// 3.7 ms the deadline allows, so a scheduling delay of half a millisecond makes it late).
 fn stalls(r: &SimReport) -> u64 {
-    r.app.counters.missed_periods + r.devices.late_answers
+    r.app.counters.missed_periods + r.devices.late_answers + r.app.counters.packets_late
 }
 
 /// Packets the board sent intact but the application did not take.
@@ -123,7 +126,12 @@ fn t01_nominal_250_hz_manual_mapping_no_loss_no_failsafe() {
         "loop rate: {c:?}"
     );
     assert_eq!(c.packet_crc_errors, 0);
-    assert_eq!(c.packet_bytes_skipped, 0);
+    // Bytes skipped: only the rest of an answer cut off at the deadline (a late one, or the
+    // info frame behind the first packet, which runs into the next period).
+    assert!(
+        c.packet_bytes_skipped <= (INFO_V1_LEN + PACKET_LEN * stalls(&r) as usize) as u64,
+        "{c:?}"
+    );
     assert_eq!(c.failsafes, 0);
     assert!(c.info_frames >= 1, "the board's info frame after start-up");
     assert!(
@@ -133,11 +141,9 @@ fn t01_nominal_250_hz_manual_mapping_no_loss_no_failsafe() {
         c.missed_periods,
         r.devices.late_answers
     );
-    assert_eq!(
-        r.logged_intact,
-        c.packets_ok + c.packets_stale + c.packets_late,
-        "every packet received is logged"
-    );
+    // Every packet the step saw is logged (stale ones passed over while waiting are not).
+    assert!(r.logged_intact >= c.packets_ok + c.packets_late, "{c:?}");
+    assert!(r.logged_intact <= c.packets_ok + c.packets_late + c.packets_stale);
     // Display frames reach the ground station.
     assert!(r.devices.displays >= 15, "{:?}", r.devices);
     assert_eq!(r.devices.display_errors, 0);
@@ -153,10 +159,9 @@ fn ber_run(ber: &str, seed: u64) {
     assert!(r.devices.packets_damaged > 0, "{:?}", r.devices);
     // Zero false accepts: every packet the application logged was sent intact.
     assert_eq!(r.false_accepts, 0);
-    assert_eq!(
-        r.logged_intact,
-        c.packets_ok + c.packets_stale + c.packets_late
-    );
+    // Every packet the step saw is logged (stale ones passed over while waiting are not).
+    assert!(r.logged_intact >= c.packets_ok + c.packets_late);
+    assert!(r.logged_intact <= c.packets_ok + c.packets_late + c.packets_stale);
     // Accepted = sent intact, up to one per period the loop itself missed.
     assert!(c.packets_ok <= r.devices.packets_intact);
     assert!(

@@ -478,6 +478,18 @@ impl Config {
         bits * 1_000_000_000 / u64::from(self.sensor.baud.max(1))
     }
 
+    /// Latest completion of a packet after its request, ns: the packet deadline, plus one
+    /// period in request-ahead mode (the request goes out at the end of a cycle and the answer
+    /// is read, with the deadline, in the next one).
+    pub fn packet_deadline_after_request_ns(&self) -> u64 {
+        let deadline = u64::from(self.sensor.packet_deadline_us) * 1_000;
+        if self.sensor.request_ahead {
+            deadline + self.period_ns()
+        } else {
+            deadline
+        }
+    }
+
     /// Checks every value against its allowed range and the rules across fields; the error
     /// names the key and what is allowed.
     pub fn validate(&self) -> Result<(), ConfigError> {

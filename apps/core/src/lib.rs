@@ -22,11 +22,12 @@
 //!     missed_periods: 0,
 //!     commands: &[Command::Revive],
 //!     sensor: SensorInput::NotRequested,
+//!     stale_packets: 0,
 //! };
 //! let out = core.step(&mut state, &inputs, 4_000_000);
-//! // No sensor packet: the revive is accepted only while the sensor link is healthy, and the
-//! // first missing packet starts counting towards the sensor-loss threshold.
-//! assert_eq!(out.mode, Mode::Manual);
+//! // No sensor packet has arrived yet: the revive is refused and the outputs stay safe.
+//! assert_eq!(out.mode, Mode::Killed);
+//! assert_eq!(out.refused, Some(dima_core::ReviveRefusal::SensorLoss));
 //! assert_eq!(out.targets.pulse_us, [1500, 1545, 1500]);
 //! ```
 #![deny(missing_docs)]

@@ -203,7 +203,8 @@ pub struct SafetyState {
     pub cause: Option<FailsafeCause>,
     /// Time of the last valid command frame.
     pub last_link_ns: Option<Nanos>,
-    /// Consecutive bad or missing packets.
+    /// Consecutive bad or missing packets (`u32::MAX` until the first good packet: the
+    /// sensor link is not healthy before it has delivered anything).
     pub bad_packets: u32,
     /// Current manual values and setpoints.
     pub setpoints: Setpoints,
@@ -216,13 +217,13 @@ impl Default for SafetyState {
 }
 
 impl SafetyState {
-    /// Start-up: KILLED, no link seen yet.
+    /// Start-up: KILLED, no link seen yet, no packet yet.
     pub const fn new() -> SafetyState {
         SafetyState {
             mode: Mode::Killed,
             cause: None,
             last_link_ns: None,
-            bad_packets: 0,
+            bad_packets: u32::MAX,
             setpoints: Setpoints {
                 throttle: None,
                 steering: None,
@@ -387,9 +388,17 @@ mod tests {
         Cycle(CycleHealth),
     }
 
-    /// Runs `(time_ms, event, expected mode after it)` rows from the start-up state.
-    fn run_table(rows: &[(u64, Ev, Mode)]) -> SafetyState {
+    /// Start-up, after one good packet.
+    fn healthy() -> SafetyState {
         let mut s = SafetyState::new();
+        s.on_cycle(&LIMITS, OK, 0);
+        s
+    }
+
+    /// Runs `(time_ms, event, expected mode after it)` rows from start-up after one good
+    /// packet.
+    fn run_table(rows: &[(u64, Ev, Mode)]) -> SafetyState {
+        let mut s = healthy();
         for (i, (t, ev, want)) in rows.iter().enumerate() {
             match ev {
                 Ev::Cmd(c) => {
@@ -477,7 +486,7 @@ mod tests {
 
     #[test]
     fn speed_setpoints_outside_zero_to_max_are_rejected_and_change_nothing() {
-        let mut s = SafetyState::new();
+        let mut s = healthy();
         s.on_command(&LIMITS, Command::Revive, 0, None);
         s.on_command(&LIMITS, Command::Throttle(pct(55)), 1, None);
         let before = s;
@@ -554,7 +563,7 @@ mod tests {
             ReviveRefusal::Overrun,
             ReviveRefusal::RealtimeSetup,
         ] {
-            let mut s = SafetyState::new();
+            let mut s = healthy();
             let effect = s.on_command(&LIMITS, Command::Revive, 0, Some(why));
             assert_eq!((s.mode, effect.refused), (Killed, Some(why)));
         }
@@ -578,7 +587,7 @@ mod tests {
                 FailsafeCause::Overrun,
             ),
         ] {
-            let mut s = SafetyState::new();
+            let mut s = healthy();
             s.on_command(&LIMITS, Command::Revive, 0, None);
             s.on_cycle(&LIMITS, health, 4 * MS);
             assert_eq!((s.mode, s.cause), (Failsafe, Some(cause)));
@@ -591,7 +600,7 @@ mod tests {
             gnss_stale: true,
             ..OK
         };
-        let mut s = SafetyState::new();
+        let mut s = healthy();
         s.on_command(&LIMITS, Command::Revive, 0, None);
         s.on_cycle(&LIMITS, stale, MS);
         assert_eq!(s.mode, Manual, "manual driving needs no GNSS");
@@ -606,6 +615,22 @@ mod tests {
             (s.mode, s.cause),
             (Failsafe, Some(FailsafeCause::GnssStale))
         );
+    }
+
+    #[test]
+    fn no_revive_before_the_first_good_packet() {
+        let mut s = SafetyState::new();
+        let effect = s.on_command(&LIMITS, Command::Revive, 0, None);
+        assert_eq!(
+            (s.mode, effect.refused),
+            (Killed, Some(ReviveRefusal::SensorLoss))
+        );
+        s.on_cycle(&LIMITS, BAD, MS);
+        s.on_command(&LIMITS, Command::Revive, 2 * MS, None);
+        assert_eq!(s.mode, Killed);
+        s.on_cycle(&LIMITS, OK, 3 * MS);
+        s.on_command(&LIMITS, Command::Revive, 4 * MS, None);
+        assert_eq!(s.mode, Manual);
     }
 
     #[test]

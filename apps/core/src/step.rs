@@ -51,6 +51,9 @@ pub struct CycleInputs<'a> {
     pub commands: &'a [Command],
     /// The sensor packet, or why there is none.
     pub sensor: SensorInput,
+    /// Valid packets that completed too soon after this cycle's request to answer it (an
+    /// earlier request's answer), passed over while waiting for the real one.
+    pub stale_packets: u32,
 }
 
 /// What one cycle decided.
@@ -141,7 +144,7 @@ impl Core {
             answer: AnswerWindow::new(
                 config.packet_wire_ns(),
                 us(config.sensor.wire_tolerance_us),
-                us(config.sensor.packet_deadline_us),
+                config.packet_deadline_after_request_ns(),
             ),
             period_ns: config.period_ns(),
             gnss_timeout_ns: u64::from(config.safety.gnss_timeout_ms) * 1_000_000,
@@ -154,6 +157,11 @@ impl Core {
     /// The channel table.
     pub fn outputs(&self) -> &OutputMap {
         &self.outputs
+    }
+
+    /// When, after its request, a packet counts as the answer.
+    pub fn answer_window(&self) -> AnswerWindow {
+        self.answer
     }
 
     /// What blocks a revive besides the sensor link.
@@ -245,6 +253,7 @@ impl Core {
     pub fn step(&self, state: &mut CoreState, inputs: &CycleInputs, now: Nanos) -> CycleOutputs {
         let mode_before = state.safety.mode;
         state.counters.cycles += 1;
+        state.counters.packets_stale += u64::from(inputs.stale_packets);
         state.counters.missed_periods += u64::from(inputs.missed_periods);
         let overrunning = state
             .overruns

@@ -49,7 +49,7 @@ pub struct BusyFault {
 pub struct LoopParams {
     /// Period, ns.
     pub period_ns: Nanos,
-    /// Packet deadline after the request, ns.
+    /// Packet deadline after the request, ns (one period more in request-ahead mode).
     pub packet_deadline_ns: Nanos,
     /// Time allowed for the servo write, ns.
     pub write_budget_ns: Nanos,
@@ -72,7 +72,7 @@ impl LoopParams {
         let core = Core::new(config);
         LoopParams {
             period_ns: config.period_ns(),
-            packet_deadline_ns: u64::from(config.sensor.packet_deadline_us) * 1_000,
+            packet_deadline_ns: config.packet_deadline_after_request_ns(),
             write_budget_ns: u64::from(config.maestro.write_budget_us) * 1_000,
             request_ahead: config.sensor.request_ahead,
             servo_every: u64::from((rate / config.maestro.servo_refresh_hz.max(1)).max(1)),
@@ -107,6 +107,8 @@ pub struct RealtimeLoop<P: OutputPin, S: ServoOutput> {
     pending_request_ns: Option<Nanos>,
     /// An info frame that arrived since the last record.
     info: Option<InfoFrame>,
+    /// Stale packets passed over in this cycle's wait.
+    stale_packets: u32,
     decoder_base: DecoderStats,
     first_wake_ns: Option<Nanos>,
     cycle: u64,
@@ -139,6 +141,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             last_written: None,
             pending_request_ns: None,
             info: None,
+            stale_packets: 0,
             decoder_base: DecoderStats::default(),
             first_wake_ns: None,
             cycle: 0,
@@ -171,7 +174,9 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         self.cycle
     }
 
-    /// Drains stale frames (a late answer to an earlier request) before a new request.
+    /// Drains complete frames that arrived since the last cycle (a late answer to an earlier
+    /// request; an info frame) before a new request. A frame still arriving stays buffered:
+    /// an answer that completes too soon after the next request is recognised by its timing.
     fn drain_stale(&mut self) -> bool {
         let Some(dev) = self.sensor.get() else {
             return true;
@@ -184,7 +189,6 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
                 Err(nb::Error::Other(_)) => return false,
             }
         }
-        dev.board.discard_buffered();
         true
     }
 
@@ -195,20 +199,27 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         ok.then_some(t)
     }
 
-    /// Waits for a packet until `t_request + deadline`.
+    /// Waits for a packet until `t_request + deadline`. Packets that complete sooner than
+    /// their wire time after the request cannot answer it: they are counted and passed over.
     fn wait_packet(&mut self, t_request: Nanos) -> SensorInput {
         let give_up = t_request + self.params.packet_deadline_ns;
+        let earliest = t_request + self.params.core.answer_window().earliest_ns;
         let Some(dev) = self.sensor.get() else {
             return SensorInput::NotRequested;
         };
         loop {
             match dev.board.poll() {
                 Ok(Frame::Packet(raw)) => {
+                    let t_complete = monotonic_ns();
+                    if t_complete < earliest && self.stale_packets < MAX_STALE_POLLS as u32 {
+                        self.stale_packets += 1;
+                        continue;
+                    }
                     return SensorInput::Packet {
                         raw,
                         t_request_ns: t_request,
-                        t_complete_ns: monotonic_ns(),
-                    }
+                        t_complete_ns: t_complete,
+                    };
                 }
                 Ok(Frame::Info(frame)) => self.info = Some(frame),
                 Err(nb::Error::WouldBlock) => match dev.wait_readable(give_up) {
@@ -318,7 +329,8 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             &CycleInputs {
                 missed_periods: tick.missed,
                 commands: &commands[..n],
-                sensor: sensor,
+                sensor,
+                stale_packets: std::mem::take(&mut self.stale_packets),
             },
             tick.wake_ns,
         );

@@ -1,0 +1,170 @@
+//! End-to-end tests of the failsafes behind the device faults of `dima sim --fault`: frozen and
+//! lost GNSS, a stuck IMU, an overloaded loop and late sensor answers. The real application runs
+//! against the simulated devices on pseudo-terminals (serial links paced at their baud rates);
+//! every check reads both the outputs at the simulated Maestro and the application's MCAP log.
+//! The simulation's configuration tucks the tail in its safe position (1400 µs), so FAILSAFE
+//! cannot be mistaken for MANUAL at neutral.
+
+use std::path::PathBuf;
+use std::sync::Mutex;
+
+use dima_core::{FailsafeCause, Mode};
+use dima_e2e::run_app;
+use dima_groundlink::Command;
+use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
+use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
+
+/// One simulation at a time: each wants the machine's cores for its loop and devices.
+static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
+
+fn simulate(name: &str, scenario: Scenario, faults: &[&str], seed: u64) -> SimReport {
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir: PathBuf = std::env::temp_dir().join(format!("dima-e2e-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut o = SimOptions::new(scenario);
+    o.run_dir = dir.join("dev");
+    o.log_dir = dir.join("logs");
+    o.status = StatusMode::Quiet;
+    o.seed = seed;
+    for f in faults {
+        o.faults.apply_arg(f).unwrap();
+    }
+    let report = run_simulation(&o, run_app).expect("the simulation runs");
+    eprintln!(
+        "[{name}]\n{}\napp: {}",
+        report.summary(),
+        report.app.summary
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    report
+}
+
+fn assert_passed(r: &SimReport) {
+    assert!(r.passed, "{}", r.failure().unwrap_or_default());
+    assert_eq!(r.false_accepts, 0);
+}
+
+/// Revive at 0.5 s, drive in MANUAL from 1 s, AUTO (2.5 m/s, 90°) from 2 s.
+fn drive_to_auto(s: &mut Scenario) {
+    s.script.push(send(0.5, Command::Revive));
+    s.script.push(send(1.0, Command::Throttle(pct(60))));
+    s.script
+        .push(send(2.0, Command::SpeedSetpoint { mm_s: 2_500 }));
+    s.script
+        .push(send(2.0, Command::HeadingSetpoint { deg_e5: 9_000_000 }));
+}
+
+/// In AUTO, GNSS gone bad at 4 s: FAILSAFE (GnssStale) within the 0.5 s GNSS timeout plus
+/// one 100 ms epoch and the loop's reaction, latched with safe outputs.
+fn gnss_fault_trips_gnss_stale(name: &str, fault: &str, seed: u64) {
+    let mut s = Scenario::custom("gnss", 7.0);
+    drive_to_auto(&mut s);
+    s.checks = vec![
+        Check::NeverSafe {
+            from_s: 1.0,
+            to_s: 4.0,
+        },
+        Check::FailsafeFor {
+            cause: FailsafeCause::GnssStale,
+            from_s: 4.0,
+            to_s: 4.75,
+        },
+        Check::SafeHeld {
+            from_s: 4.0,
+            to_s: 7.0,
+        },
+        Check::ModesInOrder(vec![Mode::Manual, Mode::Auto, Mode::Failsafe]),
+        Check::Failsafes(1),
+    ];
+    let r = simulate(name, s, &[fault], seed);
+    assert_passed(&r);
+}
+
+#[test]
+fn t12_frozen_gnss_in_auto_trips_gnss_stale() {
+    gnss_fault_trips_gnss_stale("gnss-freeze", "gnss:freeze=4+3", 12);
+}
+
+#[test]
+fn t13_lost_gnss_fix_in_auto_trips_gnss_stale() {
+    gnss_fault_trips_gnss_stale("gnss-loss", "gnss:loss=4+3", 13);
+}
+
+#[test]
+fn t14_stuck_imu_trips_failsafe_and_blocks_revive_while_stuck() {
+    let mut s = Scenario::custom("imu", 6.0);
+    s.script.push(send(0.5, Command::Revive));
+    s.script.push(send(1.0, Command::Throttle(pct(60))));
+    // Stuck from 2 s to 4 s: 50 identical packets take 0.2 s.
+    s.script.push(send(3.0, Command::Revive)); // refused: still stuck
+    s.script.push(send(4.5, Command::Revive));
+    s.script.push(send(4.8, Command::Throttle(pct(58))));
+    s.checks = vec![
+        Check::FailsafeFor {
+            cause: FailsafeCause::ImuStuck,
+            from_s: 2.0,
+            to_s: 2.5,
+        },
+        Check::SafeHeld {
+            from_s: 2.0,
+            to_s: 4.5,
+        },
+        Check::OutputsReach {
+            from_s: 4.8,
+            to_s: 6.0,
+            targets_us: manual_us(58, 50, 50),
+        },
+        Check::Failsafes(1),
+    ];
+    let r = simulate("imu-stuck", s, &["imu:stuck=2+2"], 14);
+    assert_passed(&r);
+    assert!(r.app.counters.revives_refused >= 1, "{:?}", r.app.counters);
+}
+
+#[test]
+fn t15_sustained_loop_overload_trips_the_overrun_failsafe_within_a_second() {
+    let mut s = Scenario::custom("busy", 5.0);
+    s.script.push(send(0.5, Command::Revive));
+    s.script.push(send(1.0, Command::Throttle(pct(60))));
+    s.checks = vec![
+        Check::NeverSafe {
+            from_s: 1.2,
+            to_s: 2.0,
+        },
+        // 6 ms of work in every 4 ms period from 2 s.
+        Check::FailsafeFor {
+            cause: FailsafeCause::Overrun,
+            from_s: 2.0,
+            to_s: 3.0,
+        },
+        Check::SafeHeld {
+            from_s: 2.0,
+            to_s: 5.0,
+        },
+    ];
+    let r = simulate("loop-busy", s, &["loop:busy=2+2,busy_ms=6"], 15);
+    assert_passed(&r);
+    assert!(r.app.counters.missed_periods >= 11, "{:?}", r.app.counters);
+}
+
+#[test]
+fn t16_answers_later_than_a_period_are_never_taken_for_fresh_ones() {
+    // Every answer 5 ms late at a 4 ms period: none belongs to the request before it.
+    let mut s = Scenario::custom("stale", 4.0);
+    s.script.push(send(0.5, Command::Revive));
+    s.script.push(send(1.0, Command::Throttle(pct(70))));
+    s.script.push(send(2.0, Command::Revive));
+    s.checks = vec![
+        Check::SafeThroughout {
+            from_s: 0.0,
+            to_s: 4.0,
+        },
+        Check::Failsafes(0),
+    ];
+    let r = simulate("sensor-delay", s, &["sensor:delay=5"], 16);
+    assert_passed(&r);
+    let c = &r.app.counters;
+    assert_eq!(c.packets_ok, 0, "{c:?}");
+    assert!(c.packets_stale + c.packets_late + c.packets_missing >= c.cycles - 1);
+    assert!(c.revives_refused >= 2, "{c:?}");
+}
