@@ -33,7 +33,21 @@ fn check_reports_the_file_and_the_problem() {
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("loop_rate_hz"), "{err}");
+    assert!(err.contains("realtime.loop_rate_hz = 0"), "{err}");
+    assert!(err.contains("1..=10000"), "the allowed range: {err}");
+    assert_eq!(err.matches("loop_rate_hz").count(), 1, "printed once: {err}");
+    // Into a pipe: no colour escape sequences.
+    assert!(!err.contains('\x1b'), "{err:?}");
+
+    // A parse error, also printed once.
+    std::fs::write(&path, "[safety]\ncomms_timeout_ms = \"soon\"\n").unwrap();
+    let out = dima()
+        .args(["config", "--check", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.matches("invalid type").count(), 1, "printed once: {err}");
 
     let missing = dir.join("missing.toml");
     let out = dima()

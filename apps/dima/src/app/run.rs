@@ -274,14 +274,15 @@ where
         std::thread::sleep(Duration::from_millis(20));
     }
     let realtime = guard.realtime.take().expect("joined only here");
-    let (metrics, outputs_safe) = realtime.join().map_err(|_| {
-        anyhow::anyhow!("the realtime thread panicked (safe targets written as it unwound)")
-    })?;
+    let rt_result = realtime.join();
     aux_stop.store(true, Ordering::Relaxed);
     let telemetry = telemetry.join();
     let _ = supervisors.join();
     logger_stop.store(true, Ordering::Release);
     let outcome = logger.join();
+    let Ok((metrics, outputs_safe)) = rt_result else {
+        anyhow::bail!("the realtime thread panicked (the safe targets were written as it unwound)");
+    };
     let (Ok(telemetry), Ok(outcome)) = (telemetry, outcome) else {
         anyhow::bail!(
             "the {} thread panicked; the loop stopped with safe outputs{}",
