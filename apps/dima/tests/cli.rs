@@ -35,7 +35,11 @@ fn check_reports_the_file_and_the_problem() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("realtime.loop_rate_hz = 0"), "{err}");
     assert!(err.contains("1..=10000"), "the allowed range: {err}");
-    assert_eq!(err.matches("loop_rate_hz").count(), 1, "printed once: {err}");
+    assert_eq!(
+        err.matches("loop_rate_hz").count(),
+        1,
+        "printed once: {err}"
+    );
     // Into a pipe: no colour escape sequences.
     assert!(!err.contains('\x1b'), "{err:?}");
 
@@ -47,7 +51,11 @@ fn check_reports_the_file_and_the_problem() {
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(err.matches("invalid type").count(), 1, "printed once: {err}");
+    assert_eq!(
+        err.matches("invalid type").count(),
+        1,
+        "printed once: {err}"
+    );
 
     let missing = dir.join("missing.toml");
     let out = dima()
