@@ -2,7 +2,7 @@
 //! lost GNSS, a stuck IMU, an overloaded loop and late sensor answers. The real application runs
 //! against the simulated devices on pseudo-terminals (serial links paced at their baud rates);
 //! every check reads both the outputs at the simulated Maestro and the application's MCAP log.
-//! The simulation's configuration tucks the tail in its safe position (1400 µs), so FAILSAFE
+//! The simulation's configuration puts the steering's safe position at 1560 µs, so FAILSAFE
 //! cannot be mistaken for MANUAL at neutral.
 
 use std::path::PathBuf;

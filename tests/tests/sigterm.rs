@@ -64,10 +64,10 @@ fn t09_sigterm_safe_outputs_exit_0_complete_log() {
     eprintln!("{err}\n{out}");
     assert!(status.success(), "exit status {status:?}");
     assert!(out.contains("(interrupted)"), "{out}");
-    // Safe outputs at the Maestro after the signal (the simulation's tail is tucked to
-    // 1400 µs when safe).
+    // Safe outputs at the Maestro after the signal (the simulation's steering is at 1560 µs
+    // when safe).
     assert!(
-        out.contains("final outputs at the Maestro: 1500/1545/1400 µs (safe)"),
+        out.contains("final outputs at the Maestro: 1500/1560/1500 µs (safe)"),
         "{out}"
     );
     assert!(out.contains("PASS"), "{out}");

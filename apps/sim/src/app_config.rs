@@ -1,6 +1,6 @@
 //! The configuration the application runs with in a simulation: the given file (or the
-//! defaults, with the tail's safe position tucked to 1400 µs so that safe outputs differ from
-//! MANUAL at neutral), with the simulation's pty links as ports, the chosen loop rate, a
+//! defaults, with the steering's safe position at 1560 µs so that safe outputs differ from
+//! MANUAL at neutral; steering moves nothing at a standstill), with the simulation's pty links as ports, the chosen loop rate, a
 //! sensor link fast enough for it, short reopen intervals, and (unless `--realtime`) no
 //! realtime privileges required.
 
@@ -9,8 +9,9 @@ use std::path::Path;
 use anyhow::Context;
 use dima_core::config::{Config, SafeOutput, STANDARD_BAUD_RATES};
 
-/// The tail's safe position in the simulation's default configuration, µs.
-pub const SIM_TAIL_SAFE_US: u16 = 1_400;
+/// The steering's safe position in the simulation's default configuration, µs (neutral is
+/// 1545).
+pub const SIM_STEERING_SAFE_US: u16 = 1_560;
 
 /// Where the simulated devices are.
 #[derive(Debug, Clone, Copy)]
@@ -39,7 +40,7 @@ pub fn app_config(
         }
         None => {
             let mut c = Config::default();
-            c.channels.tail.safe = SafeOutput::PulseUs(SIM_TAIL_SAFE_US);
+            c.channels.steering.safe = SafeOutput::PulseUs(SIM_STEERING_SAFE_US);
             c
         }
     };
@@ -111,8 +112,11 @@ mod tests {
             (460_800, 3_700)
         );
         assert!(!c.realtime.required);
-        assert_eq!(c.channels.tail.safe, SafeOutput::PulseUs(1_400));
-        assert_ne!(c.channels.tail.safe.pulse_us(), c.channels.tail.neutral_us);
+        assert_eq!(c.channels.steering.safe, SafeOutput::PulseUs(1_560));
+        assert_ne!(
+            c.channels.steering.safe.pulse_us(),
+            c.channels.steering.neutral_us
+        );
     }
 
     #[test]
