@@ -72,6 +72,7 @@ pub fn schema_of(channel: &ChannelSpec) -> Option<String> {
         "dima.Cycle" => Some(json_schema::<CycleMessage>()),
         "dima.State" => Some(json_schema::<StateMessage>()),
         "dima.SensorInfo" => Some(json_schema::<SensorInfoMessage>()),
+        "dima.Replay" => Some(json_schema::<ReplayMessage>()),
         _ => None,
     }
 }
@@ -82,6 +83,8 @@ pub fn schema_of(channel: &ChannelSpec) -> Option<String> {
 pub struct CycleMessage {
     /// Cycle number from 0.
     pub cycle: u64,
+    /// Wake-up time on the monotonic clock, ns (the time the step decided with).
+    pub wake_ns: u64,
     /// Mode after the cycle.
     pub mode: Mode,
     /// Why FAILSAFE was entered, while in FAILSAFE.
@@ -96,6 +99,15 @@ pub struct CycleMessage {
     pub packet_ok: bool,
     /// Request line raised to packet complete, µs; null when no packet arrived.
     pub request_to_packet_us: Option<f64>,
+    /// Request line raised, monotonic clock, ns; null without a request.
+    pub t_request_ns: Option<u64>,
+    /// Packet complete, monotonic clock, ns; null without a packet (the packet itself is on
+    /// `/sensor/raw` at the same log time).
+    pub t_complete_ns: Option<u64>,
+    /// Packets that completed too soon after the request to answer it, passed over.
+    pub stale_passed: u32,
+    /// Command frames applied this cycle, in arrival order.
+    pub commands: Vec<CommandMessage>,
     /// Packet (or wake-up, without one) to outputs computed, µs.
     pub compute_us: f64,
     /// Servo write time, µs; null in cycles without a write.
@@ -112,6 +124,34 @@ pub struct CycleMessage {
     pub targets_us: [u16; 3],
     /// Counters since start-up.
     pub counters: Counters,
+}
+
+/// One ground-link command as on the wire (type byte and data field).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct CommandMessage {
+    /// Command type: 0 heartbeat, 1 kill, 2 revive, 3 throttle, 4 steering, 5 tail (percent),
+    /// 6 speed setpoint (mm/s), 7 heading setpoint (1e-5 degrees).
+    #[serde(rename = "type")]
+    pub kind: u8,
+    /// The data field.
+    pub data: i32,
+}
+
+impl From<dima_groundlink::Command> for CommandMessage {
+    fn from(c: dima_groundlink::Command) -> Self {
+        CommandMessage {
+            kind: c.command_type() as u8,
+            data: c.data(),
+        }
+    }
+}
+
+impl CommandMessage {
+    /// The command, if the type is known and the data in range.
+    pub fn command(&self) -> Option<dima_groundlink::Command> {
+        let kind = dima_groundlink::CommandType::from_byte(self.kind)?;
+        dima_groundlink::Command::from_parts(kind, self.data).ok()
+    }
 }
 
 /// One decoded sensor packet.
@@ -245,6 +285,33 @@ impl From<&dima_sensorboard::InfoFrame> for SensorInfoMessage {
             requests_skipped: info.requests_skipped,
         }
     }
+}
+
+/// Topic of the replayed outputs in a file written by `dima log replay`.
+pub const REPLAY: ChannelSpec = ChannelSpec {
+    topic: "/replay/cycle",
+    encoding: "json",
+    schema_name: "dima.Replay",
+};
+
+/// One cycle replayed through the control step, beside what was recorded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima.Replay")]
+pub struct ReplayMessage {
+    /// Cycle number.
+    pub cycle: u64,
+    /// Replayed mode.
+    pub mode: Mode,
+    /// Replayed failsafe cause.
+    pub cause: Option<FailsafeCause>,
+    /// Replayed controller output, fractions of travel around neutral.
+    pub action: ActionMessage,
+    /// Replayed servo targets: throttle, steering, tail, µs.
+    pub targets_us: [u16; 3],
+    /// Recorded mode.
+    pub recorded_mode: Mode,
+    /// Recorded servo targets, µs.
+    pub recorded_targets_us: [u16; 3],
 }
 
 /// Minimum, mean and maximum of a duration, µs.

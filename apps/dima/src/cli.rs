@@ -24,6 +24,10 @@ pub enum Command {
     Config(ConfigArgs),
     /// Run against simulated devices on pseudo-terminals: no hardware needed.
     Sim(crate::sim::SimArgs),
+    /// What happened in a run: info, export, plot and replay of an MCAP log.
+    Log(crate::logtools::LogArgs),
+    /// Decode a raw byte capture of a link into JSON lines.
+    Inspect(crate::logtools::InspectArgs),
 }
 
 /// `dima run`.

@@ -13,7 +13,8 @@
 //!   starts every thread for a given set of device openers;
 //! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread, which
 //!   writes the typed messages of [`log_messages`];
-//! - [`sim`]: `dima sim`, the application against the simulated devices of `dima-sim`.
+//! - [`sim`]: `dima sim`, the application against the simulated devices of `dima-sim`;
+//! - [`logtools`]: `dima log info|export|plot|replay` and `dima inspect`.
 #![deny(missing_docs)]
 
 pub mod app;
@@ -23,6 +24,7 @@ pub use dima_core::control;
 pub mod devices;
 pub mod log_messages;
 pub mod logging;
+pub mod logtools;
 pub mod metrics;
 pub mod rt;
 pub mod sim;

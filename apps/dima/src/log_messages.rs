@@ -2,7 +2,8 @@
 //! [`dima_core::schema`] (on the logger thread, never on the realtime thread).
 
 use dima_core::schema::{
-    ActionMessage, CycleMessage, SensorInfoMessage, SensorMessage, SetpointsMessage, StateMessage,
+    ActionMessage, CommandMessage, CycleMessage, SensorInfoMessage, SensorMessage,
+    SetpointsMessage, StateMessage,
 };
 use dima_sensorboard::SensorPacket;
 
@@ -43,8 +44,10 @@ pub fn cycle_message(r: &CycleRecord) -> CycleMessage {
         r.tick.wake_ns
     };
     let sp = &r.setpoints;
+    let nonzero = |t: u64| (t != 0).then_some(t);
     CycleMessage {
         cycle: r.cycle,
+        wake_ns: r.tick.wake_ns,
         mode: out.mode,
         cause: out.cause,
         wake_latency_us: us(r.tick.latency_ns),
@@ -52,6 +55,14 @@ pub fn cycle_message(r: &CycleRecord) -> CycleMessage {
         packet: out.verdict,
         packet_ok: out.verdict.is_ok(),
         request_to_packet_us: out.request_to_packet_ns.map(us),
+        t_request_ns: nonzero(r.t_request_ns),
+        t_complete_ns: nonzero(r.t_packet_ns),
+        stale_passed: r.stale_passed,
+        commands: r
+            .commands()
+            .iter()
+            .map(|&c| CommandMessage::from(c))
+            .collect(),
         compute_us: us(r.t_compute_ns.saturating_sub(compute_from)),
         servo_write_us: since(r.t_write_ns, r.t_compute_ns),
         sensor: out.packet.as_ref().map(|p| {

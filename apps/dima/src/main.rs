@@ -30,10 +30,13 @@ fn main() -> ExitCode {
         // Colour codes only for a terminal, never into files and pipes.
         .with_ansi(std::io::stderr().is_terminal())
         .init();
-    if let Command::Sim(args) = &cli.command {
-        return dima::sim::main(args);
-    }
-    match run(cli) {
+    let command = match cli.command {
+        Command::Sim(args) => return dima::sim::main(&args),
+        Command::Log(args) => return exit_code(dima::logtools::log(args)),
+        Command::Inspect(args) => return exit_code(dima::logtools::inspect(args)),
+        other => other,
+    };
+    match run(command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             tracing::error!("{error:#}");
@@ -42,9 +45,19 @@ fn main() -> ExitCode {
     }
 }
 
-fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
-        Command::Sim(_) => unreachable!("dima sim is run from main"),
+/// The exit code of a tool: its own, or 1 with the error on stderr.
+fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
+    result.unwrap_or_else(|error| {
+        eprintln!("error: {error:#}");
+        ExitCode::FAILURE
+    })
+}
+
+fn run(command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Sim(_) | Command::Log(_) | Command::Inspect(_) => {
+            unreachable!("handled in main")
+        }
         Command::Config(args) => {
             if let Some(path) = args.check {
                 let config = config::load(&path)?;

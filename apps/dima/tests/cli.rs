@@ -150,3 +150,46 @@ fn sigterm_writes_safe_outputs_and_exits_zero() {
     assert_eq!(logs.len(), 1);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn log_and_inspect_tools_answer_with_exit_codes_and_counts() {
+    use std::io::Write;
+    let dir = std::env::temp_dir().join(format!("dima-cli-tools-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Not an MCAP file: nothing can be read, a clear error and exit 1.
+    let bogus = dir.join("bogus.mcap");
+    std::fs::write(&bogus, b"not a log").unwrap();
+    let out = dima()
+        .args(["log", "info", bogus.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bogus.mcap") && err.contains("MCAP"), "{err}");
+
+    // A command capture on stdin: two frames between noise.
+    let mut capture = vec![0x55, 0x24, 0x01];
+    capture.extend(dima_groundlink::Command::Revive.encode());
+    capture.extend([0x24, 0x24]);
+    capture.extend(dima_groundlink::Command::Kill.encode());
+    let mut child = dima()
+        .args(["inspect", "command"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    child.stdin.take().unwrap().write_all(&capture).unwrap();
+    let out = child.wait_with_output().unwrap();
+    assert!(out.status.success());
+    let lines: Vec<String> = String::from_utf8(out.stdout)
+        .unwrap()
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    assert_eq!(lines.len(), 2, "{lines:?}");
+    assert!(lines[0].contains("\"Revive\"") && lines[1].contains("\"Kill\""));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("frames 2"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

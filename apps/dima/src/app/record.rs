@@ -5,9 +5,10 @@ use dima_core::counters::Counters;
 use dima_core::safety::Setpoints;
 use dima_core::schema::Event;
 use dima_core::step::CycleOutputs;
-use dima_core::{FailsafeCause, Mode, Nanos};
+use dima_core::{Command, FailsafeCause, Mode, Nanos};
 use dima_sensorboard::{InfoFrame, RawPacket, SensorPacket};
 
+use super::rt_loop::MAX_COMMANDS_PER_CYCLE;
 use crate::control::ServoTargets;
 use crate::rt::Tick;
 
@@ -80,10 +81,23 @@ pub struct CycleRecord {
     pub outputs: CycleOutputs,
     /// Manual values and setpoints in force after the cycle.
     pub setpoints: Setpoints,
+    /// Commands applied this cycle: the first `n_commands`.
+    pub commands: [Command; MAX_COMMANDS_PER_CYCLE],
+    /// How many of `commands` are real.
+    pub n_commands: u8,
+    /// Packets passed over as stale while waiting.
+    pub stale_passed: u32,
     /// Counters after this cycle.
     pub counters: Counters,
     /// [`events`] bits.
     pub events: u16,
+}
+
+impl CycleRecord {
+    /// The commands applied this cycle.
+    pub fn commands(&self) -> &[Command] {
+        &self.commands[..usize::from(self.n_commands)]
+    }
 }
 
 /// The latest state, for the telemetry thread's display frames.

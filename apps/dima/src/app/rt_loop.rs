@@ -322,6 +322,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             n += 1;
         }
         let sensor = self.acquire_sensor(&mut ev);
+        let stale_packets = std::mem::take(&mut self.stale_packets);
 
         // Decide.
         let out = self.params.core.step(
@@ -330,7 +331,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
                 missed_periods: tick.missed,
                 commands: &commands[..n],
                 sensor,
-                stale_packets: std::mem::take(&mut self.stale_packets),
+                stale_packets,
             },
             tick.wake_ns,
         );
@@ -399,6 +400,9 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             info,
             outputs: out,
             setpoints: self.state.safety.setpoints,
+            commands,
+            n_commands: n as u8,
+            stale_passed: stale_packets,
             counters: self.state.counters,
             events: ev,
         });
@@ -495,6 +499,9 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             info: None,
             outputs,
             setpoints: Default::default(),
+            commands: [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE],
+            n_commands: 0,
+            stale_passed: 0,
             counters: self.state.counters,
             events: ev,
         });

@@ -1,0 +1,263 @@
+//! `dima log export FILE --format csv|jsonl`: one row per cycle (channel `cycle`), per GNSS
+//! fix (`gnss`) or per state change (`state`), every value in physical units with the unit in
+//! its column name. The CSV opens in a spreadsheet and in PlotJuggler (first column `t_s`).
+
+use std::io::Write;
+
+use bosch_bmp280::compensation::{pressure_pa_f32, temperature_celsius_f32};
+use bosch_bmp280::Calibration;
+use bosch_bmx055::mag::{compensate_x_f32, compensate_y_f32, compensate_z_f32, MagTrim};
+use dima_core::schema::{CycleMessage, SensorInfoMessage};
+use dima_sensorboard::units;
+use serde_json::{json, Value};
+
+use super::read::LoggedRun;
+
+/// Output format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    /// Comma-separated values with a header row.
+    Csv,
+    /// One JSON object per line.
+    Jsonl,
+}
+
+/// What rows to export.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Channel {
+    /// One row per control cycle.
+    Cycle,
+    /// One row per new GNSS fix.
+    Gnss,
+    /// One row per mode change or event.
+    State,
+}
+
+/// Calibration from the sensor board's info frame, for physical units.
+pub struct Calibrations {
+    bmp280: Option<Calibration>,
+    trim: Option<MagTrim>,
+}
+
+impl Calibrations {
+    /// From the first info frame of a log (none: raw values stay empty).
+    pub fn from_info(info: Option<&SensorInfoMessage>) -> Calibrations {
+        let bmp280 = info
+            .and_then(|i| <[u8; 24]>::try_from(i.bmp280_calibration.as_slice()).ok())
+            .map(|b| Calibration::from_bytes(&b));
+        let trim = info
+            .and_then(|i| <[u8; 16]>::try_from(i.bmm150_trim.as_slice()).ok())
+            .map(|t| {
+                MagTrim::from_bursts(
+                    &[t[0], t[1]],
+                    &[t[2], t[3], t[4], t[5]],
+                    &[
+                        t[6], t[7], t[8], t[9], t[10], t[11], t[12], t[13], t[14], t[15],
+                    ],
+                )
+            });
+        Calibrations { bmp280, trim }
+    }
+}
+
+fn opt<T: Into<Value>>(v: Option<T>) -> Value {
+    v.map_or(Value::Null, Into::into)
+}
+
+/// Rounds to 6 significant decimals (f32 values printed without float noise).
+fn num(v: f32) -> Value {
+    json!((f64::from(v) * 1e6).round() / 1e6)
+}
+
+/// The cells of one cycle row, in column order.
+pub fn cycle_row(
+    t_s: f64,
+    t_ns: u64,
+    c: &CycleMessage,
+    cal: &Calibrations,
+) -> Vec<(&'static str, Value)> {
+    let s = c.sensor.as_ref();
+    let axis = |i: usize, f: fn(i16) -> f32| opt(s.map(|s| num(f(s.accel[i]))));
+    let gyro = |i: usize| opt(s.map(|s| num(units::gyro_dps_2000(s.gyro[i]))));
+    let mag = |f: fn(i16, u16, &MagTrim) -> f32, i: usize| {
+        opt(s
+            .zip(cal.trim.as_ref())
+            .map(|(s, t)| num(f(s.mag[i], s.rhall, t))))
+    };
+    let baro = s.zip(cal.bmp280.as_ref()).map(|(s, cal)| {
+        let (celsius, t_fine) = temperature_celsius_f32(cal, s.temp_raw);
+        (pressure_pa_f32(cal, t_fine, s.press_raw), celsius)
+    });
+    let sp = &c.setpoints;
+    vec![
+        ("t_s", json!((t_s * 1e6).round() / 1e6)),
+        ("log_time_ns", json!(t_ns)),
+        ("cycle", json!(c.cycle)),
+        ("mode", json!(c.mode.name())),
+        ("cause", opt(c.cause.map(|c| format!("{c:?}")))),
+        ("packet", json!(c.packet)),
+        ("missed_periods", json!(c.missed_periods)),
+        ("wake_latency_us", json!(c.wake_latency_us)),
+        ("request_to_packet_us", opt(c.request_to_packet_us)),
+        ("compute_us", json!(c.compute_us)),
+        ("servo_write_us", opt(c.servo_write_us)),
+        ("accel_x_m_s2", axis(0, units::accel_m_s2_2g)),
+        ("accel_y_m_s2", axis(1, units::accel_m_s2_2g)),
+        ("accel_z_m_s2", axis(2, units::accel_m_s2_2g)),
+        ("gyro_x_dps", gyro(0)),
+        ("gyro_y_dps", gyro(1)),
+        ("gyro_z_dps", gyro(2)),
+        ("mag_x_ut", mag(compensate_x_f32, 0)),
+        ("mag_y_ut", mag(compensate_y_f32, 1)),
+        ("mag_z_ut", mag(compensate_z_f32, 2)),
+        ("pressure_pa", opt(baro.and_then(|(p, _)| p).map(num))),
+        ("temperature_c", opt(baro.map(|(_, t)| num(t)))),
+        ("gnss_age_ms", opt(c.gnss_age_ms)),
+        ("throttle_pct", opt(sp.throttle_pct)),
+        ("steering_pct", opt(sp.steering_pct)),
+        ("tail_pct", opt(sp.tail_pct)),
+        ("speed_setpoint_mm_s", opt(sp.speed_mm_s)),
+        ("heading_setpoint_deg", opt(sp.heading_deg)),
+        ("action_throttle", num(c.action.throttle)),
+        ("action_steering", num(c.action.steering)),
+        ("action_tail", num(c.action.tail)),
+        ("target_throttle_us", json!(c.targets_us[0])),
+        ("target_steering_us", json!(c.targets_us[1])),
+        ("target_tail_us", json!(c.targets_us[2])),
+    ]
+}
+
+/// Rows of `channel` between `from_s` and `to_s` (seconds since the first cycle).
+pub fn rows(
+    run: &LoggedRun,
+    channel: Channel,
+    from_s: f64,
+    to_s: f64,
+) -> Vec<Vec<(&'static str, Value)>> {
+    let cal = Calibrations::from_info(run.infos.first().map(|i| &i.msg));
+    let within = |t_ns: u64| (from_s..=to_s).contains(&run.seconds(t_ns));
+    match channel {
+        Channel::Cycle => run
+            .cycles
+            .iter()
+            .filter(|c| within(c.t_ns))
+            .map(|c| cycle_row(run.seconds(c.t_ns), c.t_ns, &c.msg, &cal))
+            .collect(),
+        Channel::Gnss => {
+            let mut last_itow = None;
+            let mut out = Vec::new();
+            for c in run.cycles.iter().filter(|c| within(c.t_ns)) {
+                let Some(s) = &c.msg.sensor else { continue };
+                if s.itow_ms.is_none() || s.itow_ms == last_itow {
+                    continue;
+                }
+                last_itow = s.itow_ms;
+                out.push(vec![
+                    ("t_s", json!((run.seconds(c.t_ns) * 1e6).round() / 1e6)),
+                    ("itow_ms", opt(s.itow_ms)),
+                    ("fix_ok", json!(s.gnss_fix_ok)),
+                    ("lat_deg", opt(s.lat_deg)),
+                    ("lon_deg", opt(s.lon_deg)),
+                    (
+                        "ground_speed_m_s",
+                        opt(s.g_speed_mm_s.map(|v| f64::from(v) / 1e3)),
+                    ),
+                    ("heading_of_motion_deg", opt(s.head_mot_deg)),
+                    ("satellites", opt(s.num_sv)),
+                ]);
+            }
+            out
+        }
+        Channel::State => run
+            .states
+            .iter()
+            .filter(|s| within(s.t_ns))
+            .map(|s| {
+                let events: Vec<String> = s
+                    .msg
+                    .events
+                    .iter()
+                    .map(|e| {
+                        serde_json::to_value(e)
+                            .map_or(String::new(), |v| v.as_str().unwrap_or("").to_owned())
+                    })
+                    .collect();
+                vec![
+                    ("t_s", json!((run.seconds(s.t_ns) * 1e6).round() / 1e6)),
+                    ("cycle", json!(s.msg.cycle)),
+                    ("mode", json!(s.msg.mode.name())),
+                    ("cause", opt(s.msg.cause.map(|c| format!("{c:?}")))),
+                    ("refused", opt(s.msg.refused.map(|c| format!("{c:?}")))),
+                    ("events", json!(events.join(" "))),
+                ]
+            })
+            .collect(),
+    }
+}
+
+fn csv_cell(v: &Value) -> String {
+    match v {
+        Value::Null => String::new(),
+        Value::String(s) if s.contains([',', '"', '\n']) => {
+            format!("\"{}\"", s.replace('"', "\"\""))
+        }
+        Value::String(s) => s.clone(),
+        other => other.to_string(),
+    }
+}
+
+/// Writes `rows` in `format`.
+pub fn write(
+    rows: &[Vec<(&'static str, Value)>],
+    format: Format,
+    out: &mut impl Write,
+) -> std::io::Result<()> {
+    match format {
+        Format::Csv => {
+            if let Some(first) = rows.first() {
+                let header: Vec<&str> = first.iter().map(|(k, _)| *k).collect();
+                writeln!(out, "{}", header.join(","))?;
+            }
+            for row in rows {
+                let cells: Vec<String> = row.iter().map(|(_, v)| csv_cell(v)).collect();
+                writeln!(out, "{}", cells.join(","))?;
+            }
+        }
+        Format::Jsonl => {
+            for row in rows {
+                let object: serde_json::Map<String, Value> = row
+                    .iter()
+                    .map(|(k, v)| ((*k).to_owned(), v.clone()))
+                    .collect();
+                writeln!(out, "{}", Value::Object(object))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_quotes_what_needs_it_and_leaves_absent_values_empty() {
+        let rows = vec![vec![
+            ("t_s", json!(0.5)),
+            ("name", json!("a,b")),
+            ("none", Value::Null),
+        ]];
+        let mut out = Vec::new();
+        write(&rows, Format::Csv, &mut out).unwrap();
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "t_s,name,none\n0.5,\"a,b\",\n"
+        );
+        let mut out = Vec::new();
+        write(&rows, Format::Jsonl, &mut out).unwrap();
+        assert_eq!(
+            String::from_utf8(out).unwrap(),
+            "{\"name\":\"a,b\",\"none\":null,\"t_s\":0.5}\n"
+        );
+    }
+}

@@ -1,0 +1,152 @@
+//! `dima log info FILE`: what happened in a run, from a terminal.
+
+use std::fmt::Write as _;
+
+use dima_core::schema::Event;
+
+use super::read::LoggedRun;
+
+/// The `p`-th percentile (0..=100) of `values` by nearest rank (`None` when empty).
+pub fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
+    if sorted.is_empty() {
+        return None;
+    }
+    let rank = ((p / 100.0) * sorted.len() as f64).ceil() as usize;
+    Some(sorted[rank.clamp(1, sorted.len()) - 1])
+}
+
+fn percentiles_line(name: &str, mut values: Vec<f64>) -> String {
+    values.sort_by(f64::total_cmp);
+    let p = |q| percentile(&values, q).map_or("-".to_owned(), |v| format!("{v:.0}"));
+    format!(
+        "{name:<18} n {} | p50 {} p99 {} p99.9 {} max {} µs",
+        values.len(),
+        p(50.0),
+        p(99.0),
+        p(99.9),
+        p(100.0)
+    )
+}
+
+/// The report, as printed.
+pub fn report(run: &LoggedRun) -> String {
+    let mut out = String::new();
+    let cycles = run.cycles.len();
+    let duration = run.cycles.last().map_or(0.0, |c| run.seconds(c.t_ns));
+    let rate = if duration > 0.0 {
+        (cycles.saturating_sub(1)) as f64 / duration
+    } else {
+        0.0
+    };
+    let _ = writeln!(
+        out,
+        "duration {duration:.2} s | {cycles} cycles | loop rate {rate:.1} Hz{}",
+        run.version
+            .as_deref()
+            .map(|v| format!(" | dima {v}"))
+            .unwrap_or_default()
+    );
+    let _ = writeln!(out, "\nmode changes:");
+    for s in run
+        .states
+        .iter()
+        .filter(|s| s.msg.events.contains(&Event::ModeChanged))
+    {
+        let cause = s.msg.cause.map(|c| format!(" ({c:?})")).unwrap_or_default();
+        let _ = writeln!(
+            out,
+            "  {:8.3} s  cycle {:>7}  {}{cause}",
+            run.seconds(s.t_ns),
+            s.msg.cycle,
+            s.msg.mode
+        );
+    }
+    for s in run.states.iter().filter(|s| s.msg.refused.is_some()) {
+        let _ = writeln!(
+            out,
+            "  {:8.3} s  cycle {:>7}  revive refused ({:?})",
+            run.seconds(s.t_ns),
+            s.msg.cycle,
+            s.msg
+                .refused
+                .unwrap_or(dima_core::ReviveRefusal::SensorLoss)
+        );
+    }
+    let counters = run
+        .summary
+        .as_ref()
+        .map(|s| s.counters)
+        .or_else(|| run.cycles.last().map(|c| c.msg.counters));
+    if let Some(c) = counters {
+        let _ = writeln!(
+            out,
+            "\npackets: ok {} missing {} stale {} late {} crc {} skipped-bytes {} | info frames {}",
+            c.packets_ok,
+            c.packets_missing,
+            c.packets_stale,
+            c.packets_late,
+            c.packet_crc_errors,
+            c.packet_bytes_skipped,
+            c.info_frames
+        );
+        let _ = writeln!(
+            out,
+            "link: commands {} (setpoints rejected {}, revives refused {}) | gnss fixes {} | \
+             servo writes {} errors {} missing {} | missed periods {} | failsafes {} | log \
+             dropped {}",
+            c.commands,
+            c.setpoints_rejected,
+            c.revives_refused,
+            c.gnss_fixes,
+            c.servo_writes,
+            c.servo_errors,
+            c.servo_missing,
+            c.missed_periods,
+            c.failsafes,
+            c.log_dropped
+        );
+    }
+    let _ = writeln!(out, "\ntimings:");
+    let _ = writeln!(
+        out,
+        "  {}",
+        percentiles_line(
+            "wake latency",
+            run.cycles.iter().map(|c| c.msg.wake_latency_us).collect()
+        )
+    );
+    let _ = writeln!(
+        out,
+        "  {}",
+        percentiles_line(
+            "request->packet",
+            run.cycles
+                .iter()
+                .filter_map(|c| c.msg.request_to_packet_us)
+                .collect()
+        )
+    );
+    if let Some(rt) = &run.rt_setup {
+        let _ = writeln!(out, "\n{}", rt.trim_end());
+    }
+    if let Some(config) = &run.config {
+        let text = toml::to_string(config).unwrap_or_default();
+        let _ = writeln!(out, "\nconfiguration:\n{}", text.trim_end());
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::percentile;
+
+    #[test]
+    fn nearest_rank_percentiles() {
+        let v: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(percentile(&v, 50.0), Some(50.0));
+        assert_eq!(percentile(&v, 99.0), Some(99.0));
+        assert_eq!(percentile(&v, 99.9), Some(100.0));
+        assert_eq!(percentile(&v, 0.0), Some(1.0));
+        assert_eq!(percentile(&[], 50.0), None);
+    }
+}

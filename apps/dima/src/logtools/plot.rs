@@ -1,0 +1,367 @@
+//! `dima log plot FILE -o OUT.png [--what imu|gnss|outputs|latency|track]`: a PNG with a real
+//! time axis from the recorded timestamps, units on the axes, a legend and the mode changes
+//! marked; `track` draws the GNSS path in local metres, `latency` the wake-up latency
+//! histogram.
+
+use std::ops::Range;
+use std::path::Path;
+use std::sync::Once;
+
+use anyhow::Context;
+use dima_core::schema::Event;
+use dima_core::Mode;
+use dima_sensorboard::units;
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::*;
+
+use super::read::LoggedRun;
+
+/// What to plot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum What {
+    /// Accelerometer (m/s²) and yaw rate (°/s) over time.
+    Imu,
+    /// GNSS ground speed (m/s) and heading of motion (°) over time.
+    Gnss,
+    /// Servo targets (µs) over time.
+    Outputs,
+    /// Wake-up latency histogram (µs).
+    Latency,
+    /// The GNSS track in local metres (east, north).
+    Track,
+}
+
+const FONT: &str = "sans-serif";
+
+/// Registers the bundled font once (text is drawn without system fonts).
+fn fonts() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        let _ = plotters::style::register_font(
+            FONT,
+            FontStyle::Normal,
+            epaint_default_fonts::UBUNTU_LIGHT,
+        );
+    });
+}
+
+fn mode_color(mode: Mode) -> RGBColor {
+    match mode {
+        Mode::Killed => RGBColor(90, 90, 90),
+        Mode::Manual => RGBColor(30, 120, 220),
+        Mode::Auto => RGBColor(30, 160, 60),
+        Mode::Failsafe => RGBColor(220, 40, 40),
+    }
+}
+
+/// `(min, max)` of `values` with a margin; a flat or empty series gets a unit range.
+fn span(values: impl Iterator<Item = f64>) -> Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    if !lo.is_finite() {
+        return 0.0..1.0;
+    }
+    let pad = ((hi - lo) * 0.05).max(0.5);
+    (lo - pad)..(hi + pad)
+}
+
+type Series = (&'static str, RGBColor, Vec<(f64, f64)>);
+
+/// A time chart of `series` with the mode changes as vertical lines.
+fn time_chart(
+    area: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+    run: &LoggedRun,
+    title: &str,
+    y_desc: &str,
+    series: &[Series],
+) -> anyhow::Result<()> {
+    let t_end = run
+        .cycles
+        .last()
+        .map_or(1.0, |c| run.seconds(c.t_ns))
+        .max(0.1);
+    let y = span(series.iter().flat_map(|s| s.2.iter().map(|p| p.1)));
+    let mut chart: ChartContext<BitMapBackend, Cartesian2d<RangedCoordf64, RangedCoordf64>> =
+        ChartBuilder::on(area)
+            .caption(title, (FONT, 22))
+            .margin(12)
+            .x_label_area_size(44)
+            .y_label_area_size(70)
+            .build_cartesian_2d(0.0..t_end, y.clone())?;
+    chart
+        .configure_mesh()
+        .x_desc("time since the first cycle (s)")
+        .y_desc(y_desc)
+        .label_style((FONT, 15))
+        .draw()?;
+    for (name, color, points) in series {
+        let c = *color;
+        chart
+            .draw_series(LineSeries::new(points.iter().copied(), c.stroke_width(2)))?
+            .label(*name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+    }
+    for s in run
+        .states
+        .iter()
+        .filter(|s| s.msg.events.contains(&Event::ModeChanged))
+    {
+        let t = run.seconds(s.t_ns);
+        let c = mode_color(s.msg.mode);
+        chart.draw_series(std::iter::once(PathElement::new(
+            vec![(t, y.start), (t, y.end)],
+            c.mix(0.8).stroke_width(1),
+        )))?;
+        chart.draw_series(std::iter::once(Text::new(
+            s.msg.mode.name().to_owned(),
+            (t, y.end),
+            (FONT, 14).into_font().color(&c),
+        )))?;
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()?;
+    Ok(())
+}
+
+fn cycle_series(
+    run: &LoggedRun,
+    f: impl Fn(&dima_core::schema::CycleMessage) -> Option<f64>,
+) -> Vec<(f64, f64)> {
+    run.cycles
+        .iter()
+        .filter_map(|c| f(&c.msg).map(|v| (run.seconds(c.t_ns), v)))
+        .collect()
+}
+
+fn imu(
+    run: &LoggedRun,
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+) -> anyhow::Result<()> {
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
+    let accel = |i: usize| {
+        cycle_series(run, move |c| {
+            c.sensor
+                .as_ref()
+                .map(|s| f64::from(units::accel_m_s2_2g(s.accel[i])))
+        })
+    };
+    time_chart(
+        &top,
+        run,
+        "accelerometer",
+        "acceleration (m/s²)",
+        &[
+            ("x", RED, accel(0)),
+            ("y", GREEN, accel(1)),
+            ("z", BLUE, accel(2)),
+        ],
+    )?;
+    let gyro_z = cycle_series(run, |c| c.sensor.as_ref().map(|s| f64::from(s.gyro_z_dps)));
+    time_chart(
+        &bottom,
+        run,
+        "gyroscope",
+        "yaw rate, gyro z (°/s)",
+        &[("gyro z", MAGENTA, gyro_z)],
+    )
+}
+
+fn gnss(
+    run: &LoggedRun,
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+) -> anyhow::Result<()> {
+    let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
+    let speed = cycle_series(run, |c| {
+        c.sensor
+            .as_ref()
+            .and_then(|s| s.g_speed_mm_s)
+            .map(|v| f64::from(v) / 1e3)
+    });
+    let setpoint = cycle_series(run, |c| c.setpoints.speed_mm_s.map(|v| f64::from(v) / 1e3));
+    time_chart(
+        &top,
+        run,
+        "GNSS ground speed",
+        "speed (m/s)",
+        &[("ground speed", BLUE, speed), ("setpoint", RED, setpoint)],
+    )?;
+    let heading = cycle_series(run, |c| c.sensor.as_ref().and_then(|s| s.head_mot_deg));
+    let setpoint = cycle_series(run, |c| c.setpoints.heading_deg);
+    time_chart(
+        &bottom,
+        run,
+        "GNSS heading of motion",
+        "heading (° from north)",
+        &[
+            ("heading of motion", BLUE, heading),
+            ("setpoint", RED, setpoint),
+        ],
+    )
+}
+
+fn outputs(
+    run: &LoggedRun,
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+) -> anyhow::Result<()> {
+    let target = |i: usize| cycle_series(run, move |c| Some(f64::from(c.targets_us[i])));
+    time_chart(
+        root,
+        run,
+        "servo targets",
+        "pulse width (µs)",
+        &[
+            ("throttle", RED, target(0)),
+            ("steering", BLUE, target(1)),
+            ("tail", GREEN, target(2)),
+        ],
+    )
+}
+
+fn latency(
+    run: &LoggedRun,
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+) -> anyhow::Result<()> {
+    let values: Vec<u32> = run
+        .cycles
+        .iter()
+        .map(|c| c.msg.wake_latency_us.max(0.0) as u32)
+        .collect();
+    let mut sorted = values.clone();
+    sorted.sort_unstable();
+    // Up to the 99.9th percentile, so one host stall does not flatten the distribution.
+    let top = sorted
+        .get((sorted.len() as f64 * 0.999) as usize)
+        .copied()
+        .unwrap_or(10)
+        .max(10);
+    let mut buckets = vec![0u32; top as usize + 1];
+    let mut beyond = 0;
+    for v in values {
+        match buckets.get_mut(v as usize) {
+            Some(b) => *b += 1,
+            None => beyond += 1,
+        }
+    }
+    let max_count = buckets.iter().copied().max().unwrap_or(1).max(1);
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            format!(
+                "wake-up latency ({} samples, {beyond} beyond {top} µs)",
+                sorted.len()
+            ),
+            (FONT, 22),
+        )
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0u32..top + 1, 0u32..max_count + max_count / 10 + 1)?;
+    chart
+        .configure_mesh()
+        .x_desc("latency (µs, 1 µs buckets)")
+        .y_desc("cycles")
+        .label_style((FONT, 15))
+        .draw()?;
+    chart
+        .draw_series(buckets.iter().enumerate().map(|(us, &n)| {
+            Rectangle::new([(us as u32, 0), (us as u32 + 1, n)], BLUE.mix(0.7).filled())
+        }))?
+        .label("cycles per 1 µs bucket")
+        .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], BLUE.mix(0.7).filled()));
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
+fn track(
+    run: &LoggedRun,
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+) -> anyhow::Result<()> {
+    const EARTH_RADIUS_M: f64 = 6_371_000.0;
+    let fixes: Vec<(f64, f64, Mode)> = run
+        .cycles
+        .iter()
+        .filter_map(|c| {
+            let s = c.msg.sensor.as_ref()?;
+            Some((s.lat_deg?, s.lon_deg?, c.msg.mode)).filter(|_| s.gnss_fix_ok)
+        })
+        .collect();
+    let (lat0, lon0) = fixes.first().map_or((0.0, 0.0), |f| (f.0, f.1));
+    let local = |lat: f64, lon: f64| {
+        (
+            (lon - lon0).to_radians() * EARTH_RADIUS_M * lat0.to_radians().cos(),
+            (lat - lat0).to_radians() * EARTH_RADIUS_M,
+        )
+    };
+    let points: Vec<(f64, f64, Mode)> = fixes
+        .iter()
+        .map(|f| (local(f.0, f.1), f.2))
+        .map(|((e, n), m)| (e, n, m))
+        .collect();
+    // Same scale on both axes.
+    let (x, y) = (
+        span(points.iter().map(|p| p.0)),
+        span(points.iter().map(|p| p.1)),
+    );
+    let half = ((x.end - x.start).max(y.end - y.start)) / 2.0;
+    let (cx, cy) = ((x.start + x.end) / 2.0, (y.start + y.end) / 2.0);
+    let mut chart = ChartBuilder::on(root)
+        .caption("GNSS track (coloured by mode)", (FONT, 22))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)?;
+    chart
+        .configure_mesh()
+        .x_desc("east of the first fix (m)")
+        .y_desc("north of the first fix (m)")
+        .label_style((FONT, 15))
+        .draw()?;
+    for mode in [Mode::Killed, Mode::Manual, Mode::Auto, Mode::Failsafe] {
+        let c = mode_color(mode);
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .filter(|p| p.2 == mode)
+                    .map(move |p| Circle::new((p.0, p.1), 2, c.filled())),
+            )?
+            .label(mode.name())
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, c.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    Ok(())
+}
+
+/// Draws `what` of `run` into a PNG of `size` pixels at `path`.
+pub fn plot(run: &LoggedRun, what: What, path: &Path, size: (u32, u32)) -> anyhow::Result<()> {
+    fonts();
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    match what {
+        What::Imu => imu(run, &root)?,
+        What::Gnss => gnss(run, &root)?,
+        What::Outputs => outputs(run, &root)?,
+        What::Latency => latency(run, &root)?,
+        What::Track => track(run, &root)?,
+    }
+    root.present()
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
