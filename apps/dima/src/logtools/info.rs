@@ -106,6 +106,9 @@ pub fn report(run: &LoggedRun) -> String {
             c.log_dropped
         );
     }
+    if let Some(ground) = &run.ground_link {
+        let _ = writeln!(out, "{ground}");
+    }
     let _ = writeln!(out, "\ntimings:");
     let _ = writeln!(
         out,

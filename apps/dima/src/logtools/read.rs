@@ -39,6 +39,8 @@ pub struct LoggedRun {
     pub rt_setup: Option<String>,
     /// The totals at exit (metadata `summary`; absent in a cut file).
     pub summary: Option<SummaryRecord>,
+    /// The ground link's counts at exit, as text (metadata `summary`).
+    pub ground_link: Option<String>,
     /// The wake-up latency histogram in cyclictest's format (attachment).
     pub histogram: Option<String>,
     /// What could not be read, for a warning.
@@ -138,6 +140,7 @@ impl LoggedRun {
             }
             schema::METADATA_RT_SETUP => self.rt_setup = pairs.get("report").cloned(),
             schema::METADATA_SUMMARY => {
+                self.ground_link = pairs.get("ground_link").cloned();
                 if let Some(json) = pairs.get("json") {
                     match serde_json::from_str(json) {
                         Ok(s) => self.summary = Some(s),
