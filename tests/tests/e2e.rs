@@ -7,51 +7,14 @@
 //! counted as missed, never absolute latencies. The runs are serialised: each one wants the
 //! machine's two cores for its own loop and devices.
 
-use std::path::PathBuf;
-use std::sync::Mutex;
-
 use dima_core::schema::Event;
 use dima_core::{FailsafeCause, Mode};
-use dima_e2e::run_app;
+use dima_e2e::{assert_passed, run_app, simulate, temp_dir, ONE_AT_A_TIME};
 use dima_groundlink::Command;
 use dima_sensorboard::{INFO_V1_LEN, PACKET_LEN};
 use dima_sim::devices::{GroundAction, ScriptStep};
 use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
-
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn temp_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("dima-e2e-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn simulate(name: &str, scenario: Scenario, faults: &[&str], seed: u64) -> SimReport {
-    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let dir = temp_dir(name);
-    let mut o = SimOptions::new(scenario);
-    o.run_dir = dir.join("dev");
-    o.log_dir = dir.join("logs");
-    o.status = StatusMode::Quiet;
-    o.seed = seed;
-    for f in faults {
-        o.faults.apply_arg(f).unwrap();
-    }
-    let report = run_simulation(&o, run_app).expect("the simulation runs");
-    eprintln!(
-        "[{name}]\n{}\napp: {}",
-        report.summary(),
-        report.app.summary
-    );
-    report
-}
-
-fn assert_passed(r: &SimReport) {
-    assert!(r.passed, "{}", r.failure().unwrap_or_default());
-    assert_eq!(r.false_accepts, 0);
-}
 
 /// Packets a stall of the machine may cost: one per period the loop missed, one per answer
 /// the board thread completed after the packet deadline, one per answer the loop read after

@@ -5,44 +5,10 @@
 //! The simulation's configuration puts the steering's safe position at 1560 µs, so FAILSAFE
 //! cannot be mistaken for MANUAL at neutral.
 
-use std::path::PathBuf;
-use std::sync::Mutex;
-
 use dima_core::{FailsafeCause, Mode};
-use dima_e2e::run_app;
+use dima_e2e::{assert_passed, simulate};
 use dima_groundlink::Command;
-use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
-
-/// One simulation at a time: each wants the machine's cores for its loop and devices.
-static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
-
-fn simulate(name: &str, scenario: Scenario, faults: &[&str], seed: u64) -> SimReport {
-    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
-    let dir: PathBuf = std::env::temp_dir().join(format!("dima-e2e-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    let mut o = SimOptions::new(scenario);
-    o.run_dir = dir.join("dev");
-    o.log_dir = dir.join("logs");
-    o.status = StatusMode::Quiet;
-    o.seed = seed;
-    for f in faults {
-        o.faults.apply_arg(f).unwrap();
-    }
-    let report = run_simulation(&o, run_app).expect("the simulation runs");
-    eprintln!(
-        "[{name}]\n{}\napp: {}",
-        report.summary(),
-        report.app.summary
-    );
-    let _ = std::fs::remove_dir_all(&dir);
-    report
-}
-
-fn assert_passed(r: &SimReport) {
-    assert!(r.passed, "{}", r.failure().unwrap_or_default());
-    assert_eq!(r.false_accepts, 0);
-}
 
 /// Revive at 0.5 s, drive in MANUAL from 1 s, AUTO (2.5 m/s, 90°) from 2 s.
 fn drive_to_auto(s: &mut Scenario) {
