@@ -28,6 +28,8 @@ pub enum Command {
     Log(crate::logtools::LogArgs),
     /// Decode a raw byte capture of a link into JSON lines.
     Inspect(crate::logtools::InspectArgs),
+    /// Measure the loop against the operating system (wake-up latency, cyclictest's format).
+    Bench(crate::bench::BenchArgs),
 }
 
 /// `dima run`.

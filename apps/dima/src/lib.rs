@@ -14,10 +14,12 @@
 //! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread, which
 //!   writes the typed messages of [`log_messages`];
 //! - [`sim`]: `dima sim`, the application against the simulated devices of `dima-sim`;
-//! - [`logtools`]: `dima log info|export|plot|replay` and `dima inspect`.
+//! - [`logtools`]: `dima log info|export|plot|replay` and `dima inspect`;
+//! - [`bench`]: `dima bench wakeup`, the loop skeleton against cyclictest.
 #![deny(missing_docs)]
 
 pub mod app;
+pub mod bench;
 pub mod cli;
 pub mod config;
 pub use dima_core::control;

@@ -55,6 +55,7 @@ fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
 
 fn run(command: Command) -> anyhow::Result<()> {
     match command {
+        Command::Bench(args) => dima::bench::bench(args),
         Command::Sim(_) | Command::Log(_) | Command::Inspect(_) => {
             unreachable!("handled in main")
         }
