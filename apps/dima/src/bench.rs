@@ -1,3 +1,6 @@
+//! `dima bench cycle LOG.mcap`: a recorded log through the cycle's compute path, in ns per
+//! cycle (and, under callgrind, in instructions: `bench/cycle-instructions.sh`).
+//!
 //! `dima bench wakeup`: the realtime loop's skeleton (the same thread setup, absolute-deadline
 //! clock and latency histogram as `dima run`, with no devices) timed against the operating
 //! system, in cyclictest's `-h` histogram format so the two can be compared side by side.
@@ -12,9 +15,16 @@ use std::time::Duration;
 use anyhow::Context;
 use clap::{Args, Subcommand};
 
-use crate::app::rt_loop::HISTOGRAM_US;
+use dima_core::step::{CycleInputs, SensorInput};
+use dima_core::{Command, Core, CoreState};
+
+use crate::app::record::CycleRecord;
+use crate::app::rt_loop::{HISTOGRAM_US, MAX_COMMANDS_PER_CYCLE};
+use crate::devices::servo::encode_targets;
+use crate::logtools::read::LoggedRun;
+use crate::logtools::replay::{recorded_cycles, RecordedCycle};
 use crate::metrics::LatencyHistogram;
-use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup};
+use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, Tick};
 
 /// `dima bench`.
 #[derive(Debug, Args)]
@@ -29,6 +39,99 @@ pub struct BenchArgs {
 pub enum BenchCommand {
     /// Wake-up latency of the loop skeleton, in cyclictest's histogram format.
     Wakeup(WakeupArgs),
+    /// Compute cost per cycle: a recorded log through the cycle's compute path (decode with
+    /// CRC, pairing, safety, controller, Maestro encode, log record), in ns per cycle.
+    Cycle {
+        /// The MCAP log to replay.
+        log: PathBuf,
+        /// Passes over the log.
+        #[arg(long, default_value_t = 20)]
+        repeat: u32,
+    },
+}
+
+/// The compute path of every cycle of `cycles`, as the loop runs it between acquiring and
+/// writing: the packet decoded through its CRC, the control step, the Maestro packets encoded
+/// and the logger's record built. Returns a value that depends on every output (so nothing is
+/// optimised away). `#[inline(never)]`: `bench/cycle-instructions.sh` counts the instructions
+/// inside it with callgrind.
+#[inline(never)]
+pub fn measured_cycles(
+    core: &Core,
+    state: &mut CoreState,
+    cycles: &[RecordedCycle],
+    channels: [u8; 3],
+) -> u64 {
+    let mut sink = 0u64;
+    for c in cycles {
+        let sensor = c.sensor_input().unwrap_or(SensorInput::DeviceError);
+        let out = core.step(
+            state,
+            &CycleInputs {
+                missed_periods: c.missed_periods,
+                commands: &c.commands,
+                sensor,
+                stale_packets: c.stale_packets,
+            },
+            c.wake_ns,
+        );
+        if let Ok(frame) = encode_targets(&channels, &out.targets.quarter_us()) {
+            sink = sink.wrapping_add(frame.as_bytes().len() as u64);
+        }
+        let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
+        let n = c.commands.len().min(MAX_COMMANDS_PER_CYCLE);
+        commands[..n].copy_from_slice(&c.commands[..n]);
+        let record = CycleRecord {
+            cycle: c.cycle,
+            tick: Tick {
+                deadline_ns: c.wake_ns,
+                wake_ns: c.wake_ns,
+                latency_ns: 0,
+                missed: c.missed_periods,
+            },
+            t_request_ns: 0,
+            t_packet_ns: 0,
+            t_compute_ns: c.wake_ns,
+            t_write_ns: 0,
+            raw: match sensor {
+                SensorInput::Packet { raw, .. } => Some(raw),
+                _ => None,
+            },
+            info: None,
+            outputs: out,
+            setpoints: state.safety.setpoints,
+            commands,
+            n_commands: n as u8,
+            stale_passed: c.stale_packets,
+            counters: state.counters,
+            events: 0,
+        };
+        sink = sink.wrapping_add(std::hint::black_box(&record).outputs.targets.pulse_us[0] as u64);
+    }
+    sink
+}
+
+/// `dima bench cycle`: ns per cycle over `repeat` passes of the log.
+pub fn cycle_cost(log: &std::path::Path, repeat: u32) -> anyhow::Result<(usize, f64)> {
+    let run = LoggedRun::read(log)?;
+    run.warn(log);
+    let config = run.config.clone().context("the log has no configuration")?;
+    let core = Core::new(&config);
+    let (cycles, realtime_fault) = recorded_cycles(&run)?;
+    let channels = core.outputs().channel_numbers();
+    let mut sink = 0u64;
+    let start = std::time::Instant::now();
+    for _ in 0..repeat.max(1) {
+        let mut state = CoreState {
+            realtime_fault,
+            ..CoreState::new()
+        };
+        sink = sink.wrapping_add(measured_cycles(&core, &mut state, &cycles, channels));
+    }
+    let elapsed = start.elapsed();
+    std::hint::black_box(sink);
+    let n = cycles.len() * repeat.max(1) as usize;
+    Ok((n, elapsed.as_nanos() as f64 / n.max(1) as f64))
 }
 
 /// `dima bench wakeup`.
@@ -120,6 +223,11 @@ pub fn wakeup(args: &WakeupArgs) -> anyhow::Result<WakeupResult> {
 /// Runs `dima bench ...`.
 pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     match args.command {
+        BenchCommand::Cycle { log, repeat } => {
+            let (n, ns) = cycle_cost(&log, repeat)?;
+            println!("{n} cycles, {ns:.0} ns per cycle");
+            Ok(())
+        }
         BenchCommand::Wakeup(w) => {
             let result = wakeup(&w)?;
             let text = result.histogram.cyclictest_format();

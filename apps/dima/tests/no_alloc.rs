@@ -204,3 +204,54 @@ fn realtime_thread_never_allocates() {
     drop(board);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn the_cycle_compute_path_never_allocates() {
+    use dima::bench::measured_cycles;
+    use dima::logtools::replay::{RecordedCycle, RecordedSensor};
+    use dima_core::{Core, CoreState, Mode};
+    let config = dima::config::Config::default();
+    let core = Core::new(&config);
+    let period = 4_000_000u64;
+    // Revive, drive, AUTO: the controller runs in most cycles.
+    let cycles: Vec<RecordedCycle> = (0..2_000u64)
+        .map(|i| RecordedCycle {
+            t_ns: i * period,
+            cycle: i,
+            wake_ns: 1_000_000_000 + i * period,
+            missed_periods: 0,
+            commands: match i {
+                1 => vec![
+                    Command::Revive,
+                    Command::Throttle(Percent::new(60).unwrap()),
+                ],
+                3 => vec![
+                    Command::SpeedSetpoint { mm_s: 2_000 },
+                    Command::HeadingSetpoint { deg_e5: 9_000_000 },
+                ],
+                _ if i % 25 == 0 => vec![Command::Heartbeat],
+                _ => Vec::new(),
+            },
+            sensor: RecordedSensor::Packet {
+                bytes: packet(i).encode(),
+                t_request_ns: 1_000_000_000 + i * period,
+                t_complete_ns: 1_000_000_000 + i * period + 3_300_000,
+            },
+            stale_packets: 0,
+            mode: Mode::Killed,
+            targets_us: [0; 3],
+        })
+        .collect();
+    let mut state = CoreState::new();
+    COUNTING.with(|c| c.set(true));
+    let sink = measured_cycles(&core, &mut state, &cycles, [0, 1, 2]);
+    COUNTING.with(|c| c.set(false));
+    std::hint::black_box(sink);
+    assert_eq!(
+        EVENTS.with(|n| n.get()),
+        0,
+        "allocations in the compute path"
+    );
+    assert_eq!(state.safety.mode, Mode::Auto, "the controller ran");
+    assert!(state.counters.packets_ok >= 1_999);
+}

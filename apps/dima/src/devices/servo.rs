@@ -1,7 +1,7 @@
 //! The servo controller as the loop sees it.
 
 use anyhow::Context;
-use pololu_maestro::{encode_set_targets, Channel, Framing, Mini24, QuarterMicros};
+use pololu_maestro::{encode_set_targets, Channel, Framing, Mini24, QuarterMicros, TargetFrame};
 
 use super::serial::{LineSettings, SerialError, SerialPort};
 use crate::config::MaestroConfig;
@@ -32,6 +32,22 @@ pub trait ServoOutput {
         targets_qus: &[u16; 3],
         deadline_ns: Nanos,
     ) -> Result<(), ServoError>;
+}
+
+/// The compact-protocol Set Target packets for three channels, concatenated (what
+/// [`MaestroPort`] writes in one go).
+pub fn encode_targets(
+    channels: &[u8; 3],
+    targets_qus: &[u16; 3],
+) -> Result<TargetFrame, ServoError> {
+    let pair = |i: usize| -> Result<(Channel, QuarterMicros), ServoError> {
+        Ok((
+            Channel::new::<Mini24>(channels[i]).map_err(|_| ServoError::InvalidInput)?,
+            QuarterMicros::new(targets_qus[i]).map_err(|_| ServoError::InvalidInput)?,
+        ))
+    };
+    let pairs = [pair(0)?, pair(1)?, pair(2)?];
+    encode_set_targets(Framing::COMPACT, &pairs).ok_or(ServoError::InvalidInput)
 }
 
 /// The Pololu Maestro on its command port: compact-protocol Set Target packets for every
@@ -72,14 +88,7 @@ impl ServoOutput for MaestroPort {
         targets_qus: &[u16; 3],
         deadline_ns: Nanos,
     ) -> Result<(), ServoError> {
-        let pair = |i: usize| -> Result<(Channel, QuarterMicros), ServoError> {
-            Ok((
-                Channel::new::<Mini24>(channels[i]).map_err(|_| ServoError::InvalidInput)?,
-                QuarterMicros::new(targets_qus[i]).map_err(|_| ServoError::InvalidInput)?,
-            ))
-        };
-        let pairs = [pair(0)?, pair(1)?, pair(2)?];
-        let frame = encode_set_targets(Framing::COMPACT, &pairs).ok_or(ServoError::InvalidInput)?;
+        let frame = encode_targets(channels, targets_qus)?;
         self.port
             .write_all(frame.as_bytes(), deadline_ns)
             .map_err(|e| match e {

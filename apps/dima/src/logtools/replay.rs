@@ -52,33 +52,76 @@ pub struct Replay {
     pub differing: usize,
 }
 
-/// The step's inputs of one recorded cycle.
-fn sensor_input(c: &CycleMessage, raw: Option<&[u8; 132]>) -> anyhow::Result<SensorInput> {
-    let packet = |raw: Option<&[u8; 132]>| -> anyhow::Result<SensorInput> {
-        let bytes = raw.with_context(|| format!("cycle {}: raw packet missing", c.cycle))?;
-        Ok(SensorInput::Packet {
-            raw: RawPacket::new(*bytes)
-                .map_err(|e| anyhow::anyhow!("cycle {}: raw packet: {e:?}", c.cycle))?,
-            t_request_ns: c.t_request_ns.unwrap_or(0),
-            t_complete_ns: c.t_complete_ns.unwrap_or(0),
-        })
-    };
-    Ok(match c.packet {
-        PacketVerdict::Ok | PacketVerdict::Stale | PacketVerdict::Late => packet(raw)?,
-        PacketVerdict::Missing => match c.t_request_ns {
-            Some(t_request_ns) => SensorInput::NoAnswer { t_request_ns },
-            None => SensorInput::NotRequested,
-        },
-        PacketVerdict::NotRequested => SensorInput::NotRequested,
-        PacketVerdict::DeviceError => SensorInput::DeviceError,
-    })
+/// What the sensor phase of a recorded cycle brought in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RecordedSensor {
+    /// A packet as received, with its request and completion times.
+    Packet {
+        /// The 132 bytes.
+        bytes: [u8; 132],
+        /// Request line raised, ns.
+        t_request_ns: u64,
+        /// Packet complete, ns.
+        t_complete_ns: u64,
+    },
+    /// Requested at `t_request_ns`, nothing by the deadline.
+    NoAnswer {
+        /// Request line raised, ns.
+        t_request_ns: u64,
+    },
+    /// No request.
+    NotRequested,
+    /// The port failed.
+    DeviceError,
 }
 
-/// Replays `run` through the step configured by `config`.
-pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
-    config.validate()?;
-    let core = Core::new(config);
-    let mut state = CoreState::new();
+/// One cycle's inputs as recorded, and what the step decided then.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RecordedCycle {
+    /// Log time, ns.
+    pub t_ns: u64,
+    /// Cycle number.
+    pub cycle: u64,
+    /// Wake-up time (the step's `now`), ns.
+    pub wake_ns: u64,
+    /// Periods missed before the wake-up.
+    pub missed_periods: u32,
+    /// Commands applied.
+    pub commands: Vec<Command>,
+    /// The sensor phase.
+    pub sensor: RecordedSensor,
+    /// Stale packets passed over.
+    pub stale_packets: u32,
+    /// Recorded mode.
+    pub mode: Mode,
+    /// Recorded servo targets, µs.
+    pub targets_us: [u16; 3],
+}
+
+impl RecordedCycle {
+    /// The sensor input, through the real decoder (the CRC is checked again).
+    pub fn sensor_input(&self) -> anyhow::Result<SensorInput> {
+        Ok(match self.sensor {
+            RecordedSensor::Packet {
+                bytes,
+                t_request_ns,
+                t_complete_ns,
+            } => SensorInput::Packet {
+                raw: RawPacket::new(bytes)
+                    .map_err(|e| anyhow::anyhow!("cycle {}: raw packet: {e:?}", self.cycle))?,
+                t_request_ns,
+                t_complete_ns,
+            },
+            RecordedSensor::NoAnswer { t_request_ns } => SensorInput::NoAnswer { t_request_ns },
+            RecordedSensor::NotRequested => SensorInput::NotRequested,
+            RecordedSensor::DeviceError => SensorInput::DeviceError,
+        })
+    }
+}
+
+/// The recorded cycles of `run` in order (the shutdown record left out), and whether the run
+/// started with a failed required realtime setup.
+pub fn recorded_cycles(run: &LoggedRun) -> anyhow::Result<(Vec<RecordedCycle>, bool)> {
     let events_of = |event: Event| -> BTreeSet<u64> {
         run.states
             .iter()
@@ -87,35 +130,74 @@ pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
             .collect()
     };
     let shutdown = events_of(Event::Shutdown);
-    state.realtime_fault = !events_of(Event::RealtimeSetupFailed).is_empty();
-    let mut expected_cycle = 0u64;
-    let mut out = Replay {
-        cycles: Vec::with_capacity(run.cycles.len()),
-        first_difference: None,
-        differing: 0,
-    };
+    let realtime_fault = !events_of(Event::RealtimeSetupFailed).is_empty();
+    let mut out = Vec::with_capacity(run.cycles.len());
     for c in &run.cycles {
         let m = &c.msg;
         if shutdown.contains(&m.cycle) && m.packet == PacketVerdict::NotRequested {
             continue; // the shutdown record, not a cycle of the loop
         }
         anyhow::ensure!(
-            m.cycle == expected_cycle,
-            "cycle {} follows cycle {}: replay needs every cycle logged (log.decoded_every = 1)",
+            m.cycle == out.len() as u64,
+            "cycle {} after {} cycles: replay needs every cycle logged (log.decoded_every = 1)",
             m.cycle,
-            expected_cycle.wrapping_sub(1)
+            out.len()
         );
-        expected_cycle += 1;
-        let commands: Vec<Command> = m.commands.iter().filter_map(|c| c.command()).collect();
-        let inputs = CycleInputs {
-            missed_periods: m.missed_periods,
-            commands: &commands,
-            sensor: sensor_input(m, run.raw.get(&c.t_ns))?,
-            stale_packets: m.stale_passed,
-        };
-        let o = core.step(&mut state, &inputs, m.wake_ns);
-        let message = ReplayMessage {
+        out.push(RecordedCycle {
+            t_ns: c.t_ns,
             cycle: m.cycle,
+            wake_ns: m.wake_ns,
+            missed_periods: m.missed_periods,
+            commands: m.commands.iter().filter_map(|c| c.command()).collect(),
+            sensor: recorded_sensor(m, run.raw.get(&c.t_ns))?,
+            stale_packets: m.stale_passed,
+            mode: m.mode,
+            targets_us: m.targets_us,
+        });
+    }
+    Ok((out, realtime_fault))
+}
+
+fn recorded_sensor(c: &CycleMessage, raw: Option<&[u8; 132]>) -> anyhow::Result<RecordedSensor> {
+    Ok(match c.packet {
+        PacketVerdict::Ok | PacketVerdict::Stale | PacketVerdict::Late => RecordedSensor::Packet {
+            bytes: *raw.with_context(|| format!("cycle {}: raw packet missing", c.cycle))?,
+            t_request_ns: c.t_request_ns.unwrap_or(0),
+            t_complete_ns: c.t_complete_ns.unwrap_or(0),
+        },
+        PacketVerdict::Missing => match c.t_request_ns {
+            Some(t_request_ns) => RecordedSensor::NoAnswer { t_request_ns },
+            None => RecordedSensor::NotRequested,
+        },
+        PacketVerdict::NotRequested => RecordedSensor::NotRequested,
+        PacketVerdict::DeviceError => RecordedSensor::DeviceError,
+    })
+}
+
+/// Replays `run` through the step configured by `config`.
+pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
+    config.validate()?;
+    let core = Core::new(config);
+    let (cycles, realtime_fault) = recorded_cycles(run)?;
+    let mut state = CoreState {
+        realtime_fault,
+        ..CoreState::new()
+    };
+    let mut out = Replay {
+        cycles: Vec::with_capacity(cycles.len()),
+        first_difference: None,
+        differing: 0,
+    };
+    for c in &cycles {
+        let inputs = CycleInputs {
+            missed_periods: c.missed_periods,
+            commands: &c.commands,
+            sensor: c.sensor_input()?,
+            stale_packets: c.stale_packets,
+        };
+        let o = core.step(&mut state, &inputs, c.wake_ns);
+        let message = ReplayMessage {
+            cycle: c.cycle,
             mode: o.mode,
             cause: o.cause,
             action: ActionMessage {
@@ -124,15 +206,15 @@ pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
                 tail: o.action.tail,
             },
             targets_us: o.targets.pulse_us,
-            recorded_mode: m.mode,
-            recorded_targets_us: m.targets_us,
+            recorded_mode: c.mode,
+            recorded_targets_us: c.targets_us,
         };
-        if (o.mode, o.targets.pulse_us) != (m.mode, m.targets_us) {
+        if (o.mode, o.targets.pulse_us) != (c.mode, c.targets_us) {
             out.differing += 1;
             out.first_difference.get_or_insert(Difference {
-                cycle: m.cycle,
+                cycle: c.cycle,
                 t_s: run.seconds(c.t_ns),
-                recorded: (m.mode, m.targets_us),
+                recorded: (c.mode, c.targets_us),
                 replayed: (o.mode, o.targets.pulse_us),
             });
         }
