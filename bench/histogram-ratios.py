@@ -3,6 +3,7 @@
 dima beside cyclictest per run, and their ratios.
 
 Usage: histogram-ratios.py RUN.dima.hist [...]   (RUN.cyclictest.hist next to each)
+       histogram-ratios.py --p50-p99 FILE.hist       (prints "p50/p99" of one histogram)
 """
 import math
 import re
@@ -57,6 +58,11 @@ def row(name, path):
 def fmt(v):
     return "-" if isinstance(v, float) and math.isnan(v) else ("ovf" if v == math.inf else str(v))
 
+
+if sys.argv[1:2] == ["--p50-p99"]:
+    b, o = parse(sys.argv[2])
+    print(f"{fmt(percentile(b, o, 50))}/{fmt(percentile(b, o, 99))}")
+    sys.exit(0)
 
 print(f"{'run':<40} {'who':<10} {'n':>7} {'p50':>6} {'p99':>6} {'p99.9':>6} {'max':>6} {'missed':>6}")
 ratios = {"p50": [], "p99": []}

@@ -39,6 +39,19 @@ pub struct BenchArgs {
 pub enum BenchCommand {
     /// Wake-up latency of the loop skeleton, in cyclictest's histogram format.
     Wakeup(WakeupArgs),
+    /// Two or more cyclictest-format histograms side by side in one PNG (e.g. dima and
+    /// cyclictest from `bench/wakeup-vs-cyclictest.sh`).
+    PlotHistograms {
+        /// Histogram files (`-h` format); the legend shows their file names.
+        #[arg(required = true, num_args = 2..)]
+        files: Vec<PathBuf>,
+        /// Output PNG.
+        #[arg(short, long, value_name = "OUT.png")]
+        output: PathBuf,
+        /// Title.
+        #[arg(long, default_value = "wake-up latency")]
+        title: String,
+    },
     /// Compute cost per cycle: a recorded log through the cycle's compute path (decode with
     /// CRC, pairing, safety, controller, Maestro encode, log record), in ns per cycle.
     Cycle {
@@ -223,6 +236,24 @@ pub fn wakeup(args: &WakeupArgs) -> anyhow::Result<WakeupResult> {
 /// Runs `dima bench ...`.
 pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
     match args.command {
+        BenchCommand::PlotHistograms {
+            files,
+            output,
+            title,
+        } => {
+            let mut series = Vec::new();
+            for f in &files {
+                let text = std::fs::read_to_string(f)
+                    .with_context(|| format!("cannot read {}", f.display()))?;
+                let name = f
+                    .file_name()
+                    .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+                series.push((name, crate::logtools::plot::parse_histogram(&text)));
+            }
+            crate::logtools::plot::histograms(&series, &title, &output, (1280, 720))?;
+            eprintln!("wrote {}", output.display());
+            Ok(())
+        }
         BenchCommand::Cycle { log, repeat } => {
             let (n, ns) = cycle_cost(&log, repeat)?;
             println!("{n} cycles, {ns:.0} ns per cycle");

@@ -48,7 +48,7 @@ pub fn app_config(
     config.maestro.port = ports.maestro.to_owned();
     config.xbee.port = ports.xbee.to_owned();
     config.realtime.loop_rate_hz = loop_rate_hz;
-    fit_sensor_link(&mut config);
+    fit_sensor_link(&mut config, file.is_none());
     config.maestro.servo_refresh_hz = config.maestro.servo_refresh_hz.min(loop_rate_hz);
     for interval in [
         &mut config.sensor.reopen_interval_ms,
@@ -71,15 +71,20 @@ pub fn app_config(
     Ok(config)
 }
 
-/// Fits the packet deadline in the period (less the servo write budget) and, at loop rates
-/// where a packet would not fit at the configured baud rate, raises the sensor link to the
-/// first standard rate that leaves 15 % margin (the board's USART reaches several Mbaud).
-fn fit_sensor_link(config: &mut Config) {
+/// Fits the packet deadline in the period (less the servo write budget) and, with the default
+/// configuration (`raise_baud`), at loop rates where a packet would not fit at the configured
+/// baud rate, raises the sensor link to the first standard rate that leaves 15 % margin (the
+/// board's USART reaches several Mbaud). A given file's baud rate is kept: validation then
+/// says when a packet does not fit.
+fn fit_sensor_link(config: &mut Config, raise_baud: bool) {
     let period_us = (config.period_ns() / 1_000) as u32;
     let s = &mut config.sensor;
     s.packet_deadline_us = s
         .packet_deadline_us
         .min(period_us.saturating_sub(config.maestro.write_budget_us));
+    if !raise_baud {
+        return;
+    }
     let deadline_ns = u64::from(config.sensor.packet_deadline_us) * 1_000;
     let configured = config.sensor.baud;
     for &baud in STANDARD_BAUD_RATES.iter().filter(|&&b| b >= configured) {

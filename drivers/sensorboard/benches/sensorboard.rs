@@ -1,15 +1,15 @@
 //! CRC and decoding cost per 132-byte packet.
 //!
 //! ```text
-//! cargo bench -p dima-sensorboard -- --warm-up-time 1 --measurement-time 3
+//! cargo bench -p dima-sensorboard --features slice16 -- --warm-up-time 1 --measurement-time 3
 //! ```
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use dima_sensorboard::crc::crc32_bitwise;
+use dima_sensorboard::crc::{crc32_bitwise, INITIAL};
 use dima_sensorboard::gnss::nav_pvt;
-use dima_sensorboard::{Frame, GnssFrame, NavPvt, SensorPacket, Stm32Crc, StreamDecoder};
+use dima_sensorboard::{Frame, GnssFrame, NavPvt, SensorPacket, StreamDecoder};
 
 const PACKETS: usize = 100;
 
@@ -68,8 +68,12 @@ fn crc(c: &mut Criterion) {
     group.bench_function("bitwise_model", |b| {
         b.iter(|| crc32_bitwise(black_box(covered)));
     });
-    group.bench_function("table", |b| {
-        b.iter(|| Stm32Crc::compute(black_box(covered)));
+    group.bench_function("slice4", |b| {
+        b.iter(|| dima_sensorboard::crc::update_slice4(INITIAL, black_box(covered)));
+    });
+    #[cfg(feature = "slice16")]
+    group.bench_function("slice16", |b| {
+        b.iter(|| dima_sensorboard::crc::update_slice16(INITIAL, black_box(covered)));
     });
     group.finish();
 }
@@ -77,7 +81,8 @@ fn crc(c: &mut Criterion) {
 fn decode(c: &mut Criterion) {
     let stream: Vec<u8> = (0..PACKETS).flat_map(packet).collect();
     let mut group = c.benchmark_group("decode_stream");
-    group.throughput(Throughput::Elements(PACKETS as u64));
+    // Bytes per second: 100 packets of 132 bytes per iteration.
+    group.throughput(Throughput::Bytes(stream.len() as u64));
     // Framing and CRC only: what the realtime loop pays to get validated packets.
     group.bench_function("frames", |b| {
         b.iter(|| {

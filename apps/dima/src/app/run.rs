@@ -246,7 +246,8 @@ where
         if let Some(failed) = report.failures().filter(|_| config.realtime.required) {
             tracing::error!(
                 "realtime setup failed ({failed}): staying KILLED and refusing every revive \
-                 (run as root or with CAP_SYS_NICE and CAP_IPC_LOCK, see docs/jetson.md; \
+                 (check realtime.cpus and realtime.priority against this machine, run as root \
+                 or with CAP_SYS_NICE and CAP_IPC_LOCK, see docs/jetson.md; \
                  realtime.required = false drives without these guarantees)"
             );
             realtime_fault = Some(failed);

@@ -349,6 +349,101 @@ fn track(
     Ok(())
 }
 
+/// Bucket counts of a cyclictest-format histogram (`NNNNNN COUNT` lines, 1 µs buckets).
+pub fn parse_histogram(text: &str) -> Vec<u64> {
+    let mut buckets = Vec::new();
+    for line in text.lines() {
+        let mut fields = line.split_whitespace();
+        let (Some(us), Some(n), None) = (fields.next(), fields.next(), fields.next()) else {
+            continue;
+        };
+        let (Ok(us), Ok(n)) = (us.parse::<usize>(), n.parse::<u64>()) else {
+            continue;
+        };
+        if us >= buckets.len() {
+            buckets.resize(us + 1, 0);
+        }
+        buckets[us] += n;
+    }
+    buckets
+}
+
+/// Histograms (name, 1 µs bucket counts) side by side as fractions of their samples, up to the
+/// largest 99.9th percentile.
+pub fn histograms(
+    series: &[(String, Vec<u64>)],
+    title: &str,
+    path: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
+    fonts();
+    let p999 = |b: &[u64]| {
+        let total: u64 = b.iter().sum();
+        let mut seen = 0;
+        b.iter()
+            .position(|&n| {
+                seen += n;
+                seen * 1000 >= total * 999
+            })
+            .unwrap_or(b.len())
+    };
+    let top = series
+        .iter()
+        .map(|(_, b)| p999(b))
+        .max()
+        .unwrap_or(10)
+        .max(10) as u32
+        + 1;
+    let fraction = |b: &[u64], us: usize| {
+        let total: u64 = b.iter().sum();
+        b.get(us).map_or(0.0, |&n| n as f64 / total.max(1) as f64)
+    };
+    let peak = series
+        .iter()
+        .flat_map(|(_, b)| (0..top as usize).map(move |us| fraction(b, us)))
+        .fold(0.0, f64::max);
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, (FONT, 22))
+        .margin(12)
+        .x_label_area_size(44)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0.0..f64::from(top), 0.0..peak * 1.1 + 1e-9)?;
+    chart
+        .configure_mesh()
+        .x_desc("latency (µs, 1 µs buckets)")
+        .y_desc("fraction of wake-ups")
+        .label_style((FONT, 15))
+        .draw()?;
+    let colors = [BLUE, RED, GREEN, MAGENTA];
+    let width = 1.0 / series.len().max(1) as f64;
+    for (k, (name, b)) in series.iter().enumerate() {
+        let c = colors[k % colors.len()];
+        chart
+            .draw_series((0..top as usize).map(|us| {
+                let x0 = us as f64 + k as f64 * width;
+                Rectangle::new(
+                    [(x0, 0.0), (x0 + width, fraction(b, us))],
+                    c.mix(0.75).filled(),
+                )
+            }))?
+            .label(name.as_str())
+            .legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 20, y + 5)], c.mix(0.75).filled())
+            });
+    }
+    chart
+        .configure_series_labels()
+        .label_font((FONT, 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
 /// Draws `what` of `run` into a PNG of `size` pixels at `path`.
 pub fn plot(run: &LoggedRun, what: What, path: &Path, size: (u32, u32)) -> anyhow::Result<()> {
     fonts();
