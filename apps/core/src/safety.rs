@@ -8,7 +8,8 @@
 //! - any valid command frame is link activity;
 //! - kill -> KILLED from any state, immediately;
 //! - revive leaves KILLED or FAILSAFE for MANUAL at neutral, only while nothing blocks it (see
-//!   [`ReviveRefusal`]); a revive in MANUAL or AUTO changes nothing;
+//!   [`ReviveRefusal`]: among others, K good packets since the sensor link was last lost); a
+//!   revive in MANUAL or AUTO changes nothing;
 //! - a manual command in AUTO switches to MANUAL with every channel at neutral except the one
 //!   just commanded, and forgets the AUTO setpoints;
 //! - a speed or heading setpoint switches MANUAL to AUTO and forgets the manual values; a speed
@@ -114,7 +115,8 @@ pub enum FailsafeCause {
     schemars::JsonSchema,
 )]
 pub enum ReviveRefusal {
-    /// The sensor link is down (the last K packets were not all good).
+    /// The sensor link is down, or not yet back: fewer than K good packets since it was last
+    /// lost (K bad in a row) or since start-up.
     SensorLoss,
     /// The IMU is stuck.
     ImuStuck,
@@ -206,6 +208,11 @@ pub struct SafetyState {
     /// Consecutive bad or missing packets (`u32::MAX` until the first good packet: the
     /// sensor link is not healthy before it has delivered anything).
     pub bad_packets: u32,
+    /// Good packets since the sensor link was last lost (`sensor_loss_packets` bad ones in a
+    /// row). A revive needs `sensor_loss_packets` of them, so a lone packet amid a loss (a late
+    /// answer that happened to land in the answer window) does not make the link look
+    /// healthy, while an odd bad packet in a working link does not block a revive.
+    pub good_packets: u32,
     /// Current manual values and setpoints.
     pub setpoints: Setpoints,
 }
@@ -224,6 +231,7 @@ impl SafetyState {
             cause: None,
             last_link_ns: None,
             bad_packets: u32::MAX,
+            good_packets: 0,
             setpoints: Setpoints {
                 throttle: None,
                 steering: None,
@@ -241,7 +249,8 @@ impl SafetyState {
         limits: &SafetyLimits,
         blocked: Option<ReviveRefusal>,
     ) -> Option<ReviveRefusal> {
-        if self.bad_packets >= limits.sensor_loss_packets {
+        let lost = self.bad_packets >= limits.sensor_loss_packets;
+        if lost || self.good_packets < limits.sensor_loss_packets {
             Some(ReviveRefusal::SensorLoss)
         } else {
             blocked
@@ -330,11 +339,15 @@ impl SafetyState {
 
     /// End of the command phase of a cycle at `now`.
     pub fn on_cycle(&mut self, limits: &SafetyLimits, health: CycleHealth, now: Nanos) {
-        self.bad_packets = if health.packet_ok {
-            0
+        if health.packet_ok {
+            self.bad_packets = 0;
+            self.good_packets = self.good_packets.saturating_add(1);
         } else {
-            self.bad_packets.saturating_add(1)
-        };
+            self.bad_packets = self.bad_packets.saturating_add(1);
+            if self.bad_packets >= limits.sensor_loss_packets {
+                self.good_packets = 0;
+            }
+        }
         if self.mode.is_safe() {
             return;
         }
@@ -389,14 +402,16 @@ mod tests {
     }
 
     /// Start-up, after one good packet.
+    /// After start-up, as many good packets as a revive needs.
     fn healthy() -> SafetyState {
         let mut s = SafetyState::new();
-        s.on_cycle(&LIMITS, OK, 0);
+        for _ in 0..LIMITS.sensor_loss_packets {
+            s.on_cycle(&LIMITS, OK, 0);
+        }
         s
     }
 
-    /// Runs `(time_ms, event, expected mode after it)` rows from start-up after one good
-    /// packet.
+    /// Runs `(time_ms, event, expected mode after it)` rows from a healthy sensor link.
     fn run_table(rows: &[(u64, Ev, Mode)]) -> SafetyState {
         let mut s = healthy();
         for (i, (t, ev, want)) in rows.iter().enumerate() {
@@ -550,8 +565,12 @@ mod tests {
             // A revive is refused while the sensor link is still down...
             (25, Cmd(Command::Revive), Failsafe),
             (28, Cycle(OK), Failsafe),
-            // ...and accepted once it is healthy again.
-            (29, Cmd(Command::Revive), Manual),
+            (29, Cycle(OK), Failsafe),
+            // ...and while it is not yet healthy for as long as it took to trip...
+            (30, Cmd(Command::Revive), Failsafe),
+            (32, Cycle(OK), Failsafe),
+            // ...and accepted once it is.
+            (33, Cmd(Command::Revive), Manual),
         ]);
         assert_eq!(s.bad_packets, 0);
     }
@@ -628,8 +647,47 @@ mod tests {
         s.on_cycle(&LIMITS, BAD, MS);
         s.on_command(&LIMITS, Command::Revive, 2 * MS, None);
         assert_eq!(s.mode, Killed);
-        s.on_cycle(&LIMITS, OK, 3 * MS);
+        for _ in 0..LIMITS.sensor_loss_packets {
+            s.on_cycle(&LIMITS, OK, 3 * MS);
+        }
         s.on_command(&LIMITS, Command::Revive, 4 * MS, None);
+        assert_eq!(s.mode, Manual);
+    }
+
+    #[test]
+    fn lone_good_packets_amid_a_loss_do_not_allow_a_revive() {
+        // A late answer can, once in a while, land inside the answer window and pass for
+        // fresh. Such packets between runs of missing ones must not open the door to a revive.
+        let k = LIMITS.sensor_loss_packets;
+        let mut s = SafetyState::new();
+        let mut t = 0;
+        for _ in 0..4 {
+            for health in std::iter::repeat_n(BAD, k as usize).chain([OK]) {
+                t += 4 * MS;
+                s.on_cycle(&LIMITS, health, t);
+            }
+            let effect = s.on_command(&LIMITS, Command::Revive, t + 1, None);
+            assert_eq!(
+                (s.mode, effect.refused),
+                (Killed, Some(ReviveRefusal::SensorLoss))
+            );
+        }
+        for _ in 1..k {
+            t += 4 * MS;
+            s.on_cycle(&LIMITS, OK, t);
+        }
+        s.on_command(&LIMITS, Command::Revive, t + 1, None);
+        assert_eq!(s.mode, Manual);
+    }
+
+    #[test]
+    fn an_odd_bad_packet_in_a_healthy_link_does_not_block_a_revive() {
+        // Shorter runs of bad packets than trip the failsafe do not undo the good ones.
+        let mut s = SafetyState::new();
+        for (i, health) in [OK, BAD, OK, BAD, BAD, OK].into_iter().enumerate() {
+            s.on_cycle(&LIMITS, health, i as Nanos * 4 * MS);
+        }
+        s.on_command(&LIMITS, Command::Revive, 30 * MS, None);
         assert_eq!(s.mode, Manual);
     }
 

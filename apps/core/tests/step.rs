@@ -90,6 +90,7 @@ impl Rig {
 
     fn with_config(config: Config) -> Rig {
         config.validate().expect("valid test configuration");
+        let healthy_after = config.safety.sensor_loss_packets;
         let mut rig = Rig {
             core: Core::new(&config),
             state: CoreState::new(),
@@ -99,8 +100,10 @@ impl Rig {
             imu_running: true,
             answer_after: Some(ANSWER),
         };
-        // The board has answered once before the operator does anything.
-        rig.cycle(&[]);
+        // The board has answered long enough for a revive before the operator does anything.
+        for _ in 0..healthy_after {
+            rig.cycle(&[]);
+        }
         rig
     }
 
