@@ -133,7 +133,8 @@ fn t16_answers_later_than_a_period_never_make_the_link_look_healthy() {
     // Without a sequence number in the packet, an answer that a host stall pushes into the
     // window after a later request cannot be told from a fresh one; that can happen now and
     // then on a loaded machine, never often enough to make the link look healthy (a revive
-    // needs `sensor_loss_packets` good packets in a row, and none was accepted above).
+    // needs `revive_good_packets` good packets with no loss between them, and none was
+    // accepted above).
     assert!(c.packets_ok <= c.cycles / 100, "{c:?}");
     assert!(c.packets_stale + c.packets_late + c.packets_missing >= c.cycles - 1);
     assert!(c.revives_refused >= 2, "{c:?}");

@@ -191,6 +191,9 @@ pub struct SafetyConfig {
     /// This many consecutive packets with identical accelerometer and gyroscope words are a
     /// stuck IMU: FAILSAFE, and revives are refused while it lasts.
     pub imu_stuck_packets: u32,
+    /// A revive needs this many good sensor packets since the link was last lost
+    /// (`sensor_loss_packets` bad ones in a row) or since start-up.
+    pub revive_good_packets: u32,
 }
 
 impl Default for SafetyConfig {
@@ -201,6 +204,7 @@ impl Default for SafetyConfig {
             overrun_limit: 10,
             gnss_timeout_ms: 500,
             imu_stuck_packets: 50,
+            revive_good_packets: 25,
         }
     }
 }
@@ -594,7 +598,8 @@ impl Config {
             1..=crate::safety::MAX_OVERRUN_LIMIT,
         )?;
         within("safety.gnss_timeout_ms", s.gnss_timeout_ms, 100..=5_000)?;
-        within("safety.imu_stuck_packets", s.imu_stuck_packets, 2..=10_000)
+        within("safety.imu_stuck_packets", s.imu_stuck_packets, 2..=10_000)?;
+        within("safety.revive_good_packets", s.revive_good_packets, 1..=250)
     }
 
     fn validate_channels(&self) -> Result<(), ConfigError> {

@@ -8,7 +8,7 @@
 //! - any valid command frame is link activity;
 //! - kill -> KILLED from any state, immediately;
 //! - revive leaves KILLED or FAILSAFE for MANUAL at neutral, only while nothing blocks it (see
-//!   [`ReviveRefusal`]: among others, K good packets since the sensor link was last lost); a
+//!   [`ReviveRefusal`]: among others, enough good packets since the sensor link was last lost); a
 //!   revive in MANUAL or AUTO changes nothing;
 //! - a manual command in AUTO switches to MANUAL with every channel at neutral except the one
 //!   just commanded, and forgets the AUTO setpoints;
@@ -115,8 +115,8 @@ pub enum FailsafeCause {
     schemars::JsonSchema,
 )]
 pub enum ReviveRefusal {
-    /// The sensor link is down, or not yet back: fewer than K good packets since it was last
-    /// lost (K bad in a row) or since start-up.
+    /// The sensor link is down, or not yet back: fewer than `revive_good_packets` good packets
+    /// since it was last lost (K bad in a row) or since start-up.
     SensorLoss,
     /// The IMU is stuck.
     ImuStuck,
@@ -133,6 +133,8 @@ pub struct SafetyLimits {
     pub comms_timeout_ns: Nanos,
     /// K: consecutive bad packets that trip FAILSAFE.
     pub sensor_loss_packets: u32,
+    /// Good packets since the last loss that a revive needs.
+    pub revive_good_packets: u32,
     /// Largest speed setpoint accepted, mm/s.
     pub max_speed_mm_s: i32,
 }
@@ -143,6 +145,7 @@ impl SafetyLimits {
         SafetyLimits {
             comms_timeout_ns: u64::from(safety.comms_timeout_ms) * 1_000_000,
             sensor_loss_packets: safety.sensor_loss_packets.max(1),
+            revive_good_packets: safety.revive_good_packets.max(1),
             max_speed_mm_s: control.max_speed_mm_s,
         }
     }
@@ -209,7 +212,7 @@ pub struct SafetyState {
     /// sensor link is not healthy before it has delivered anything).
     pub bad_packets: u32,
     /// Good packets since the sensor link was last lost (`sensor_loss_packets` bad ones in a
-    /// row). A revive needs `sensor_loss_packets` of them, so a lone packet amid a loss (a late
+    /// row). A revive needs `revive_good_packets` of them, so a lone packet amid a loss (a late
     /// answer that happened to land in the answer window) does not make the link look
     /// healthy, while an odd bad packet in a working link does not block a revive.
     pub good_packets: u32,
@@ -250,7 +253,7 @@ impl SafetyState {
         blocked: Option<ReviveRefusal>,
     ) -> Option<ReviveRefusal> {
         let lost = self.bad_packets >= limits.sensor_loss_packets;
-        if lost || self.good_packets < limits.sensor_loss_packets {
+        if lost || self.good_packets < limits.revive_good_packets {
             Some(ReviveRefusal::SensorLoss)
         } else {
             blocked
@@ -383,6 +386,7 @@ mod tests {
     const LIMITS: SafetyLimits = SafetyLimits {
         comms_timeout_ns: 1_000 * MS,
         sensor_loss_packets: 3,
+        revive_good_packets: 3,
         max_speed_mm_s: 5_000,
     };
     const OK: CycleHealth = CycleHealth::GOOD;
@@ -405,7 +409,7 @@ mod tests {
     /// After start-up, as many good packets as a revive needs.
     fn healthy() -> SafetyState {
         let mut s = SafetyState::new();
-        for _ in 0..LIMITS.sensor_loss_packets {
+        for _ in 0..LIMITS.revive_good_packets {
             s.on_cycle(&LIMITS, OK, 0);
         }
         s
@@ -647,7 +651,7 @@ mod tests {
         s.on_cycle(&LIMITS, BAD, MS);
         s.on_command(&LIMITS, Command::Revive, 2 * MS, None);
         assert_eq!(s.mode, Killed);
-        for _ in 0..LIMITS.sensor_loss_packets {
+        for _ in 0..LIMITS.revive_good_packets {
             s.on_cycle(&LIMITS, OK, 3 * MS);
         }
         s.on_command(&LIMITS, Command::Revive, 4 * MS, None);
@@ -672,7 +676,7 @@ mod tests {
                 (Killed, Some(ReviveRefusal::SensorLoss))
             );
         }
-        for _ in 1..k {
+        for _ in 1..LIMITS.revive_good_packets {
             t += 4 * MS;
             s.on_cycle(&LIMITS, OK, t);
         }

@@ -90,7 +90,7 @@ impl Rig {
 
     fn with_config(config: Config) -> Rig {
         config.validate().expect("valid test configuration");
-        let healthy_after = config.safety.sensor_loss_packets;
+        let healthy_after = config.safety.revive_good_packets;
         let mut rig = Rig {
             core: Core::new(&config),
             state: CoreState::new(),
