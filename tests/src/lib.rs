@@ -7,6 +7,8 @@
 use std::path::PathBuf;
 use std::sync::Mutex;
 
+use dima_core::config::Config;
+
 pub use dima::sim::run_app;
 pub use dima_sim::app_config::app_config;
 use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
@@ -26,9 +28,26 @@ pub fn temp_dir(name: &str) -> PathBuf {
 /// Runs `scenario` with `faults` (the `--fault` syntax) and `seed`, one run at a time, quiet,
 /// and prints the report.
 pub fn simulate(name: &str, scenario: Scenario, faults: &[&str], seed: u64) -> SimReport {
+    simulate_with(name, scenario, faults, seed, None)
+}
+
+/// [`simulate`] with the application's configuration `config` (as `dima sim --config`).
+pub fn simulate_with(
+    name: &str,
+    scenario: Scenario,
+    faults: &[&str],
+    seed: u64,
+    config: Option<&Config>,
+) -> SimReport {
     let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = temp_dir(name);
     let mut o = SimOptions::new(scenario);
+    if let Some(config) = config {
+        let path = dir.join("app.toml");
+        let text = toml::to_string(config).expect("a configuration serialises");
+        std::fs::write(&path, text).expect("the configuration is written");
+        o.app_config = Some(path);
+    }
     o.run_dir = dir.join("dev");
     o.log_dir = dir.join("logs");
     o.status = StatusMode::Quiet;

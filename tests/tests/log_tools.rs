@@ -120,7 +120,12 @@ fn export_replay_cut_files_plots_and_the_python_reader() {
     assert!(same.cycles.len() + 2 >= run.cycles.len());
     // With three times the speed gain: different, first in AUTO.
     let mut tuned = config.clone();
-    tuned.control.speed.kp *= 3.0;
+    let kp = tuned.control.throttle.params["kp"].as_float().unwrap();
+    tuned
+        .control
+        .throttle
+        .params
+        .insert("kp".into(), toml::Value::Float(kp * 3.0));
     let other = replay::replay(&run, &tuned).unwrap();
     let d = other
         .first_difference

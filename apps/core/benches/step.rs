@@ -16,6 +16,8 @@ use dima_sensorboard::gnss::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
 
 const CYCLES: u64 = 1_000;
+/// The cycle of the revive and setpoints: after the good packets a revive needs.
+const SETUP_CYCLE: usize = 30;
 const PERIOD: u64 = 4_000_000;
 
 fn packets() -> Vec<RawPacket> {
@@ -41,14 +43,14 @@ fn packets() -> Vec<RawPacket> {
         .collect()
 }
 
-/// `CYCLES` steps after `setup` commands in the first cycle.
-fn run(core: &Core, packets: &[RawPacket], setup: &[Command]) -> u64 {
+/// `CYCLES` steps, with `setup` commands once the sensor link is healthy enough for a revive.
+fn run(core: &mut Core, packets: &[RawPacket], setup: &[Command]) -> u64 {
     let mut state = CoreState::new();
     let mut sum = 0u64;
     for (i, raw) in packets.iter().enumerate() {
         let now = 1_000_000_000 + i as u64 * PERIOD;
         let commands: &[Command] = match i {
-            1 => setup,
+            SETUP_CYCLE => setup,
             _ if i % 25 == 0 => &[Command::Heartbeat],
             _ => &[],
         };
@@ -72,7 +74,7 @@ fn run(core: &Core, packets: &[RawPacket], setup: &[Command]) -> u64 {
 }
 
 fn step(c: &mut Criterion) {
-    let core = Core::new(&Config::default());
+    let mut core = Core::new(&Config::default()).expect("the default configuration is valid");
     let packets = packets();
     let mut group = c.benchmark_group("control_step");
     group.throughput(Throughput::Elements(CYCLES));
@@ -81,7 +83,7 @@ fn step(c: &mut Criterion) {
             Command::Revive,
             Command::Throttle(Percent::new(60).unwrap()),
         ];
-        b.iter(|| run(&core, black_box(&packets), &setup));
+        b.iter(|| run(&mut core, black_box(&packets), &setup));
     });
     group.bench_function("auto", |b| {
         let setup = [
@@ -89,7 +91,7 @@ fn step(c: &mut Criterion) {
             Command::SpeedSetpoint { mm_s: 2_500 },
             Command::HeadingSetpoint { deg_e5: 9_000_000 },
         ];
-        b.iter(|| run(&core, black_box(&packets), &setup));
+        b.iter(|| run(&mut core, black_box(&packets), &setup));
     });
     group.finish();
 }

@@ -7,6 +7,9 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
+use crate::control::registry::kind_names;
+use crate::control::{Channel, ControllerSet, ParamError};
+
 /// The whole configuration.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
 #[serde(default, deny_unknown_fields)]
@@ -23,8 +26,10 @@ pub struct Config {
     pub safety: SafetyConfig,
     /// Output channels.
     pub channels: ChannelsConfig,
-    /// AUTO-mode controllers.
+    /// AUTO-mode controllers, one per channel.
     pub control: ControlConfig,
+    /// The state estimate the controllers read.
+    pub estimator: EstimatorConfig,
     /// MCAP log.
     pub log: LogConfig,
 }
@@ -310,7 +315,8 @@ impl ChannelsConfig {
     }
 }
 
-/// PID gains and limits. Output is a fraction of the channel's travel, -1..=1 around neutral.
+/// PID gains and limits (the parameters of `speed_pid` and `heading_pid`). Output is a fraction
+/// of the channel's travel, -1..=1 around neutral.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PidConfig {
@@ -326,48 +332,183 @@ pub struct PidConfig {
     pub rate_limit_per_s: f32,
 }
 
-/// AUTO-mode controllers.
+impl PidConfig {
+    /// Checks gains (finite, >= 0) and limits; the error names the parameter.
+    pub fn check(&self) -> Result<(), ParamError> {
+        for (field, gain) in [("kp", self.kp), ("ki", self.ki), ("kd", self.kd)] {
+            if !(gain.is_finite() && gain >= 0.0) {
+                return Err(ParamError::invalid(
+                    field,
+                    gain,
+                    "expected a finite gain >= 0",
+                ));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.output_limit) {
+            return Err(ParamError::invalid(
+                "output_limit",
+                self.output_limit,
+                "expected 0..=1 (a fraction of the channel's travel)",
+            ));
+        }
+        if !(self.rate_limit_per_s.is_finite() && self.rate_limit_per_s > 0.0) {
+            return Err(ParamError::invalid(
+                "rate_limit_per_s",
+                self.rate_limit_per_s,
+                "expected a finite rate > 0",
+            ));
+        }
+        Ok(())
+    }
+
+    /// As a parameter table, each value the shortest decimal of its `f32` (as a file would
+    /// write it), so the table parses back to the same gains.
+    fn into_table(self) -> toml::Table {
+        let decimal = |v: f32| toml::Value::Float(v.to_string().parse().unwrap_or(f64::from(v)));
+        [
+            ("kp", self.kp),
+            ("ki", self.ki),
+            ("kd", self.kd),
+            ("output_limit", self.output_limit),
+            ("rate_limit_per_s", self.rate_limit_per_s),
+        ]
+        .into_iter()
+        .map(|(k, v)| (k.to_owned(), decimal(v)))
+        .collect()
+    }
+}
+
+/// One channel's AUTO-mode controller: `kind` names it (see `dima_core::control::KINDS`), the
+/// other keys of the section are its parameters.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ControllerConfig {
+    /// The controller, e.g. `speed_pid`, `heading_pid`, `yaw_rate` or `none`.
+    pub kind: String,
+    /// Its parameters.
+    #[serde(flatten)]
+    pub params: toml::Table,
+}
+
+impl ControllerConfig {
+    /// A controller without parameters (`none`).
+    pub fn none() -> ControllerConfig {
+        ControllerConfig {
+            kind: "none".into(),
+            params: toml::Table::new(),
+        }
+    }
+
+    /// A PID-based controller of `kind`.
+    pub fn pid(kind: &str, pid: PidConfig) -> ControllerConfig {
+        ControllerConfig {
+            kind: kind.into(),
+            params: pid.into_table(),
+        }
+    }
+}
+
+/// AUTO mode: the controller of each channel and the limits on setpoints and fixes.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ControlConfig {
-    /// Speed controller: error in m/s -> throttle.
-    pub speed: PidConfig,
-    /// Heading controller: error in degrees -> steering.
-    pub heading: PidConfig,
-    /// Sign from gyro Z to heading rate (clockwise positive): -1 when the board's Z axis
-    /// points up.
-    pub gyro_yaw_sign: f32,
-    /// Below this ground speed the GNSS heading of motion is not trusted, in mm/s.
-    pub min_heading_speed_mm_s: i32,
     /// Largest speed setpoint accepted, in mm/s; setpoints below 0 (AUTO is forward-only) or
     /// above this are rejected, counted and change nothing.
     pub max_speed_mm_s: i32,
     /// A GNSS fix is used only while its speed accuracy estimate (`sAcc`) is at most this, in
     /// mm/s.
     pub max_speed_accuracy_mm_s: u32,
+    /// Throttle controller.
+    pub throttle: ControllerConfig,
+    /// Steering controller.
+    pub steering: ControllerConfig,
+    /// Tail controller.
+    pub tail: ControllerConfig,
+}
+
+impl ControlConfig {
+    /// The parameters of the channel named `name`, without `kind`.
+    fn channel_table(&self, name: &str) -> toml::Table {
+        Channel::ALL
+            .into_iter()
+            .find(|c| c.name() == name)
+            .map(|c| self.channel(c).params.clone())
+            .unwrap_or_default()
+    }
+
+    /// The controller of `channel`.
+    pub fn channel(&self, channel: Channel) -> &ControllerConfig {
+        match channel {
+            Channel::Throttle => &self.throttle,
+            Channel::Steering => &self.steering,
+            Channel::Tail => &self.tail,
+        }
+    }
 }
 
 impl Default for ControlConfig {
     fn default() -> Self {
         ControlConfig {
-            speed: PidConfig {
-                kp: 0.15,
-                ki: 0.10,
-                kd: 0.0,
-                output_limit: 0.5,
-                rate_limit_per_s: 2.0,
-            },
-            heading: PidConfig {
-                kp: 0.02,
-                ki: 0.0,
-                kd: 0.002,
-                output_limit: 1.0,
-                rate_limit_per_s: 8.0,
-            },
-            gyro_yaw_sign: -1.0,
-            min_heading_speed_mm_s: 500,
             max_speed_mm_s: 5_000,
             max_speed_accuracy_mm_s: 1_000,
+            throttle: ControllerConfig::pid(
+                "speed_pid",
+                PidConfig {
+                    kp: 0.15,
+                    ki: 0.10,
+                    kd: 0.0,
+                    output_limit: 0.5,
+                    rate_limit_per_s: 2.0,
+                },
+            ),
+            steering: ControllerConfig::pid(
+                "heading_pid",
+                PidConfig {
+                    kp: 0.02,
+                    ki: 0.0,
+                    kd: 0.002,
+                    output_limit: 1.0,
+                    rate_limit_per_s: 8.0,
+                },
+            ),
+            tail: ControllerConfig::none(),
+        }
+    }
+}
+
+/// The state estimate (see `dima_core::estimate`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EstimatorConfig {
+    /// Sign from gyro Z to heading rate (clockwise positive): -1 when the board's Z axis
+    /// points up. The accelerometer's X axis points forward and Y to the left.
+    pub gyro_yaw_sign: f32,
+    /// Below this ground speed the GNSS heading of motion is not trusted, in mm/s.
+    pub min_heading_speed_mm_s: i32,
+    /// Time constant of the complementary filter pulling the gyro heading towards the GNSS
+    /// heading of motion, in seconds; 0 takes each GNSS heading as it is.
+    pub heading_tau_s: f32,
+    /// Time constant with which the gyro and forward-accelerometer biases are learnt while
+    /// standing still, in seconds; 0 learns none.
+    pub gyro_bias_tau_s: f32,
+    /// Standing still: GNSS ground speed below this (mm/s)...
+    pub still_speed_mm_s: i32,
+    /// ...and a yaw rate below this (°/s).
+    pub still_rate_dps: f32,
+    /// Bridge the ground speed between GNSS fixes with the forward acceleration (false: the
+    /// last fix's speed until the next).
+    pub accel_bridging: bool,
+}
+
+impl Default for EstimatorConfig {
+    fn default() -> Self {
+        EstimatorConfig {
+            gyro_yaw_sign: -1.0,
+            min_heading_speed_mm_s: 500,
+            heading_tau_s: 0.5,
+            gyro_bias_tau_s: 1.0,
+            still_speed_mm_s: 100,
+            still_rate_dps: 5.0,
+            accel_bridging: true,
         }
     }
 }
@@ -461,11 +602,26 @@ pub fn bits_per_byte(stop_bits: u8) -> u64 {
 
 impl Config {
     /// Parses and validates a configuration from TOML text; `origin` names it in errors.
+    ///
+    /// A file in the layout of DIMA-RS 0.1 (hard-wired `[control.speed]` and `[control.heading]`
+    /// PIDs) is read as what it meant: those PIDs as `speed_pid` and `heading_pid`, no tail
+    /// controller, and the estimate they used (`heading_tau_s = 0`, `gyro_bias_tau_s = 0`,
+    /// `accel_bridging = false`), so its logs replay identically.
     pub fn from_toml(text: &str, origin: &str) -> Result<Config, ConfigError> {
-        let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        let parse_error = |e: toml::de::Error| ConfigError::Parse {
             origin: origin.to_owned(),
             reason: e.to_string().trim_end().to_owned(),
-        })?;
+        };
+        let config: Config = match toml::from_str(text) {
+            Ok(config) => config,
+            Err(e) => {
+                let mut table = toml::from_str::<toml::Table>(text).map_err(parse_error)?;
+                if !migrate_v0_1(&mut table) {
+                    return Err(parse_error(e));
+                }
+                toml::Value::Table(table).try_into().map_err(parse_error)?
+            }
+        };
         config.validate()?;
         Ok(config)
     }
@@ -502,6 +658,7 @@ impl Config {
         self.validate_safety()?;
         self.validate_channels()?;
         self.validate_control()?;
+        self.validate_estimator()?;
         within("log.decoded_every", self.log.decoded_every, 1..=u32::MAX)
     }
 
@@ -648,49 +805,93 @@ impl Config {
 
     fn validate_control(&self) -> Result<(), ConfigError> {
         let c = &self.control;
-        for (name, pid) in [("speed", &c.speed), ("heading", &c.heading)] {
-            for (field, gain) in [("kp", pid.kp), ("ki", pid.ki), ("kd", pid.kd)] {
-                if !(gain.is_finite() && gain >= 0.0) {
-                    return Err(invalid(
-                        format!("control.{name}.{field}"),
-                        gain,
-                        "expected a finite gain >= 0",
-                    ));
-                }
-            }
-            if !(0.0..=1.0).contains(&pid.output_limit) {
-                return Err(invalid(
-                    format!("control.{name}.output_limit"),
-                    pid.output_limit,
-                    "expected 0..=1 (a fraction of the channel's travel)",
-                ));
-            }
-            if !(pid.rate_limit_per_s.is_finite() && pid.rate_limit_per_s > 0.0) {
-                return Err(invalid(
-                    format!("control.{name}.rate_limit_per_s"),
-                    pid.rate_limit_per_s,
-                    "expected a finite rate > 0",
-                ));
-            }
-        }
-        if c.gyro_yaw_sign != 1.0 && c.gyro_yaw_sign != -1.0 {
-            return Err(invalid(
-                "control.gyro_yaw_sign",
-                c.gyro_yaw_sign,
-                "expected 1 or -1 (-1 when the board's Z axis points up)",
-            ));
-        }
-        within(
-            "control.min_heading_speed_mm_s",
-            c.min_heading_speed_mm_s,
-            0..=20_000,
-        )?;
+        ControllerSet::new(c).map_err(|(channel, e)| controller_error(channel, e))?;
         within("control.max_speed_mm_s", c.max_speed_mm_s, 1..=50_000)?;
         within(
             "control.max_speed_accuracy_mm_s",
             c.max_speed_accuracy_mm_s,
             1..=100_000,
         )
+    }
+
+    fn validate_estimator(&self) -> Result<(), ConfigError> {
+        let e = &self.estimator;
+        if e.gyro_yaw_sign != 1.0 && e.gyro_yaw_sign != -1.0 {
+            return Err(invalid(
+                "estimator.gyro_yaw_sign",
+                e.gyro_yaw_sign,
+                "expected 1 or -1 (-1 when the board's Z axis points up)",
+            ));
+        }
+        within(
+            "estimator.min_heading_speed_mm_s",
+            e.min_heading_speed_mm_s,
+            0..=20_000,
+        )?;
+        within("estimator.heading_tau_s", e.heading_tau_s, 0.0..=60.0)?;
+        within("estimator.gyro_bias_tau_s", e.gyro_bias_tau_s, 0.0..=600.0)?;
+        within("estimator.still_speed_mm_s", e.still_speed_mm_s, 0..=1_000)?;
+        within("estimator.still_rate_dps", e.still_rate_dps, 0.0..=90.0)
+    }
+}
+
+/// Rewrites a DIMA-RS 0.1 `[control]` section in place; false if `table` is not one.
+fn migrate_v0_1(table: &mut toml::Table) -> bool {
+    let Some(toml::Value::Table(control)) = table.get_mut("control") else {
+        return false;
+    };
+    if !control.contains_key("speed") && !control.contains_key("heading") {
+        return false;
+    }
+    let mut estimator = toml::Table::new();
+    for key in ["gyro_yaw_sign", "min_heading_speed_mm_s"] {
+        if let Some(v) = control.remove(key) {
+            estimator.insert(key.into(), v);
+        }
+    }
+    estimator.insert("heading_tau_s".into(), toml::Value::Float(0.0));
+    estimator.insert("gyro_bias_tau_s".into(), toml::Value::Float(0.0));
+    estimator.insert("accel_bridging".into(), toml::Value::Boolean(false));
+    for (old, new, kind) in [
+        ("speed", "throttle", "speed_pid"),
+        ("heading", "steering", "heading_pid"),
+    ] {
+        let mut params = match control.remove(old) {
+            Some(toml::Value::Table(t)) => t,
+            _ => ControlConfig::default().channel_table(new),
+        };
+        params.insert("kind".into(), toml::Value::String(kind.into()));
+        control.insert(new.into(), toml::Value::Table(params));
+    }
+    control.insert(
+        "tail".into(),
+        toml::Value::Table(toml::Table::from_iter([(
+            "kind".to_owned(),
+            toml::Value::String("none".into()),
+        )])),
+    );
+    table.insert("estimator".into(), toml::Value::Table(estimator));
+    true
+}
+
+/// A controller's parameter error as a configuration error naming `control.<channel>.<key>`.
+fn controller_error(channel: Channel, e: ParamError) -> ConfigError {
+    let section = format!("control.{}", channel.name());
+    match e {
+        ParamError::Invalid {
+            field,
+            value,
+            allowed,
+        } => invalid(format!("{section}.{field}"), value, &allowed),
+        ParamError::UnknownKind(kind) => invalid(
+            format!("{section}.kind"),
+            format!("\"{kind}\""),
+            &format!("expected one of: {}", kind_names()),
+        ),
+        ParamError::Parse(reason) => ConfigError::Parse {
+            origin: format!("[{section}]"),
+            reason,
+        },
     }
 }
 
@@ -772,34 +973,40 @@ mod tests {
             ("[safety]\nsensor_loss_packets = 251", "safety.sensor_loss_packets", "1..=250"),
             ("[safety]\noverrun_limit = 0", "safety.overrun_limit", "1..=250"),
             ("[safety]\noverrun_limit = 100000", "safety.overrun_limit", "1..=250"),
-            ("[control]\ngyro_yaw_sign = 0", "control.gyro_yaw_sign", "1 or -1"),
-            ("[control]\ngyro_yaw_sign = 0.5", "control.gyro_yaw_sign", "1 or -1"),
+            ("[estimator]\ngyro_yaw_sign = 0", "estimator.gyro_yaw_sign", "1 or -1"),
+            ("[estimator]\ngyro_yaw_sign = 0.5", "estimator.gyro_yaw_sign", "1 or -1"),
+            ("[estimator]\nheading_tau_s = -1", "estimator.heading_tau_s", "0..=60"),
+            (
+                "[control.tail]\nkind = \"lqr\"",
+                "control.tail.kind",
+                "none, speed_pid, heading_pid, yaw_rate",
+            ),
             ("[sensor]\nbaud = 12345", "sensor.baud", "standard rate"),
             ("[xbee]\nbaud = 9601", "xbee.baud", "standard rate"),
             ("[maestro]\nbaud = 0", "maestro.baud", "standard rate"),
             (
-                "[control.speed]\nkp = -1\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 1",
-                "control.speed.kp",
+                "[control.throttle]\nkind = \"speed_pid\"\nkp = -1\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 1",
+                "control.throttle.kp",
                 ">= 0",
             ),
             (
-                "[control.speed]\nkp = nan\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 1",
-                "control.speed.kp",
+                "[control.throttle]\nkind = \"speed_pid\"\nkp = nan\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 1",
+                "control.throttle.kp",
                 "finite",
             ),
             (
-                "[control.heading]\nkp = 1\nki = 0\nkd = inf\noutput_limit = 0.5\nrate_limit_per_s = 1",
-                "control.heading.kd",
+                "[control.steering]\nkind = \"heading_pid\"\nkp = 1\nki = 0\nkd = inf\noutput_limit = 0.5\nrate_limit_per_s = 1",
+                "control.steering.kd",
                 "finite",
             ),
             (
-                "[control.speed]\nkp = 1\nki = 0\nkd = 0\noutput_limit = 1.5\nrate_limit_per_s = 1",
-                "control.speed.output_limit",
+                "[control.throttle]\nkind = \"speed_pid\"\nkp = 1\nki = 0\nkd = 0\noutput_limit = 1.5\nrate_limit_per_s = 1",
+                "control.throttle.output_limit",
                 "0..=1",
             ),
             (
-                "[control.speed]\nkp = 1\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 0",
-                "control.speed.rate_limit_per_s",
+                "[control.throttle]\nkind = \"speed_pid\"\nkp = 1\nki = 0\nkd = 0\noutput_limit = 0.5\nrate_limit_per_s = 0",
+                "control.throttle.rate_limit_per_s",
                 "> 0",
             ),
             (

@@ -5,7 +5,10 @@
 //! - [`config`]: the TOML configuration with documented defaults and bounds;
 //! - [`safety`]: the safety state machine (KILLED, MANUAL, AUTO, FAILSAFE) and its causes;
 //! - [`monitor`]: request/answer pairing, GNSS freshness, stuck IMU, overruns by rate;
-//! - [`control`]: the AUTO controllers and the mapping from modes to servo targets;
+//! - [`estimate`]: the state estimate (speed, heading, yaw rate, accelerations) the controllers
+//!   read;
+//! - [`control`]: the [`Controller`](control::Controller) trait, the controllers by name, and
+//!   the mapping from modes to servo targets;
 //! - [`step`]: [`Core::step`], one cycle as a pure function of state, inputs, time and
 //!   configuration;
 //! - [`counters`], [`schema`]: the counters and the typed log messages, whose JSON schemas are
@@ -16,7 +19,7 @@
 //! use dima_core::step::{CycleInputs, SensorInput};
 //! use dima_core::{Core, CoreState, Command, Mode};
 //!
-//! let core = Core::new(&Config::default());
+//! let mut core = Core::new(&Config::default()).expect("the default configuration is valid");
 //! let mut state = CoreState::new();
 //! let inputs = CycleInputs {
 //!     missed_periods: 0,
@@ -35,6 +38,7 @@
 pub mod config;
 pub mod control;
 pub mod counters;
+pub mod estimate;
 pub mod monitor;
 pub mod safety;
 pub mod schema;

@@ -10,10 +10,12 @@
 use dima_groundlink::Command;
 use dima_sensorboard::{units, RawPacket, SensorPacket};
 
-use crate::config::Config;
-use crate::control::ServoTargets;
-use crate::control::{Actuation, AutoController, AutoState, Controller, OutputMap, SensorValues};
+use crate::config::{Config, ConfigError};
+use crate::control::{
+    Actuation, ControlInput, ControllerSet, OutputMap, SensorValues, ServoTargets,
+};
 use crate::counters::Counters;
+use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
 use crate::monitor::{AnswerWindow, GnssFreshness, ImuStuckDetector, OverrunWindow, PacketVerdict};
 use crate::safety::{CycleHealth, FailsafeCause, Mode, ReviveRefusal, SafetyLimits, SafetyState};
 use crate::Nanos;
@@ -85,6 +87,8 @@ pub struct CycleOutputs {
     pub action: Actuation,
     /// Controller inputs.
     pub values: SensorValues,
+    /// The state estimate after this cycle.
+    pub estimate: StateEstimate,
 }
 
 /// Everything the step remembers between cycles.
@@ -92,8 +96,10 @@ pub struct CycleOutputs {
 pub struct CoreState {
     /// Mode, setpoints, link time, bad-packet run.
     pub safety: SafetyState,
-    /// Controller state.
-    pub auto: AutoState,
+    /// Estimator state.
+    pub estimator: EstimatorState,
+    /// The state estimate of the last cycle.
+    pub estimate: StateEstimate,
     /// The last controller output, held while packets are missing.
     pub action: Actuation,
     /// Controller inputs from the last good packet.
@@ -119,12 +125,14 @@ impl CoreState {
     }
 }
 
-/// The configuration in the form the step uses.
-#[derive(Debug, Clone, PartialEq)]
+/// The configuration in the form the step uses, and the channels' controllers (which keep
+/// their own state: one `Core` runs one [`CoreState`]).
+#[derive(Debug)]
 pub struct Core {
     limits: SafetyLimits,
     outputs: OutputMap,
-    controller: AutoController,
+    controllers: ControllerSet,
+    estimator: Estimator,
     answer: AnswerWindow,
     period_ns: Nanos,
     gnss_timeout_ns: Nanos,
@@ -134,13 +142,21 @@ pub struct Core {
 }
 
 impl Core {
-    /// From a validated configuration.
-    pub fn new(config: &Config) -> Core {
+    /// From a configuration; fails only as [`Config::validate`] would.
+    pub fn new(config: &Config) -> Result<Core, ConfigError> {
+        config.validate()?;
+        let controllers =
+            ControllerSet::new(&config.control).map_err(|(channel, e)| ConfigError::Invalid {
+                key: format!("control.{}", channel.name()),
+                value: config.control.channel(channel).kind.clone(),
+                allowed: e.to_string(),
+            })?;
         let us = |v: u32| u64::from(v) * 1_000;
-        Core {
+        Ok(Core {
             limits: SafetyLimits::new(&config.safety, &config.control),
             outputs: OutputMap::new(&config.channels),
-            controller: AutoController::new(&config.control),
+            controllers,
+            estimator: Estimator::new(&config.estimator),
             answer: AnswerWindow::new(
                 config.packet_wire_ns(),
                 us(config.sensor.wire_tolerance_us),
@@ -151,7 +167,7 @@ impl Core {
             max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
             imu_stuck_packets: config.safety.imu_stuck_packets,
             overrun_limit: config.safety.overrun_limit,
-        }
+        })
     }
 
     /// The channel table.
@@ -220,13 +236,28 @@ impl Core {
         }
         state.values.gnss = state.gnss.current(now, self.gnss_timeout_ns);
         state.values.gnss_new = new_fix.is_some();
+        let imu = packet.as_ref().map(|p| ImuSample {
+            gyro_z_dps: state.values.gyro_z_dps,
+            accel_x_m_s2: units::accel_m_s2_2g(p.accel[0]),
+            accel_y_m_s2: units::accel_m_s2_2g(p.accel[1]),
+        });
+        state.estimate = self.estimator.update(
+            &mut state.estimator,
+            imu,
+            state.values.gnss,
+            state.values.gnss_new,
+            now,
+        );
         (verdict, latency, packet)
     }
 
-    /// The controller, in AUTO on a good packet; the last action is held on a missing one.
-    fn control(&self, state: &mut CoreState, packet_ok: bool, now: Nanos) {
+    /// The controllers, in AUTO on a good packet; the last action is held on a missing one.
+    /// Every mode change resets them.
+    fn control(&mut self, state: &mut CoreState, packet_ok: bool, mode_changed: bool, now: Nanos) {
+        if mode_changed {
+            self.controllers.reset();
+        }
         if state.safety.mode != Mode::Auto {
-            state.auto = AutoState::default();
             state.action = Actuation::default();
             state.last_step_ns = None;
             return;
@@ -237,20 +268,24 @@ impl Core {
         let dt_ns = state
             .last_step_ns
             .map_or(self.period_ns, |t| now.saturating_sub(t));
-        let (auto, action) = self.controller.step(
-            state.auto,
-            &state.safety.setpoints,
-            &state.values,
-            dt_ns as f32 * 1e-9,
-        );
-        state.auto = auto;
-        state.action = action;
+        state.action = self.controllers.update(ControlInput {
+            estimate: &state.estimate,
+            setpoints: &state.safety.setpoints,
+            mode: state.safety.mode,
+            dt_s: dt_ns as f32 * 1e-9,
+            earlier: Actuation::default(),
+        });
         state.last_step_ns = Some(now);
     }
 
     /// One cycle at `now` (the cycle's wake-up time, ns, on the same clock as the inputs'
     /// timestamps).
-    pub fn step(&self, state: &mut CoreState, inputs: &CycleInputs, now: Nanos) -> CycleOutputs {
+    pub fn step(
+        &mut self,
+        state: &mut CoreState,
+        inputs: &CycleInputs,
+        now: Nanos,
+    ) -> CycleOutputs {
         let mode_before = state.safety.mode;
         state.counters.cycles += 1;
         state.counters.packets_stale += u64::from(inputs.stale_packets);
@@ -287,7 +322,7 @@ impl Core {
         if mode_changed && state.safety.mode == Mode::Failsafe {
             state.counters.failsafes += 1;
         }
-        self.control(state, verdict.is_ok(), now);
+        self.control(state, verdict.is_ok(), mode_changed, now);
 
         let targets =
             self.outputs
@@ -306,6 +341,7 @@ impl Core {
             gnss_age_ns: state.gnss.age_ns(now),
             action: state.action,
             values: state.values,
+            estimate: state.estimate,
         }
     }
 

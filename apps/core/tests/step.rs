@@ -92,7 +92,7 @@ impl Rig {
         config.validate().expect("valid test configuration");
         let healthy_after = config.safety.revive_good_packets;
         let mut rig = Rig {
-            core: Core::new(&config),
+            core: Core::new(&config).expect("a valid configuration"),
             state: CoreState::new(),
             now: 1_000 * MS,
             board: Board::new(),

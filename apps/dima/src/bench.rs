@@ -70,7 +70,7 @@ pub enum BenchCommand {
 /// inside it with callgrind.
 #[inline(never)]
 pub fn measured_cycles(
-    core: &Core,
+    core: &mut Core,
     state: &mut CoreState,
     cycles: &[RecordedCycle],
     channels: [u8; 3],
@@ -129,17 +129,20 @@ pub fn cycle_cost(log: &std::path::Path, repeat: u32) -> anyhow::Result<(usize, 
     let run = LoggedRun::read(log)?;
     run.warn(log);
     let config = run.config.clone().context("the log has no configuration")?;
-    let core = Core::new(&config);
     let (cycles, realtime_fault) = recorded_cycles(&run)?;
-    let channels = core.outputs().channel_numbers();
+    // A fresh core (and its controllers) per pass, built before the clock starts.
+    let passes = (0..repeat.max(1))
+        .map(|_| Core::new(&config))
+        .collect::<Result<Vec<_>, _>>()?;
+    let channels = Core::new(&config)?.outputs().channel_numbers();
     let mut sink = 0u64;
     let start = std::time::Instant::now();
-    for _ in 0..repeat.max(1) {
+    for mut core in passes {
         let mut state = CoreState {
             realtime_fault,
             ..CoreState::new()
         };
-        sink = sink.wrapping_add(measured_cycles(&core, &mut state, &cycles, channels));
+        sink = sink.wrapping_add(measured_cycles(&mut core, &mut state, &cycles, channels));
     }
     let elapsed = start.elapsed();
     std::hint::black_box(sink);

@@ -1,5 +1,6 @@
 //! The vehicle model: a kinematic bicycle with first-order throttle -> speed dynamics,
-//! steering -> yaw rate through the wheelbase, and an active tail that adds a yaw torque.
+//! steering -> yaw rate through the wheelbase, and an active tail whose yaw moment grows with
+//! deflection and speed squared, acting on the car's yaw inertia.
 //!
 //! Pure and deterministic: the state advances in fixed sub-steps from inputs and time only, so
 //! the same inputs at the same times give the same trajectory. Headings are degrees clockwise
@@ -16,9 +17,12 @@ pub struct VehicleParams {
     pub top_speed_m_s: f64,
     /// Time constant of the speed response to throttle, s.
     pub speed_tau_s: f64,
-    /// Yaw acceleration at full tail deflection, degrees/s².
-    pub tail_yaw_accel_dps2: f64,
-    /// Time constant with which the tail-induced yaw rate decays, s.
+    /// Tail yaw moment at full deflection per squared speed, N·m/(m/s)² (the tail's forces,
+    /// like any aerodynamic or ground-reaction force, grow with the square of the speed).
+    pub tail_moment_n_m_per_m2_s2: f64,
+    /// Yaw moment of inertia of the car, kg·m².
+    pub yaw_inertia_kg_m2: f64,
+    /// Time constant with which the tyres take back the tail-induced yaw rate, s.
     pub tail_decay_tau_s: f64,
     /// Throttle fractions smaller than this are the ESC's dead band (no drive).
     pub throttle_dead_band: f64,
@@ -31,7 +35,9 @@ impl Default for VehicleParams {
             max_steer_deg: 25.0,
             top_speed_m_s: 10.0,
             speed_tau_s: 0.4,
-            tail_yaw_accel_dps2: 240.0,
+            // 0.25 N·m at 5 m/s: 240 °/s² on the 0.06 kg·m² of a 2.5 kg, 45 x 25 cm car.
+            tail_moment_n_m_per_m2_s2: 0.01,
+            yaw_inertia_kg_m2: 0.06,
             tail_decay_tau_s: 0.3,
             throttle_dead_band: 0.02,
         }
@@ -168,8 +174,9 @@ impl Vehicle {
         s.accel_m_s2 = accel;
         let steer = (u.steering * p.max_steer_deg).to_radians();
         let bicycle_dps = (s.speed_m_s / p.wheelbase_m * steer.tan()).to_degrees();
-        s.tail_yaw_dps +=
-            (u.tail * p.tail_yaw_accel_dps2 - s.tail_yaw_dps / p.tail_decay_tau_s) * dt;
+        let tail_moment = u.tail * p.tail_moment_n_m_per_m2_s2 * s.speed_m_s * s.speed_m_s;
+        let tail_yaw_accel_dps2 = (tail_moment / p.yaw_inertia_kg_m2).to_degrees();
+        s.tail_yaw_dps += (tail_yaw_accel_dps2 - s.tail_yaw_dps / p.tail_decay_tau_s) * dt;
         s.yaw_rate_dps = bicycle_dps + s.tail_yaw_dps;
         s.heading_deg = (s.heading_deg + s.yaw_rate_dps * dt).rem_euclid(360.0);
         let h = s.heading_deg.to_radians();
@@ -284,18 +291,41 @@ mod tests {
     }
 
     #[test]
-    fn tail_adds_yaw_even_when_stopped_and_decays() {
-        let mut v = car();
-        v.set_inputs(Inputs {
-            tail: 1.0,
-            ..Inputs::default()
-        });
-        v.advance_to(2.0);
-        let r = v.state().yaw_rate_dps;
-        assert!((r - 240.0 * 0.3).abs() < 1.0, "{r}");
-        v.set_inputs(Inputs::default());
-        v.advance_to(4.0);
-        assert!(v.state().yaw_rate_dps.abs() < 1.0);
+    fn tail_yaw_grows_with_speed_squared_and_decays() {
+        let p = VehicleParams::default();
+        // Steady tail yaw rate at full deflection: moment / inertia x decay time constant.
+        let steady = |speed: f64| {
+            (p.tail_moment_n_m_per_m2_s2 * speed * speed / p.yaw_inertia_kg_m2).to_degrees()
+                * p.tail_decay_tau_s
+        };
+        for (throttle, t_end) in [(0.0, 10.0), (0.25, 12.0), (0.5, 14.0)] {
+            let mut v = car();
+            v.set_inputs(Inputs {
+                throttle,
+                ..Inputs::default()
+            });
+            v.advance_to(t_end - 2.0);
+            let speed = v.state().speed_m_s;
+            v.set_inputs(Inputs {
+                throttle,
+                tail: 1.0,
+                ..Inputs::default()
+            });
+            v.advance_to(t_end);
+            let r = v.state().tail_yaw_dps;
+            assert!(
+                (r - steady(speed)).abs() < 0.02 * steady(speed) + 0.01,
+                "{speed} m/s: {r}"
+            );
+            v.set_inputs(Inputs {
+                throttle,
+                ..Inputs::default()
+            });
+            v.advance_to(t_end + 3.0);
+            assert!(v.state().tail_yaw_dps.abs() < 0.5);
+        }
+        // At 5 m/s: 0.25 N·m, 240 °/s², 72 °/s after the tyres' decay.
+        assert!((steady(5.0) - 71.6).abs() < 0.1);
     }
 
     #[test]

@@ -1,20 +1,29 @@
-//! Control: the safety state machine, the AUTO-mode controllers and the output mapping.
+//! Control: the safety state machine's outputs, the AUTO-mode controllers and the output
+//! mapping.
 //!
+//! One [`Controller`] per output channel, chosen by name in the configuration
+//! ([`registry::KINDS`]), each reading the shared [`StateEstimate`](crate::estimate::StateEstimate).
 //! Everything here is a pure function of its inputs: time comes in as a number, nothing reads a
-//! clock, touches a device or allocates, so the realtime loop, the simulator and the tests run
-//! the very same code.
+//! clock, touches a device or allocates in a cycle, so the realtime loop, the simulator, replays
+//! and the tests run the very same code.
 
-pub mod controllers;
+pub mod controller;
+pub mod heading_pid;
 pub mod mapping;
+pub mod neutral;
 pub mod pid;
+pub mod registry;
+pub mod speed_pid;
+pub mod yaw_rate;
 
-pub use controllers::{AutoController, AutoState, Controller};
+pub use controller::{Channel, ControlInput, Controller};
 pub use mapping::{OutputMap, ServoTargets};
 pub use pid::{Pid, PidState};
+pub use registry::{ControllerSet, ParamError, KINDS};
 
 use crate::monitor::FreshFix;
 
-/// What the controllers need from the sensors, in physical units.
+/// The sensor values of the last good packet and the GNSS freshness, as the step tracks them.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SensorValues {
     /// Gyroscope Z rate, degrees per second (board frame), from the last good packet.
@@ -33,6 +42,6 @@ pub struct Actuation {
     pub throttle: f32,
     /// Steering (+ towards `max_us`, clockwise by convention).
     pub steering: f32,
-    /// Tail.
+    /// Tail (+ towards `max_us`, a clockwise yaw moment by convention).
     pub tail: f32,
 }

@@ -45,7 +45,7 @@ pub struct BusyFault {
 }
 
 /// Settings of the loop, derived from the configuration before it starts.
-#[derive(Debug, Clone)]
+#[derive(Debug)]
 pub struct LoopParams {
     /// Period, ns.
     pub period_ns: Nanos,
@@ -66,11 +66,11 @@ pub struct LoopParams {
 }
 
 impl LoopParams {
-    /// From a validated configuration.
-    pub fn from_config(config: &Config) -> LoopParams {
+    /// From a configuration (refused as `dima config --check` would refuse it).
+    pub fn from_config(config: &Config) -> Result<LoopParams, dima_core::config::ConfigError> {
         let rate = config.realtime.loop_rate_hz.max(1);
-        let core = Core::new(config);
-        LoopParams {
+        let core = Core::new(config)?;
+        Ok(LoopParams {
             period_ns: config.period_ns(),
             packet_deadline_ns: config.packet_deadline_after_request_ns(),
             write_budget_ns: u64::from(config.maestro.write_budget_us) * 1_000,
@@ -79,7 +79,7 @@ impl LoopParams {
             channels: core.outputs().channel_numbers(),
             core,
             busy: None,
-        }
+        })
     }
 }
 
@@ -482,6 +482,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             gnss_age_ns: None,
             action: Default::default(),
             values: self.state.values,
+            estimate: self.state.estimate,
         };
         self.publish(CycleRecord {
             cycle: self.cycle,

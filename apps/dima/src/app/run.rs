@@ -138,7 +138,7 @@ where
     S: ServoOutput + Send + 'static,
 {
     config.validate()?;
-    let mut params = LoopParams::from_config(config);
+    let mut params = LoopParams::from_config(config)?;
     params.busy = options.busy;
     let rt = &config.realtime;
     if rt.lock_memory {

@@ -176,8 +176,7 @@ fn recorded_sensor(c: &CycleMessage, raw: Option<&[u8; 132]>) -> anyhow::Result<
 
 /// Replays `run` through the step configured by `config`.
 pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
-    config.validate()?;
-    let core = Core::new(config);
+    let mut core = Core::new(config)?;
     let (cycles, realtime_fault) = recorded_cycles(run)?;
     let mut state = CoreState {
         realtime_fault,
