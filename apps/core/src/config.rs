@@ -888,10 +888,7 @@ fn controller_error(channel: Channel, e: ParamError) -> ConfigError {
             format!("\"{kind}\""),
             &format!("expected one of: {}", kind_names()),
         ),
-        ParamError::Parse(reason) => ConfigError::Parse {
-            origin: format!("[{section}]"),
-            reason,
-        },
+        ParamError::Parse(reason) => invalid(section, "{ .. }", &format!("parameters: {reason}")),
     }
 }
 
