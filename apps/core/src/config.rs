@@ -16,8 +16,12 @@ use crate::control::{Channel, ControllerSet, ParamError};
 pub struct Config {
     /// Sensor-board link.
     pub sensor: SensorConfig,
-    /// Pololu Maestro servo controller.
+    /// Which board drives the servos.
+    pub servo: ServoConfig,
+    /// Pololu Maestro servo controller (`servo.kind = "maestro"`).
     pub maestro: MaestroConfig,
+    /// PCA9685 PWM board on I2C (`servo.kind = "pca9685"`).
+    pub pca9685: Pca9685Config,
     /// XBee ground link.
     pub xbee: XbeeConfig,
     /// Realtime loop and thread settings.
@@ -105,6 +109,59 @@ impl Default for MaestroConfig {
             baud: 115_200,
             servo_refresh_hz: 50,
             write_budget_us: 300,
+            reopen_interval_ms: 1_000,
+        }
+    }
+}
+
+/// The servo outputs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct ServoConfig {
+    /// The board: `maestro` (USB serial) or `pca9685` (I2C).
+    pub kind: ServoKind,
+}
+
+/// A servo board.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum ServoKind {
+    /// Pololu Maestro on its USB command port (`[maestro]`).
+    #[default]
+    Maestro,
+    /// NXP PCA9685 16-channel PWM board on an I2C bus (`[pca9685]`).
+    Pca9685,
+}
+
+/// PCA9685 PWM board on the Jetson's I2C bus.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Pca9685Config {
+    /// I2C bus device.
+    pub device: PathBuf,
+    /// 7-bit I2C address (0x40 with no address jumper set).
+    pub address: u8,
+    /// PWM frequency, Hz (24..=1526, the chip's range with its 25 MHz oscillator); the servo
+    /// refresh rate. Every channel's `max_us` must fit in its period.
+    pub pwm_frequency_hz: u32,
+    /// Oscillator frequency, Hz (25 MHz internal; trim it to a measured value for accurate
+    /// pulse widths).
+    pub oscillator_hz: u32,
+    /// Time the loop allows for writing the servo targets, in microseconds (three register
+    /// writes on the bus); the packet deadline plus this budget must fit in the period.
+    pub write_budget_us: u32,
+    /// Pause between attempts to reopen a missing device, in milliseconds.
+    pub reopen_interval_ms: u32,
+}
+
+impl Default for Pca9685Config {
+    fn default() -> Self {
+        Pca9685Config {
+            device: "/dev/i2c-1".into(),
+            address: 0x40,
+            pwm_frequency_hz: 50,
+            oscillator_hz: 25_000_000,
+            write_budget_us: 250,
             reopen_interval_ms: 1_000,
         }
     }
@@ -249,7 +306,7 @@ impl SafeOutput {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ChannelConfig {
-    /// Maestro channel number.
+    /// Output channel on the servo board (Maestro 0..=23, PCA9685 0..=15).
     pub channel: u8,
     /// Pulse width at 0 %, in microseconds.
     pub min_us: u16,
@@ -312,6 +369,15 @@ impl ChannelsConfig {
     /// The channels in output order: throttle, steering, tail.
     pub fn all(&self) -> [&ChannelConfig; 3] {
         [&self.throttle, &self.steering, &self.tail]
+    }
+
+    /// The channels with their names, in output order.
+    pub fn named(&self) -> [(&'static str, &ChannelConfig); 3] {
+        [
+            ("throttle", &self.throttle),
+            ("steering", &self.steering),
+            ("tail", &self.tail),
+        ]
     }
 }
 
@@ -711,14 +777,15 @@ impl Config {
                 ),
             ));
         }
-        let budget_us = u64::from(self.maestro.write_budget_us);
+        let budget_us = u64::from(self.servo_write_budget_us());
         if deadline_us + budget_us > period_us {
             return Err(invalid(
                 "sensor.packet_deadline_us",
                 deadline_us,
                 &format!(
-                    "plus maestro.write_budget_us ({budget_us}) must fit in the period \
+                    "plus {}.write_budget_us ({budget_us}) must fit in the period \
                      ({period_us} µs at realtime.loop_rate_hz = {})",
+                    self.servo_section(),
                     self.realtime.loop_rate_hz
                 ),
             ));
@@ -738,6 +805,7 @@ impl Config {
             self.maestro.servo_refresh_hz,
             1..=self.realtime.loop_rate_hz,
         )?;
+        self.validate_pca9685()?;
         let rate = self.xbee.display_rate_hz;
         if !(rate > 0.0 && rate <= 100.0) {
             return Err(invalid("xbee.display_rate_hz", rate, "expected (0, 100]"));
@@ -759,15 +827,70 @@ impl Config {
         within("safety.revive_good_packets", s.revive_good_packets, 1..=250)
     }
 
+    fn validate_pca9685(&self) -> Result<(), ConfigError> {
+        let p = &self.pca9685;
+        within("pca9685.address", p.address, 0x40..=0x7F)?;
+        within("pca9685.pwm_frequency_hz", p.pwm_frequency_hz, 24..=1_526)?;
+        within(
+            "pca9685.oscillator_hz",
+            p.oscillator_hz,
+            20_000_000..=50_000_000,
+        )?;
+        within("pca9685.write_budget_us", p.write_budget_us, 1..=100_000)?;
+        if self.servo.kind == ServoKind::Pca9685 {
+            let period_us = 1_000_000 / p.pwm_frequency_hz;
+            for (name, ch) in self.channels.named() {
+                if u32::from(ch.max_us) >= period_us {
+                    return Err(invalid(
+                        format!("channels.{name}.max_us"),
+                        ch.max_us,
+                        &format!(
+                            "must be shorter than the PWM period ({period_us} µs at \
+                             pca9685.pwm_frequency_hz = {})",
+                            p.pwm_frequency_hz
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The section of the servo board in use: `maestro` or `pca9685`.
+    pub fn servo_section(&self) -> &'static str {
+        match self.servo.kind {
+            ServoKind::Maestro => "maestro",
+            ServoKind::Pca9685 => "pca9685",
+        }
+    }
+
+    /// Time the loop allows for writing the servo targets, µs, for the board in use.
+    pub fn servo_write_budget_us(&self) -> u32 {
+        match self.servo.kind {
+            ServoKind::Maestro => self.maestro.write_budget_us,
+            ServoKind::Pca9685 => self.pca9685.write_budget_us,
+        }
+    }
+
+    /// How often the servo targets are written, Hz: the Maestro's refresh rate, or the
+    /// PCA9685's PWM frequency (no more often than the loop runs).
+    pub fn servo_write_hz(&self) -> u32 {
+        match self.servo.kind {
+            ServoKind::Maestro => self.maestro.servo_refresh_hz,
+            ServoKind::Pca9685 => self.pca9685.pwm_frequency_hz,
+        }
+        .clamp(1, self.realtime.loop_rate_hz.max(1))
+    }
+
     fn validate_channels(&self) -> Result<(), ConfigError> {
         let c = &self.channels;
-        for (name, ch) in [
-            ("throttle", &c.throttle),
-            ("steering", &c.steering),
-            ("tail", &c.tail),
-        ] {
+        let highest_channel = match self.servo.kind {
+            ServoKind::Maestro => 23,
+            ServoKind::Pca9685 => 15,
+        };
+        for (name, ch) in c.named() {
             let key = |field: &str| format!("channels.{name}.{field}");
-            within(&key("channel"), ch.channel, 0..=23)?;
+            within(&key("channel"), ch.channel, 0..=highest_channel)?;
             within(&key("max_us"), ch.max_us, 1..=4_000)?;
             within(&key("min_us"), ch.min_us, 1..=ch.max_us.saturating_sub(1))?;
             within(&key("neutral_us"), ch.neutral_us, ch.min_us..=ch.max_us)?;
@@ -959,6 +1082,28 @@ mod tests {
         Config::from_toml(toml, "test.toml")
             .expect_err(toml)
             .to_string()
+    }
+
+    #[test]
+    fn a_pca9685_takes_16_channels_and_pulses_shorter_than_its_period() {
+        let key_of = |c: &Config| match c.validate() {
+            Err(ConfigError::Invalid { key, .. }) => key,
+            other => panic!("{other:?}"),
+        };
+        let mut c = Config::default();
+        c.servo.kind = ServoKind::Pca9685;
+        c.validate()
+            .expect("the default channels fit a PCA9685 at 50 Hz");
+        c.channels.tail.channel = 16;
+        assert_eq!(key_of(&c), "channels.tail.channel");
+        c.channels.tail.channel = 15;
+        c.pca9685.pwm_frequency_hz = 500; // a 2000 µs period
+        assert_eq!(key_of(&c), "channels.throttle.max_us");
+        c.pca9685.pwm_frequency_hz = 250;
+        c.validate().expect("250 Hz servo refresh");
+        assert_eq!(c.servo_write_hz(), 250);
+        c.pca9685.pwm_frequency_hz = 1_527;
+        assert_eq!(key_of(&c), "pca9685.pwm_frequency_hz");
     }
 
     #[test]

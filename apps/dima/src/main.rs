@@ -88,8 +88,8 @@ fn run(command: Command) -> anyhow::Result<()> {
                 tracing::info!("outputs safe; {}", summary.metrics.summary());
             } else {
                 tracing::error!(
-                    "safe outputs NOT confirmed (the Maestro was missing or its last write \
-                     failed): check the car; {}",
+                    "safe outputs NOT confirmed (the servo board was missing or its last \
+                     write failed): check the car; {}",
                     summary.metrics.summary()
                 );
             }

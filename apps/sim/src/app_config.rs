@@ -7,7 +7,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-use dima_core::config::{Config, SafeOutput, STANDARD_BAUD_RATES};
+use dima_core::config::{Config, SafeOutput, ServoKind, STANDARD_BAUD_RATES};
 
 /// The steering's safe position in the simulation's default configuration, µs (neutral is
 /// 1545).
@@ -46,6 +46,8 @@ pub fn app_config(
     };
     config.sensor.port = ports.sensor.to_owned();
     config.maestro.port = ports.maestro.to_owned();
+    // The simulated servo board is a Maestro, whatever board the file names.
+    config.servo.kind = ServoKind::Maestro;
     config.xbee.port = ports.xbee.to_owned();
     config.realtime.loop_rate_hz = loop_rate_hz;
     fit_sensor_link(&mut config, file.is_none());

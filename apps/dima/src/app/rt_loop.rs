@@ -73,9 +73,9 @@ impl LoopParams {
         Ok(LoopParams {
             period_ns: config.period_ns(),
             packet_deadline_ns: config.packet_deadline_after_request_ns(),
-            write_budget_ns: u64::from(config.maestro.write_budget_us) * 1_000,
+            write_budget_ns: u64::from(config.servo_write_budget_us()) * 1_000,
             request_ahead: config.sensor.request_ahead,
-            servo_every: u64::from((rate / config.maestro.servo_refresh_hz.max(1)).max(1)),
+            servo_every: u64::from((rate / config.servo_write_hz()).max(1)),
             channels: core.outputs().channel_numbers(),
             core,
             busy: None,

@@ -15,10 +15,10 @@ use linux_embedded_hal::CdevPin;
 
 use super::record::CycleRecord;
 use super::rt_loop::{BusyFault, LoopEnds, LoopParams, RealtimeLoop};
-use crate::config::Config;
+use crate::config::{Config, ServoKind};
 use crate::devices::sensor::{open_hardware_sensor, SensorDevice};
 use crate::devices::serial::{LineSettings, SerialPort};
-use crate::devices::servo::{MaestroPort, ServoOutput};
+use crate::devices::servo::{ServoBoard, ServoOutput};
 use crate::devices::{device_link, spawn_supervisors, Opener};
 use crate::logging::{spawn_logger, LoggerSettings, McapLog};
 use crate::metrics::LoopMetrics;
@@ -37,13 +37,13 @@ pub struct Devices<P, S> {
 }
 
 /// The real hardware, as configured.
-pub fn hardware_devices(config: &Config) -> Devices<CdevPin, MaestroPort> {
+pub fn hardware_devices(config: &Config) -> Devices<CdevPin, ServoBoard> {
     let sensor = config.sensor.clone();
-    let maestro = config.maestro.clone();
+    let servo = config.clone();
     let xbee = config.xbee.clone();
     Devices {
         sensor: Box::new(move || open_hardware_sensor(&sensor)),
-        servo: Box::new(move || MaestroPort::open(&maestro)),
+        servo: Box::new(move || ServoBoard::open(&servo)),
         ground: Box::new(move || {
             SerialPort::open(
                 &xbee.port,
@@ -154,10 +154,14 @@ where
         devices.sensor,
         Duration::from_millis(u64::from(config.sensor.reopen_interval_ms)),
     );
+    let (servo_name, servo_reopen_ms) = match config.servo.kind {
+        ServoKind::Maestro => ("Maestro", config.maestro.reopen_interval_ms),
+        ServoKind::Pca9685 => ("PCA9685", config.pca9685.reopen_interval_ms),
+    };
     let (mut servo_sup, servo_link) = device_link(
-        "Maestro",
+        servo_name,
         devices.servo,
-        Duration::from_millis(u64::from(config.maestro.reopen_interval_ms)),
+        Duration::from_millis(u64::from(servo_reopen_ms)),
     );
     let aux_stop = Arc::new(AtomicBool::new(false));
     let supervisors = spawn_supervisors(
@@ -291,7 +295,7 @@ where
             if outputs_safe {
                 ""
             } else {
-                " (not confirmed: the Maestro write failed)"
+                " (not confirmed: the servo write failed)"
             }
         );
     };

@@ -8,6 +8,7 @@
 //! `dima run` opens the real ports, and a simulation can open pseudo-terminals with the very
 //! same [`serial::SerialPort`] and pass its own request line.
 
+pub mod pca9685;
 pub mod sensor;
 pub mod serial;
 pub mod servo;

@@ -3,8 +3,11 @@
 use anyhow::Context;
 use pololu_maestro::{encode_set_targets, Channel, Framing, Mini24, QuarterMicros, TargetFrame};
 
+use linux_embedded_hal::I2cdev;
+
+use super::pca9685::Pca9685Output;
 use super::serial::{LineSettings, SerialError, SerialPort};
-use crate::config::MaestroConfig;
+use crate::config::{Config, MaestroConfig, ServoKind};
 use dima_core::Nanos;
 
 /// Why a servo write failed.
@@ -95,5 +98,40 @@ impl ServoOutput for MaestroPort {
                 SerialError::Timeout => ServoError::Timeout,
                 SerialError::HangUp | SerialError::Io(_) => ServoError::Device,
             })
+    }
+}
+
+/// The servo board the configuration names (`servo.kind`).
+pub enum ServoBoard {
+    /// A Pololu Maestro on its USB command port (boxed: its port carries buffers; opened on the
+    /// device thread, never in the loop).
+    Maestro(Box<MaestroPort>),
+    /// A PCA9685 PWM board on I2C.
+    Pca9685(Pca9685Output<I2cdev>),
+}
+
+impl ServoBoard {
+    /// Opens the configured board.
+    pub fn open(config: &Config) -> anyhow::Result<ServoBoard> {
+        Ok(match config.servo.kind {
+            ServoKind::Maestro => {
+                ServoBoard::Maestro(Box::new(MaestroPort::open(&config.maestro)?))
+            }
+            ServoKind::Pca9685 => ServoBoard::Pca9685(Pca9685Output::open(&config.pca9685)?),
+        })
+    }
+}
+
+impl ServoOutput for ServoBoard {
+    fn write_targets(
+        &mut self,
+        channels: &[u8; 3],
+        targets_qus: &[u16; 3],
+        deadline_ns: Nanos,
+    ) -> Result<(), ServoError> {
+        match self {
+            ServoBoard::Maestro(m) => m.write_targets(channels, targets_qus, deadline_ns),
+            ServoBoard::Pca9685(p) => p.write_targets(channels, targets_qus, deadline_ns),
+        }
     }
 }
