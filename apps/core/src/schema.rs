@@ -10,6 +10,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::counters::Counters;
+use crate::estimate::StateEstimate;
 use crate::monitor::PacketVerdict;
 use crate::safety::{FailsafeCause, Mode, ReviveRefusal};
 
@@ -306,6 +307,9 @@ pub struct ReplayMessage {
     pub cause: Option<FailsafeCause>,
     /// Replayed controller output, fractions of travel around neutral.
     pub action: ActionMessage,
+    /// The state estimate the controllers read in this cycle (what a new controller or
+    /// estimator setting would have seen on the recorded drive).
+    pub estimate: StateEstimate,
     /// Replayed servo targets: throttle, steering, tail, µs.
     pub targets_us: [u16; 3],
     /// Recorded mode.

@@ -204,6 +204,7 @@ pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
                 steering: o.action.steering,
                 tail: o.action.tail,
             },
+            estimate: o.estimate,
             targets_us: o.targets.pulse_us,
             recorded_mode: c.mode,
             recorded_targets_us: c.targets_us,
