@@ -18,7 +18,7 @@ pub mod yaw_rate;
 
 pub use controller::{Channel, ControlInput, Controller};
 pub use mapping::{OutputMap, ServoTargets};
-pub use pid::{Pid, PidState};
+pub use pid::{Pid, PidLoop, PidState};
 pub use registry::{ControllerSet, ParamError, KINDS};
 
 use crate::monitor::FreshFix;

@@ -75,6 +75,44 @@ impl Pid {
     }
 }
 
+/// A PID and its state, run while its error is defined and reset whenever it is not.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PidLoop {
+    pid: Pid,
+    state: PidState,
+}
+
+impl PidLoop {
+    /// A loop with `pid`'s gains and limits, from rest.
+    pub fn new(pid: Pid) -> PidLoop {
+        PidLoop {
+            pid,
+            state: PidState::default(),
+        }
+    }
+
+    /// One step on `(error, measurement_rate)`; `None` (no setpoint or no measurement) gives
+    /// neutral and forgets the integral.
+    pub fn update(&mut self, error_and_rate: Option<(f32, f32)>, dt_s: f32) -> f32 {
+        match error_and_rate {
+            Some((error, rate)) => {
+                let (state, output) = self.pid.step(self.state, error, rate, dt_s);
+                self.state = state;
+                output
+            }
+            None => {
+                self.reset();
+                0.0
+            }
+        }
+    }
+
+    /// Back to rest.
+    pub fn reset(&mut self) {
+        self.state = PidState::default();
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

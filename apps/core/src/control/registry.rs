@@ -193,6 +193,45 @@ mod tests {
         );
     }
 
+    /// A controller that returns whatever it is told to.
+    #[derive(Debug)]
+    struct Returns(f32);
+
+    impl Controller for Returns {
+        fn update(&mut self, _: &ControlInput<'_>) -> f32 {
+            self.0
+        }
+
+        fn reset(&mut self) {}
+    }
+
+    #[test]
+    fn outputs_are_limited_and_the_throttle_never_reverses() {
+        let mut set = ControllerSet {
+            controllers: [
+                Box::new(Returns(-0.7)),
+                Box::new(Returns(f32::NAN)),
+                Box::new(Returns(3.0)),
+            ],
+        };
+        let estimate = crate::estimate::StateEstimate::default();
+        let out = set.update(ControlInput {
+            estimate: &estimate,
+            setpoints: &crate::safety::Setpoints::default(),
+            mode: crate::safety::Mode::Auto,
+            dt_s: 0.004,
+            earlier: Actuation::default(),
+        });
+        assert_eq!(
+            out,
+            Actuation {
+                throttle: 0.0,
+                steering: 0.0,
+                tail: 1.0
+            }
+        );
+    }
+
     #[test]
     fn none_takes_no_parameters() {
         assert!(build("none", &toml::Table::new()).is_ok());

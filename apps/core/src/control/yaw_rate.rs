@@ -11,7 +11,7 @@
 use serde::Deserialize;
 
 use super::controller::{ControlInput, Controller};
-use super::pid::{Pid, PidState};
+use super::pid::PidLoop;
 use super::registry::ParamError;
 use crate::config::PidConfig;
 
@@ -36,8 +36,7 @@ pub struct YawRateConfig {
 /// The tail's yaw-rate loop.
 #[derive(Debug, Clone, Copy)]
 pub struct YawRate {
-    pid: Pid,
-    state: PidState,
+    pid: PidLoop,
     max_yaw_rate_dps: f32,
     min_speed_mm_s: f32,
 }
@@ -69,8 +68,7 @@ impl YawRate {
             ));
         }
         Ok(YawRate {
-            pid: pid.into(),
-            state: PidState::default(),
+            pid: PidLoop::new(pid.into()),
             max_yaw_rate_dps: c.max_yaw_rate_dps,
             min_speed_mm_s: c.min_speed_mm_s,
         })
@@ -81,24 +79,15 @@ impl Controller for YawRate {
     fn update(&mut self, input: &ControlInput<'_>) -> f32 {
         let e = input.estimate;
         let fast = e.speed_mm_s.is_some_and(|v| v.value >= self.min_speed_mm_s);
-        match e.yaw_rate_dps.filter(|_| fast) {
-            Some(rate) => {
-                let reference = input.earlier.steering.clamp(-1.0, 1.0) * self.max_yaw_rate_dps;
-                let (s, u) = self
-                    .pid
-                    .step(self.state, reference - rate.value, 0.0, input.dt_s);
-                self.state = s;
-                u
-            }
-            None => {
-                self.state = PidState::default();
-                0.0
-            }
-        }
+        let error_dps = e.yaw_rate_dps.filter(|_| fast).map(|rate| {
+            let reference = input.earlier.steering.clamp(-1.0, 1.0) * self.max_yaw_rate_dps;
+            (reference - rate.value, 0.0)
+        });
+        self.pid.update(error_dps, input.dt_s)
     }
 
     fn reset(&mut self) {
-        self.state = PidState::default();
+        self.pid.reset();
     }
 }
 
