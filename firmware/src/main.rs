@@ -22,7 +22,6 @@
 mod board;
 mod delay;
 mod gnss;
-#[cfg(not(feature = "qemu"))]
 mod hw_crc;
 mod link;
 
@@ -39,13 +38,13 @@ mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
     use dima_firmware_logic::{
-        blink as led_pattern, AfterTransfer, Answer, GnssSetupOutcome, LatestPacket, ReplyPort,
-        ReplyTap, RequestHandler, SetupStatus,
+        blink as led_pattern, AfterTransfer, Answer, CheckedCrc, GnssSetupOutcome, LatestPacket,
+        ReplyPort, ReplyTap, RequestHandler, SetupStatus,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::gnss::GNSS_FRAME_LEN;
     use dima_sensorboard::info::INFO_VERSION;
-    use dima_sensorboard::{InfoFrame, PacketBuilder, SensorStatus, PACKET_LEN};
+    use dima_sensorboard::{InfoFrame, PacketBuilder, SensorStatus, INFO_V1_LEN, PACKET_LEN};
     use embedded_hal_bus::spi::AtomicDevice;
     use embedded_hal_bus::util::AtomicCell;
     use stm32f4xx_hal::gpio::{self, Edge, Input, Output, PushPull};
@@ -74,23 +73,29 @@ mod app {
     /// Resends the configurator needed (an unanswered message is sent again, up to 3 times).
     #[cfg(feature = "gnss-setup")]
     static GNSS_SETUP_RETRIES: AtomicU32 = AtomicU32::new(0);
+    /// Requests skipped because a transfer was still running (the request task's count, for
+    /// the info frame the sampling task encodes).
+    static REQUESTS_SKIPPED: AtomicU32 = AtomicU32::new(0);
     /// Received bytes the configurator's reply queue had no room for.
     static GNSS_REPLY_DROPPED: AtomicU32 = AtomicU32::new(0);
 
     /// SPI1, shared by the four chip selects.
     type SensorBus = Spi<SPI1>;
+    /// A chip select on port E, its pin number kept at run time: the four devices share one
+    /// type, so their driver code exists once in flash instead of four times.
+    type ChipSelect = gpio::PartiallyErasedPin<'E', Output<PushPull>>;
     /// One sensor die on SPI1 behind its chip select on port E.
-    pub type SensorSpi<const N: u8> =
-        AtomicDevice<'static, SensorBus, gpio::Pin<'E', N, Output<PushPull>>, CycleDelay>;
+    pub type SensorSpi = AtomicDevice<'static, SensorBus, ChipSelect, CycleDelay>;
 
-    #[cfg(not(feature = "qemu"))]
-    type Crc = crate::hw_crc::HwCrc;
-    #[cfg(feature = "qemu")]
-    type Crc = dima_sensorboard::Stm32Crc;
+    /// The CRC unit if it passed its boot-time self-check, else the small software CRC.
+    /// (QEMU does not model the unit: there the check fails and the fallback runs.)
+    type Crc = CheckedCrc<crate::hw_crc::HwCrc>;
+
+    /// Sampling ticks between two encodings of the info frame (its uptime is this fresh).
+    const INFO_REFRESH_TICKS: u32 = 10;
 
     /// The sensors, one SPI device per die.
-    pub type Sensors =
-        dima_firmware_logic::Sensors<SensorSpi<7>, SensorSpi<8>, SensorSpi<9>, SensorSpi<10>>;
+    pub type Sensors = dima_firmware_logic::Sensors<SensorSpi, SensorSpi, SensorSpi, SensorSpi>;
 
     /// Everything the sampling tick owns: the back half of the packet double buffer.
     pub struct Sampler {
@@ -100,6 +105,9 @@ mod app {
         builder: PacketBuilder,
         crc: Crc,
         sensors: Sensors,
+        /// Calibration and status for the info frame, refreshed every [`INFO_REFRESH_TICKS`].
+        info: InfoFrame,
+        ticks: u32,
     }
 
     /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects.
@@ -118,6 +126,8 @@ mod app {
     struct Shared {
         /// Front half of the double buffer: the latest complete packet.
         latest: LatestPacket<PACKET_LEN>,
+        /// The latest encoded info frame (CRC from the CRC unit, outside the request task).
+        latest_info: LatestPacket<INFO_V1_LEN>,
         /// Request state machine (only the two priority-3 link tasks use it).
         #[lock_free]
         handler: RequestHandler,
@@ -131,7 +141,6 @@ mod app {
     #[local]
     struct Local {
         request_pin: gpio::PD10<Input>,
-        info: InfoFrame,
         sampler: Sampler,
         gnss_rx: gnss::GnssRx,
         reader: GnssReader,
@@ -305,13 +314,13 @@ mod app {
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.start(WATCHDOG_MS.millis());
 
-        #[cfg(not(feature = "qemu"))]
-        let crc = crate::hw_crc::HwCrc(stm32f4xx_hal::crc32::Crc32::new(dp.CRC, &mut rcc));
-        #[cfg(feature = "qemu")]
-        let crc = dima_sensorboard::Stm32Crc;
+        let crc = CheckedCrc::check(crate::hw_crc::HwCrc(stm32f4xx_hal::crc32::Crc32::new(
+            dp.CRC, &mut rcc,
+        )));
 
         let mut status = report.status;
         status.set(SensorStatus::WATCHDOG_RESET, watchdog_reset);
+        status.set(SensorStatus::CRC_UNIT_FAILED, !crc.unit_ok());
         let info = InfoFrame {
             version: INFO_VERSION,
             firmware: FIRMWARE_VERSION,
@@ -332,6 +341,7 @@ mod app {
         (
             Shared {
                 latest: LatestPacket::new(),
+                latest_info: LatestPacket::new(),
                 handler: RequestHandler::new(),
                 link,
                 gnss_latest: GnssLatest {
@@ -341,7 +351,6 @@ mod app {
             },
             Local {
                 request_pin,
-                info,
                 sampler: Sampler {
                     timer,
                     watchdog,
@@ -352,6 +361,8 @@ mod app {
                     builder: PacketBuilder::new(),
                     crc,
                     sensors,
+                    info,
+                    ticks: 0,
                 },
                 gnss_rx,
                 reader: GnssReader::new(),
@@ -369,8 +380,8 @@ mod app {
         bus: &'static AtomicCell<SensorBus>,
         cs: gpio::Pin<'E', N, Output<PushPull>>,
         delay: CycleDelay,
-    ) -> SensorSpi<N> {
-        match AtomicDevice::new(bus, cs, delay) {
+    ) -> SensorSpi {
+        match AtomicDevice::new(bus, cs.erase_number(), delay) {
             Ok(device) => device,
             Err(never) => match never {},
         }
@@ -385,30 +396,25 @@ mod app {
     }
 
     /// A request edge: start the answer and return.
-    #[task(binds = EXTI15_10, priority = 3, local = [request_pin, info], shared = [handler, link, latest])]
-    fn request(mut cx: request::Context) {
+    #[task(binds = EXTI15_10, priority = 3, local = [request_pin], shared = [handler, link, latest, latest_info])]
+    fn request(cx: request::Context) {
         use stm32f4xx_hal::gpio::ExtiPin;
         cx.local.request_pin.clear_interrupt_pending_bit();
         let now_ms = Mono::now().ticks();
         let handler = cx.shared.handler;
         let link = cx.shared.link;
-        let answer = cx.shared.latest.lock(|latest| {
+        (cx.shared.latest, cx.shared.latest_info).lock(|latest, latest_info| {
             let packet = latest.get();
             let answer = handler.on_request(now_ms, packet.is_some());
-            if let (Answer::Send { .. }, Some(packet)) = (answer, packet) {
+            if let (Answer::Send { info }, Some(packet)) = (answer, packet) {
                 link.send_packet(packet);
+                // The info frame was encoded (CRC included) by the sampling task: copy only.
+                if let (true, Some(frame)) = (info, latest_info.get()) {
+                    link.stage_info(frame);
+                }
             }
-            answer
         });
-        if answer == (Answer::Send { info: true }) {
-            // The packet is on its way; the info frame is built while it goes out.
-            let info = cx.local.info;
-            info.uptime_ms = now_ms;
-            info.requests_skipped = handler.skipped();
-            info.status
-                .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
-            link.stage_info(&info.encode());
-        }
+        REQUESTS_SKIPPED.store(handler.skipped(), Ordering::Relaxed);
     }
 
     /// The running transfer has ended: send the info frame or go idle.
@@ -461,7 +467,7 @@ mod app {
     }
 
     /// One sampling tick: read what the schedule says, publish the packet, feed the watchdog.
-    #[task(binds = TIM2, priority = 1, local = [sampler], shared = [latest, gnss_latest])]
+    #[task(binds = TIM2, priority = 1, local = [sampler], shared = [latest, latest_info, gnss_latest])]
     fn sample(mut cx: sample::Context) {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
@@ -477,6 +483,17 @@ mod app {
                 builder.gnss_frame(&gnss.frame);
             }
         });
+        // The info frame first, so one exists whenever a packet does.
+        if sampler.ticks.is_multiple_of(INFO_REFRESH_TICKS) {
+            let info = &mut sampler.info;
+            info.uptime_ms = Mono::now().ticks();
+            info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
+            info.status
+                .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
+            let frame = info.encode_with(&mut sampler.crc);
+            cx.shared.latest_info.lock(|latest| latest.publish(&frame));
+        }
+        sampler.ticks = sampler.ticks.wrapping_add(1);
         let packet = sampler.builder.build(&mut sampler.crc);
         cx.shared.latest.lock(|latest| latest.publish(packet));
     }

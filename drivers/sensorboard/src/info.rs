@@ -63,6 +63,9 @@ bitflags! {
         const GNSS_SEEN = 1 << 4;
         /// The last reset was caused by the independent watchdog.
         const WATCHDOG_RESET = 1 << 5;
+        /// The STM32 CRC unit failed its boot-time self-check (the reference vector
+        /// `0x6557DE1A`): the board computes CRCs in software instead.
+        const CRC_UNIT_FAILED = 1 << 6;
     }
 }
 

@@ -24,7 +24,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use dima_sensorboard::gnss::{nav_pvt, NavPvt, GNSS_FRAME_LEN};
-use dima_sensorboard::{Frame, InfoFrame, RawPacket, StreamDecoder};
+use dima_sensorboard::{Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder};
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
 const PAUSE: Duration = Duration::from_secs(2);
@@ -231,6 +231,15 @@ fn main() {
         checks.check(
             info.firmware == [0, 1, 0],
             &format!("firmware version 0.1.0 (got {:?})", info.firmware),
+        );
+        // QEMU models no CRC unit (it reads zero): the boot self-check must fail, report it,
+        // and the software fallback must keep every packet valid (checked below).
+        checks.check(
+            info.status.contains(SensorStatus::CRC_UNIT_FAILED),
+            &format!(
+                "CRC unit self-check fails under QEMU and is reported (status {:#04x})",
+                info.status.bits()
+            ),
         );
         println!(
             "info: status {:#04x}, uptime {} ms, skipped {}",
