@@ -24,6 +24,7 @@ mod delay;
 mod gnss;
 mod hw_crc;
 mod link;
+mod reset_record;
 
 use panic_halt as _;
 use rtic_monotonics::systick::prelude::*;
@@ -44,7 +45,9 @@ mod app {
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::gnss::GNSS_FRAME_LEN;
     use dima_sensorboard::info::INFO_VERSION;
-    use dima_sensorboard::{InfoFrame, PacketBuilder, SensorStatus, INFO_V1_LEN, PACKET_LEN};
+    use dima_sensorboard::{
+        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, INFO_V2_LEN, PACKET_LEN,
+    };
     use embedded_hal_bus::spi::AtomicDevice;
     use embedded_hal_bus::util::AtomicCell;
     use stm32f4xx_hal::gpio::{self, Edge, Input, Output, PushPull};
@@ -76,6 +79,13 @@ mod app {
     /// Requests skipped because a transfer was still running (the request task's count, for
     /// the info frame the sampling task encodes).
     static REQUESTS_SKIPPED: AtomicU32 = AtomicU32::new(0);
+    /// Requests before the first packet existed (request task's count).
+    static REQUESTS_EARLY: AtomicU32 = AtomicU32::new(0);
+    /// DMA transfer errors on the link (link tasks' count).
+    static DMA_ERRORS: AtomicU32 = AtomicU32::new(0);
+    /// GNSS bytes outside valid UBX frames, and frames with a bad checksum (GNSS task's count).
+    static GNSS_BYTES_DROPPED: AtomicU32 = AtomicU32::new(0);
+    static GNSS_FRAME_ERRORS: AtomicU32 = AtomicU32::new(0);
     /// Received bytes the configurator's reply queue had no room for.
     static GNSS_REPLY_DROPPED: AtomicU32 = AtomicU32::new(0);
 
@@ -105,13 +115,21 @@ mod app {
         builder: PacketBuilder,
         crc: Crc,
         sensors: Sensors,
-        /// Calibration and status for the info frame, refreshed every [`INFO_REFRESH_TICKS`].
+        /// Calibration, status and health for the info frame, refreshed every
+        /// [`INFO_REFRESH_TICKS`].
         info: InfoFrame,
         ticks: u32,
     }
 
-    /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects.
-    type GnssReader = neo_m8t::GnssStream<256>;
+    /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects. With
+    /// `gnss-setup` it takes the configurator's 512 so both share one framer in flash (372
+    /// bytes of code for 256 of RAM).
+    type GnssReader = neo_m8t::GnssStream<{ GNSS_READER_LEN }>;
+    const GNSS_READER_LEN: usize = if cfg!(feature = "gnss-setup") {
+        512
+    } else {
+        256
+    };
 
     /// The configurator's serial port: USART1 TX, replies from the receive task's queue.
     type GnssPort = ReplyPort<'static, serial::Tx<pac::USART1>>;
@@ -127,7 +145,7 @@ mod app {
         /// Front half of the double buffer: the latest complete packet.
         latest: LatestPacket<PACKET_LEN>,
         /// The latest encoded info frame (CRC from the CRC unit, outside the request task).
-        latest_info: LatestPacket<INFO_V1_LEN>,
+        latest_info: LatestPacket<INFO_V2_LEN>,
         /// Request state machine (only the two priority-3 link tasks use it).
         #[lock_free]
         handler: RequestHandler,
@@ -154,7 +172,7 @@ mod app {
     #[init(local = [
         packet_a: [u8; PACKET_LEN] = [0; PACKET_LEN],
         packet_b: [u8; PACKET_LEN] = [0; PACKET_LEN],
-        info_buffer: [u8; dima_sensorboard::INFO_V1_LEN] = [0; dima_sensorboard::INFO_V1_LEN],
+        info_buffer: [u8; INFO_V2_LEN] = [0; INFO_V2_LEN],
         gnss_a: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
         gnss_b: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
         gnss_replies: heapless::spsc::Queue<u8, REPLY_QUEUE_LEN> = heapless::spsc::Queue::new(),
@@ -164,7 +182,10 @@ mod app {
         let mut dp = cx.device;
 
         // Why did we reset? Read the flags before anything else, then clear them.
-        let watchdog_reset = dp.RCC.csr().read().wdgrstf().bit_is_set();
+        let csr = dp.RCC.csr().read();
+        let watchdog_reset = csr.wdgrstf().bit_is_set();
+        let watchdog_resets =
+            crate::reset_record::count_watchdog_resets(csr.porrstf().bit_is_set(), watchdog_reset);
         dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
 
         // QEMU models no RCC: HSE and PLL would never report ready there.
@@ -329,6 +350,10 @@ mod app {
             bmm150_trim: report.bmm150_trim,
             uptime_ms: 0,
             requests_skipped: 0,
+            health: BoardHealth {
+                watchdog_resets,
+                ..BoardHealth::default()
+            },
         };
 
         let led = gpiod.pd12.into_push_pull_output();
@@ -415,11 +440,14 @@ mod app {
             }
         });
         REQUESTS_SKIPPED.store(handler.skipped(), Ordering::Relaxed);
+        REQUESTS_EARLY.store(handler.not_ready(), Ordering::Relaxed);
+        DMA_ERRORS.store(link.dma_errors(), Ordering::Relaxed);
     }
 
     /// The running transfer has ended: send the info frame or go idle.
     #[task(binds = DMA1_STREAM3, priority = 3, shared = [handler, link])]
     fn link_done(cx: link_done::Context) {
+        // A DMA error counted here reaches the info frame with the next request.
         if !cx.shared.link.take_completion() {
             return;
         }
@@ -450,6 +478,9 @@ mod app {
                 GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
             }
         });
+        let stats = reader.stats();
+        GNSS_BYTES_DROPPED.store(stats.bytes_skipped, Ordering::Relaxed);
+        GNSS_FRAME_ERRORS.store(stats.checksum_errors, Ordering::Relaxed);
         if let Some(frame) = reader.take_nav_pvt() {
             cx.shared.gnss_latest.lock(|gnss| {
                 gnss.frame = *frame.as_bytes();
@@ -490,7 +521,26 @@ mod app {
             info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
             info.status
                 .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
-            let frame = info.encode_with(&mut sampler.crc);
+            let [accel_errors, gyro_errors, mag_errors, bmp280_errors] = sampler.sensors.errors();
+            let [accel_age_ms, gyro_age_ms, mag_age_ms, bmp280_age_ms] =
+                sampler.sensors.ages_ms(sampler.schedule.config().period_us);
+            info.health = BoardHealth {
+                accel_errors,
+                gyro_errors,
+                mag_errors,
+                bmp280_errors,
+                mag_timeout_errors: sampler.schedule.mag_timeouts(),
+                dma_errors: DMA_ERRORS.load(Ordering::Relaxed),
+                requests_early: REQUESTS_EARLY.load(Ordering::Relaxed),
+                gnss_bytes_dropped: GNSS_BYTES_DROPPED.load(Ordering::Relaxed),
+                gnss_frame_errors: GNSS_FRAME_ERRORS.load(Ordering::Relaxed),
+                watchdog_resets: info.health.watchdog_resets,
+                accel_age_ms,
+                gyro_age_ms,
+                mag_age_ms,
+                bmp280_age_ms,
+            };
+            let frame = info.encode_v2_with(&mut sampler.crc);
             cx.shared.latest_info.lock(|latest| latest.publish(&frame));
         }
         sampler.ticks = sampler.ticks.wrapping_add(1);

@@ -146,11 +146,29 @@ fn main() -> ! {
         bmm150_trim: [9; 16],
         uptime_ms: 123_456,
         requests_skipped: 3,
+        ..InfoFrame::default()
     };
     let bytes = info.encode();
     checks.check(
         InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 60),
         "info frame round trip (60 bytes)",
+    );
+    // Version 2 as the board sends it: health included, CRC from the fallback CRC.
+    let info = InfoFrame {
+        version: 2,
+        health: dima_sensorboard::BoardHealth {
+            gyro_errors: 5,
+            mag_timeout_errors: 2,
+            watchdog_resets: 1,
+            accel_age_ms: 4,
+            ..Default::default()
+        },
+        ..info
+    };
+    let bytes = info.encode_v2_with(&mut NibbleCrc);
+    checks.check(
+        InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 108),
+        "info frame v2 round trip with health (108 bytes)",
     );
 
     hprintln!("{} passed, {} failed", checks.passed, checks.failed);
