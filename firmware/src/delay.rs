@@ -21,9 +21,10 @@ impl CycleDelay {
 }
 
 impl DelayNs for CycleDelay {
+    /// Rounds up to whole microseconds: 32-bit arithmetic only (a 64-bit division would pull
+    /// about 860 bytes of library code into the firmware for start-up waits of milliseconds).
     fn delay_ns(&mut self, ns: u32) {
-        let cycles = u64::from(ns) * u64::from(self.cycles_per_us) / 1000;
-        cortex_m::asm::delay(u32::try_from(cycles).unwrap_or(u32::MAX).max(1));
+        self.delay_us(ns.div_ceil(1000));
     }
 
     fn delay_us(&mut self, us: u32) {

@@ -12,7 +12,7 @@
 //! Under QEMU (`qemu` feature) DMA is not modelled: the bytes are written one by one and the
 //! completion interrupt is pended by hand, so the same completion path runs.
 
-use dima_sensorboard::{INFO_V1_LEN, PACKET_LEN};
+use dima_sensorboard::{INFO_V2_LEN, PACKET_LEN};
 
 #[cfg(feature = "qemu")]
 pub use self::blocking::Link;
@@ -21,7 +21,7 @@ pub use self::dma::Link;
 
 #[cfg(not(feature = "qemu"))]
 mod dma {
-    use super::{INFO_V1_LEN, PACKET_LEN};
+    use super::{INFO_V2_LEN, PACKET_LEN};
     use stm32f4xx_hal::dma::{DMAError, MemoryToPeripheral, Stream3, Transfer};
     use stm32f4xx_hal::pac::{DMA1, USART3};
     use stm32f4xx_hal::prelude::*;
@@ -104,7 +104,7 @@ mod dma {
 
         /// Stores the info frame that [`Link::send_info`] will send. Call after
         /// [`Link::send_packet`] (which frees the info buffer if the DMA held it).
-        pub fn stage_info(&mut self, frame: &[u8; INFO_V1_LEN]) {
+        pub fn stage_info(&mut self, frame: &[u8; INFO_V2_LEN]) {
             if let Some(buffer) = self.spare_info.as_deref_mut() {
                 buffer.copy_from_slice(frame);
             }
@@ -148,14 +148,14 @@ mod dma {
 
 #[cfg(feature = "qemu")]
 mod blocking {
-    use super::{INFO_V1_LEN, PACKET_LEN};
+    use super::{INFO_V2_LEN, PACKET_LEN};
     use stm32f4xx_hal::pac::{Interrupt, USART3};
     use stm32f4xx_hal::serial::Tx;
 
     /// The blocking transmitter used under QEMU.
     pub struct Link {
         tx: Tx<USART3>,
-        info: [u8; INFO_V1_LEN],
+        info: [u8; INFO_V2_LEN],
     }
 
     impl Link {
@@ -163,7 +163,7 @@ mod blocking {
         pub fn new(tx: Tx<USART3>) -> Self {
             Self {
                 tx,
-                info: [0; INFO_V1_LEN],
+                info: [0; INFO_V2_LEN],
             }
         }
 
@@ -181,7 +181,7 @@ mod blocking {
         }
 
         /// Stores the info frame that [`Link::send_info`] will send.
-        pub fn stage_info(&mut self, frame: &[u8; INFO_V1_LEN]) {
+        pub fn stage_info(&mut self, frame: &[u8; INFO_V2_LEN]) {
             self.info = *frame;
         }
 

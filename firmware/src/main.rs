@@ -22,9 +22,9 @@
 mod board;
 mod delay;
 mod gnss;
-#[cfg(not(feature = "qemu"))]
 mod hw_crc;
 mod link;
+mod reset_record;
 
 use panic_halt as _;
 use rtic_monotonics::systick::prelude::*;
@@ -39,13 +39,15 @@ mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
     use dima_firmware_logic::{
-        blink as led_pattern, AfterTransfer, Answer, GnssSetupOutcome, LatestPacket, ReplyPort,
-        ReplyTap, RequestHandler, SetupStatus,
+        blink as led_pattern, AfterTransfer, Answer, CheckedCrc, GnssSetupOutcome, LatestPacket,
+        ReplyPort, ReplyTap, RequestHandler, SetupStatus,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::gnss::GNSS_FRAME_LEN;
     use dima_sensorboard::info::INFO_VERSION;
-    use dima_sensorboard::{InfoFrame, PacketBuilder, SensorStatus, PACKET_LEN};
+    use dima_sensorboard::{
+        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, INFO_V2_LEN, PACKET_LEN,
+    };
     use embedded_hal_bus::spi::AtomicDevice;
     use embedded_hal_bus::util::AtomicCell;
     use stm32f4xx_hal::gpio::{self, Edge, Input, Output, PushPull};
@@ -74,23 +76,36 @@ mod app {
     /// Resends the configurator needed (an unanswered message is sent again, up to 3 times).
     #[cfg(feature = "gnss-setup")]
     static GNSS_SETUP_RETRIES: AtomicU32 = AtomicU32::new(0);
+    /// Requests skipped because a transfer was still running (the request task's count, for
+    /// the info frame the sampling task encodes).
+    static REQUESTS_SKIPPED: AtomicU32 = AtomicU32::new(0);
+    /// Requests before the first packet existed (request task's count).
+    static REQUESTS_EARLY: AtomicU32 = AtomicU32::new(0);
+    /// DMA transfer errors on the link (link tasks' count).
+    static DMA_ERRORS: AtomicU32 = AtomicU32::new(0);
+    /// GNSS bytes outside valid UBX frames, and frames with a bad checksum (GNSS task's count).
+    static GNSS_BYTES_DROPPED: AtomicU32 = AtomicU32::new(0);
+    static GNSS_FRAME_ERRORS: AtomicU32 = AtomicU32::new(0);
     /// Received bytes the configurator's reply queue had no room for.
     static GNSS_REPLY_DROPPED: AtomicU32 = AtomicU32::new(0);
 
     /// SPI1, shared by the four chip selects.
     type SensorBus = Spi<SPI1>;
+    /// A chip select on port E, its pin number kept at run time: the four devices share one
+    /// type, so their driver code exists once in flash instead of four times.
+    type ChipSelect = gpio::PartiallyErasedPin<'E', Output<PushPull>>;
     /// One sensor die on SPI1 behind its chip select on port E.
-    pub type SensorSpi<const N: u8> =
-        AtomicDevice<'static, SensorBus, gpio::Pin<'E', N, Output<PushPull>>, CycleDelay>;
+    pub type SensorSpi = AtomicDevice<'static, SensorBus, ChipSelect, CycleDelay>;
 
-    #[cfg(not(feature = "qemu"))]
-    type Crc = crate::hw_crc::HwCrc;
-    #[cfg(feature = "qemu")]
-    type Crc = dima_sensorboard::Stm32Crc;
+    /// The CRC unit if it passed its boot-time self-check, else the small software CRC.
+    /// (QEMU does not model the unit: there the check fails and the fallback runs.)
+    type Crc = CheckedCrc<crate::hw_crc::HwCrc>;
+
+    /// Sampling ticks between two encodings of the info frame (its uptime is this fresh).
+    const INFO_REFRESH_TICKS: u32 = 10;
 
     /// The sensors, one SPI device per die.
-    pub type Sensors =
-        dima_firmware_logic::Sensors<SensorSpi<7>, SensorSpi<8>, SensorSpi<9>, SensorSpi<10>>;
+    pub type Sensors = dima_firmware_logic::Sensors<SensorSpi, SensorSpi, SensorSpi, SensorSpi>;
 
     /// Everything the sampling tick owns: the back half of the packet double buffer.
     pub struct Sampler {
@@ -100,10 +115,21 @@ mod app {
         builder: PacketBuilder,
         crc: Crc,
         sensors: Sensors,
+        /// Calibration, status and health for the info frame, refreshed every
+        /// [`INFO_REFRESH_TICKS`].
+        info: InfoFrame,
+        ticks: u32,
     }
 
-    /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects.
-    type GnssReader = neo_m8t::GnssStream<256>;
+    /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects. With
+    /// `gnss-setup` it takes the configurator's 512 so both share one framer in flash (372
+    /// bytes of code for 256 of RAM).
+    type GnssReader = neo_m8t::GnssStream<{ GNSS_READER_LEN }>;
+    const GNSS_READER_LEN: usize = if cfg!(feature = "gnss-setup") {
+        512
+    } else {
+        256
+    };
 
     /// The configurator's serial port: USART1 TX, replies from the receive task's queue.
     type GnssPort = ReplyPort<'static, serial::Tx<pac::USART1>>;
@@ -118,6 +144,8 @@ mod app {
     struct Shared {
         /// Front half of the double buffer: the latest complete packet.
         latest: LatestPacket<PACKET_LEN>,
+        /// The latest encoded info frame (CRC from the CRC unit, outside the request task).
+        latest_info: LatestPacket<INFO_V2_LEN>,
         /// Request state machine (only the two priority-3 link tasks use it).
         #[lock_free]
         handler: RequestHandler,
@@ -131,7 +159,6 @@ mod app {
     #[local]
     struct Local {
         request_pin: gpio::PD10<Input>,
-        info: InfoFrame,
         sampler: Sampler,
         gnss_rx: gnss::GnssRx,
         reader: GnssReader,
@@ -145,7 +172,7 @@ mod app {
     #[init(local = [
         packet_a: [u8; PACKET_LEN] = [0; PACKET_LEN],
         packet_b: [u8; PACKET_LEN] = [0; PACKET_LEN],
-        info_buffer: [u8; dima_sensorboard::INFO_V1_LEN] = [0; dima_sensorboard::INFO_V1_LEN],
+        info_buffer: [u8; INFO_V2_LEN] = [0; INFO_V2_LEN],
         gnss_a: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
         gnss_b: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
         gnss_replies: heapless::spsc::Queue<u8, REPLY_QUEUE_LEN> = heapless::spsc::Queue::new(),
@@ -155,7 +182,10 @@ mod app {
         let mut dp = cx.device;
 
         // Why did we reset? Read the flags before anything else, then clear them.
-        let watchdog_reset = dp.RCC.csr().read().wdgrstf().bit_is_set();
+        let csr = dp.RCC.csr().read();
+        let watchdog_reset = csr.wdgrstf().bit_is_set();
+        let watchdog_resets =
+            crate::reset_record::count_watchdog_resets(csr.porrstf().bit_is_set(), watchdog_reset);
         dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
 
         // QEMU models no RCC: HSE and PLL would never report ready there.
@@ -305,13 +335,13 @@ mod app {
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.start(WATCHDOG_MS.millis());
 
-        #[cfg(not(feature = "qemu"))]
-        let crc = crate::hw_crc::HwCrc(stm32f4xx_hal::crc32::Crc32::new(dp.CRC, &mut rcc));
-        #[cfg(feature = "qemu")]
-        let crc = dima_sensorboard::Stm32Crc;
+        let crc = CheckedCrc::check(crate::hw_crc::HwCrc(stm32f4xx_hal::crc32::Crc32::new(
+            dp.CRC, &mut rcc,
+        )));
 
         let mut status = report.status;
         status.set(SensorStatus::WATCHDOG_RESET, watchdog_reset);
+        status.set(SensorStatus::CRC_UNIT_FAILED, !crc.unit_ok());
         let info = InfoFrame {
             version: INFO_VERSION,
             firmware: FIRMWARE_VERSION,
@@ -320,6 +350,10 @@ mod app {
             bmm150_trim: report.bmm150_trim,
             uptime_ms: 0,
             requests_skipped: 0,
+            health: BoardHealth {
+                watchdog_resets,
+                ..BoardHealth::default()
+            },
         };
 
         let led = gpiod.pd12.into_push_pull_output();
@@ -332,6 +366,7 @@ mod app {
         (
             Shared {
                 latest: LatestPacket::new(),
+                latest_info: LatestPacket::new(),
                 handler: RequestHandler::new(),
                 link,
                 gnss_latest: GnssLatest {
@@ -341,7 +376,6 @@ mod app {
             },
             Local {
                 request_pin,
-                info,
                 sampler: Sampler {
                     timer,
                     watchdog,
@@ -352,6 +386,8 @@ mod app {
                     builder: PacketBuilder::new(),
                     crc,
                     sensors,
+                    info,
+                    ticks: 0,
                 },
                 gnss_rx,
                 reader: GnssReader::new(),
@@ -369,8 +405,8 @@ mod app {
         bus: &'static AtomicCell<SensorBus>,
         cs: gpio::Pin<'E', N, Output<PushPull>>,
         delay: CycleDelay,
-    ) -> SensorSpi<N> {
-        match AtomicDevice::new(bus, cs, delay) {
+    ) -> SensorSpi {
+        match AtomicDevice::new(bus, cs.erase_number(), delay) {
             Ok(device) => device,
             Err(never) => match never {},
         }
@@ -385,35 +421,33 @@ mod app {
     }
 
     /// A request edge: start the answer and return.
-    #[task(binds = EXTI15_10, priority = 3, local = [request_pin, info], shared = [handler, link, latest])]
-    fn request(mut cx: request::Context) {
+    #[task(binds = EXTI15_10, priority = 3, local = [request_pin], shared = [handler, link, latest, latest_info])]
+    fn request(cx: request::Context) {
         use stm32f4xx_hal::gpio::ExtiPin;
         cx.local.request_pin.clear_interrupt_pending_bit();
         let now_ms = Mono::now().ticks();
         let handler = cx.shared.handler;
         let link = cx.shared.link;
-        let answer = cx.shared.latest.lock(|latest| {
+        (cx.shared.latest, cx.shared.latest_info).lock(|latest, latest_info| {
             let packet = latest.get();
             let answer = handler.on_request(now_ms, packet.is_some());
-            if let (Answer::Send { .. }, Some(packet)) = (answer, packet) {
+            if let (Answer::Send { info }, Some(packet)) = (answer, packet) {
                 link.send_packet(packet);
+                // The info frame was encoded (CRC included) by the sampling task: copy only.
+                if let (true, Some(frame)) = (info, latest_info.get()) {
+                    link.stage_info(frame);
+                }
             }
-            answer
         });
-        if answer == (Answer::Send { info: true }) {
-            // The packet is on its way; the info frame is built while it goes out.
-            let info = cx.local.info;
-            info.uptime_ms = now_ms;
-            info.requests_skipped = handler.skipped();
-            info.status
-                .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
-            link.stage_info(&info.encode());
-        }
+        REQUESTS_SKIPPED.store(handler.skipped(), Ordering::Relaxed);
+        REQUESTS_EARLY.store(handler.not_ready(), Ordering::Relaxed);
+        DMA_ERRORS.store(link.dma_errors(), Ordering::Relaxed);
     }
 
     /// The running transfer has ended: send the info frame or go idle.
     #[task(binds = DMA1_STREAM3, priority = 3, shared = [handler, link])]
     fn link_done(cx: link_done::Context) {
+        // A DMA error counted here reaches the info frame with the next request.
         if !cx.shared.link.take_completion() {
             return;
         }
@@ -444,6 +478,9 @@ mod app {
                 GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
             }
         });
+        let stats = reader.stats();
+        GNSS_BYTES_DROPPED.store(stats.bytes_skipped, Ordering::Relaxed);
+        GNSS_FRAME_ERRORS.store(stats.checksum_errors, Ordering::Relaxed);
         if let Some(frame) = reader.take_nav_pvt() {
             cx.shared.gnss_latest.lock(|gnss| {
                 gnss.frame = *frame.as_bytes();
@@ -461,7 +498,7 @@ mod app {
     }
 
     /// One sampling tick: read what the schedule says, publish the packet, feed the watchdog.
-    #[task(binds = TIM2, priority = 1, local = [sampler], shared = [latest, gnss_latest])]
+    #[task(binds = TIM2, priority = 1, local = [sampler], shared = [latest, latest_info, gnss_latest])]
     fn sample(mut cx: sample::Context) {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
@@ -477,6 +514,36 @@ mod app {
                 builder.gnss_frame(&gnss.frame);
             }
         });
+        // The info frame first, so one exists whenever a packet does.
+        if sampler.ticks.is_multiple_of(INFO_REFRESH_TICKS) {
+            let info = &mut sampler.info;
+            info.uptime_ms = Mono::now().ticks();
+            info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
+            info.status
+                .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
+            let [accel_errors, gyro_errors, mag_errors, bmp280_errors] = sampler.sensors.errors();
+            let [accel_age_ms, gyro_age_ms, mag_age_ms, bmp280_age_ms] =
+                sampler.sensors.ages_ms(sampler.schedule.config().period_us);
+            info.health = BoardHealth {
+                accel_errors,
+                gyro_errors,
+                mag_errors,
+                bmp280_errors,
+                mag_timeout_errors: sampler.schedule.mag_timeouts(),
+                dma_errors: DMA_ERRORS.load(Ordering::Relaxed),
+                requests_early: REQUESTS_EARLY.load(Ordering::Relaxed),
+                gnss_bytes_dropped: GNSS_BYTES_DROPPED.load(Ordering::Relaxed),
+                gnss_frame_errors: GNSS_FRAME_ERRORS.load(Ordering::Relaxed),
+                watchdog_resets: info.health.watchdog_resets,
+                accel_age_ms,
+                gyro_age_ms,
+                mag_age_ms,
+                bmp280_age_ms,
+            };
+            let frame = info.encode_v2_with(&mut sampler.crc);
+            cx.shared.latest_info.lock(|latest| latest.publish(&frame));
+        }
+        sampler.ticks = sampler.ticks.wrapping_add(1);
         let packet = sampler.builder.build(&mut sampler.crc);
         cx.shared.latest.lock(|latest| latest.publish(packet));
     }

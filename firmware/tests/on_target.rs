@@ -15,9 +15,12 @@
 
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
-use dima_firmware_logic::{AfterTransfer, Answer, MagAction, RequestHandler, Schedule};
+use dima_firmware_logic::Schedule;
+use dima_firmware_logic::{
+    AfterTransfer, Answer, CheckedCrc, MagAction, NibbleCrc, RequestHandler,
+};
 use dima_firmware_logic::{ScheduleConfig, INFO_GAP_MS};
-use dima_sensorboard::{InfoFrame, PacketBuilder, SensorPacket, SensorStatus, Stm32Crc};
+use dima_sensorboard::{InfoFrame, PacketBuilder, SensorCrc, SensorPacket, SensorStatus, Stm32Crc};
 // Links the device's interrupt vectors.
 use stm32f4xx_hal as _;
 
@@ -54,6 +57,30 @@ fn main() -> ! {
     checks.check(
         Stm32Crc::compute(&[0u8; 128]) == 0xE151_AAB2,
         "CRC of 128 zero bytes is 0xE151AAB2",
+    );
+
+    // The software fallback of the CRC unit, and the boot self-check that selects it: QEMU
+    // has no CRC unit, so the check runs here against the table CRC standing in for a working
+    // unit and against a unit that reads zero, like QEMU's.
+    checks.check(
+        NibbleCrc.checksum(&ascending) == 0x6557_DE1A
+            && NibbleCrc.checksum(&[0u8; 128]) == 0xE151_AAB2,
+        "fallback CRC matches both vectors",
+    );
+    checks.check(
+        CheckedCrc::check(Stm32Crc).unit_ok(),
+        "self-check keeps a unit that computes the vector",
+    );
+    struct ReadsZero;
+    impl SensorCrc for ReadsZero {
+        fn checksum(&mut self, _bytes: &[u8]) -> u32 {
+            0
+        }
+    }
+    let mut dead = CheckedCrc::check(ReadsZero);
+    checks.check(
+        !dead.unit_ok() && dead.checksum(&ascending) == 0x6557_DE1A,
+        "self-check replaces a unit that reads zero by the fallback",
     );
 
     // Request state machine.
@@ -119,11 +146,29 @@ fn main() -> ! {
         bmm150_trim: [9; 16],
         uptime_ms: 123_456,
         requests_skipped: 3,
+        ..InfoFrame::default()
     };
     let bytes = info.encode();
     checks.check(
         InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 60),
         "info frame round trip (60 bytes)",
+    );
+    // Version 2 as the board sends it: health included, CRC from the fallback CRC.
+    let info = InfoFrame {
+        version: 2,
+        health: dima_sensorboard::BoardHealth {
+            gyro_errors: 5,
+            mag_timeout_errors: 2,
+            watchdog_resets: 1,
+            accel_age_ms: 4,
+            ..Default::default()
+        },
+        ..info
+    };
+    let bytes = info.encode_v2_with(&mut NibbleCrc);
+    checks.check(
+        InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 108),
+        "info frame v2 round trip with health (108 bytes)",
     );
 
     hprintln!("{} passed, {} failed", checks.passed, checks.failed);

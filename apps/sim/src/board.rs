@@ -267,6 +267,7 @@ impl BoardSim {
                 bmm150_trim: BMM150_TRIM,
                 uptime_ms: (now_s * 1e3) as u32,
                 requests_skipped: self.requests_skipped,
+                ..InfoFrame::default()
             }
             .encode_with(&mut Stm32Crc)
         });

@@ -11,6 +11,7 @@ use crate::commands::{
 use crate::config::Config;
 use crate::error::Error;
 use crate::frame::{Frame, UbxFramer};
+use crate::int_commands;
 use crate::interface::{read_byte, Received};
 use crate::version::ReceiverVersion;
 use embedded_hal::delay::DelayNs;
@@ -396,19 +397,20 @@ impl<const N: usize> Configurator<N> {
 
     fn command(&self) -> Option<Command> {
         let c = &self.config;
-        Some(match self.step {
-            Step::MonVer => commands::poll_mon_ver(),
-            Step::Port => commands::cfg_prt_uart1(c.baud_rate),
+        // The integer builders: the same bytes as `commands`, without floating point.
+        match self.step {
+            Step::MonVer => int_commands::poll_mon_ver(),
+            Step::Port => int_commands::cfg_prt_uart1(c.baud_rate),
             Step::Msg(i) => {
                 let (class, id, rate) = msg_entry(i, c)?;
-                commands::cfg_msg_uart1(class, id, rate)
+                int_commands::cfg_msg_uart1(class, id, rate)
             }
-            Step::Rate => commands::cfg_rate(c.measurement_period_ms, c.nav_rate, c.time_ref),
-            Step::Nav5 => commands::cfg_nav5(c.dynamic_model),
-            Step::Tp5 => commands::cfg_tp5(c.time_pulse.as_ref()?),
-            Step::Tmode2 => commands::cfg_tmode2(c.time_mode.as_ref()?),
-            Step::Done => return None,
-        })
+            Step::Rate => int_commands::cfg_rate(c.measurement_period_ms, c.nav_rate, c.time_ref),
+            Step::Nav5 => int_commands::cfg_nav5(c.dynamic_model),
+            Step::Tp5 => int_commands::cfg_tp5(c.time_pulse.as_ref()?),
+            Step::Tmode2 => int_commands::cfg_tmode2(c.time_mode.as_ref()?),
+            Step::Done => None,
+        }
     }
 
     fn advance(&mut self) {

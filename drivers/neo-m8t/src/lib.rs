@@ -123,6 +123,7 @@ pub mod configure;
 pub mod driver;
 pub mod error;
 pub mod frame;
+pub mod int_commands;
 pub mod interface;
 pub mod nav_pvt;
 pub mod stream;

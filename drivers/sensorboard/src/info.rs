@@ -20,6 +20,22 @@
 //! more after the previous one (the host has just started or restarted). It never sends one
 //! unrequested.
 //!
+//! **Version 2** (108 bytes, L = 100) is version 1 with the board's health after byte 55 (the
+//! CRC moves to bytes 104-107), every counter wrapping, ages saturating:
+//!
+//! | offset | size | content ([`BoardHealth`]) |
+//! |---|---|---|
+//! | 56-71 | 4 x 4 | SPI errors after boot: accelerometer, gyroscope, magnetometer, BMP280 (u32 each) |
+//! | 72-75 | 4 | magnetometer measurements that never became ready (u32) |
+//! | 76-79 | 4 | DMA transfer errors on the link (u32) |
+//! | 80-83 | 4 | requests that came before the first packet existed (u32) |
+//! | 84-87 | 4 | GNSS bytes dropped outside a valid UBX frame (u32) |
+//! | 88-91 | 4 | GNSS frames with a bad checksum (u32) |
+//! | 92-95 | 4 | watchdog resets since power-on (u32) |
+//! | 96-103 | 4 x 2 | ms since the last good read: accelerometer, gyroscope, magnetometer, BMP280 (u16, 65535 = never or longer) |
+//!
+//! A version 1 frame decodes with every health field zero.
+//!
 //! **Future versions.** Decoders accept a version other than 1 with a larger L: the CRC covers
 //! the 4 header bytes and all L payload bytes, the first 52 payload bytes are read as above and
 //! the rest are skipped. L is capped at [`INFO_MAX_PAYLOAD_LEN`] so memory stays bounded.
@@ -39,6 +55,12 @@ pub const INFO_V1_PAYLOAD_LEN: u8 = 52;
 
 /// Total length of a version 1 frame.
 pub const INFO_V1_LEN: usize = 4 + INFO_V1_PAYLOAD_LEN as usize + 4;
+
+/// Payload length L of a version 2 frame (version 1 plus [`BoardHealth`]).
+pub const INFO_V2_PAYLOAD_LEN: u8 = INFO_V1_PAYLOAD_LEN + BoardHealth::LEN as u8;
+
+/// Total length of a version 2 frame.
+pub const INFO_V2_LEN: usize = 4 + INFO_V2_PAYLOAD_LEN as usize + 4;
 
 /// Largest payload length L a decoder accepts (from a future version). Longer claims are
 /// treated as a corrupt header.
@@ -63,6 +85,9 @@ bitflags! {
         const GNSS_SEEN = 1 << 4;
         /// The last reset was caused by the independent watchdog.
         const WATCHDOG_RESET = 1 << 5;
+        /// The STM32 CRC unit failed its boot-time self-check (the reference vector
+        /// `0x6557DE1A`): the board computes CRCs in software instead.
+        const CRC_UNIT_FAILED = 1 << 6;
     }
 }
 
@@ -161,6 +186,115 @@ pub struct InfoFrame {
     pub uptime_ms: u32,
     /// Requests the board ignored because the previous transfer was still running.
     pub requests_skipped: u32,
+    /// Health counters (version 2 frames; zero in version 1 frames).
+    pub health: BoardHealth,
+}
+
+/// What went wrong on the board after boot, and how fresh each sensor's data are (info frame
+/// version 2). Counters wrap; ages saturate at `u16::MAX`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BoardHealth {
+    /// Failed SPI transfers with the accelerometer.
+    pub accel_errors: u32,
+    /// Failed SPI transfers with the gyroscope.
+    pub gyro_errors: u32,
+    /// Failed SPI transfers with the magnetometer.
+    pub mag_errors: u32,
+    /// Failed SPI transfers with the BMP280.
+    pub bmp280_errors: u32,
+    /// Magnetometer measurements that never became ready (retriggered).
+    pub mag_timeout_errors: u32,
+    /// DMA transfer errors on the link to the host.
+    pub dma_errors: u32,
+    /// Requests that came before the first packet existed (answered with nothing).
+    pub requests_early: u32,
+    /// GNSS bytes dropped because they were not part of a valid UBX frame.
+    pub gnss_bytes_dropped: u32,
+    /// GNSS UBX frames with a bad checksum.
+    pub gnss_frame_errors: u32,
+    /// Resets by the watchdog since power-on.
+    pub watchdog_resets: u32,
+    /// Time since the accelerometer was last read successfully, ms.
+    pub accel_age_ms: u16,
+    /// Time since the gyroscope was last read successfully, ms.
+    pub gyro_age_ms: u16,
+    /// Time since the magnetometer data were last read successfully, ms.
+    pub mag_age_ms: u16,
+    /// Time since the BMP280 was last read successfully, ms.
+    pub bmp280_age_ms: u16,
+}
+
+impl BoardHealth {
+    /// Encoded length, bytes.
+    pub const LEN: usize = 10 * 4 + 4 * 2;
+
+    fn counters(&self) -> [u32; 10] {
+        [
+            self.accel_errors,
+            self.gyro_errors,
+            self.mag_errors,
+            self.bmp280_errors,
+            self.mag_timeout_errors,
+            self.dma_errors,
+            self.requests_early,
+            self.gnss_bytes_dropped,
+            self.gnss_frame_errors,
+            self.watchdog_resets,
+        ]
+    }
+
+    fn ages(&self) -> [u16; 4] {
+        [
+            self.accel_age_ms,
+            self.gyro_age_ms,
+            self.mag_age_ms,
+            self.bmp280_age_ms,
+        ]
+    }
+
+    /// The wire bytes (info frame version 2, bytes 56..104).
+    #[must_use]
+    pub fn to_bytes(&self) -> [u8; Self::LEN] {
+        let mut bytes = [0u8; Self::LEN];
+        for (slot, value) in bytes.chunks_exact_mut(4).zip(self.counters()) {
+            slot.copy_from_slice(&value.to_le_bytes());
+        }
+        for (slot, value) in bytes[40..].chunks_exact_mut(2).zip(self.ages()) {
+            slot.copy_from_slice(&value.to_le_bytes());
+        }
+        bytes
+    }
+
+    /// Reads the wire bytes.
+    #[must_use]
+    pub fn from_bytes(bytes: &[u8; Self::LEN]) -> Self {
+        let u32_at = |i: usize| {
+            u32::from_le_bytes([
+                bytes[4 * i],
+                bytes[4 * i + 1],
+                bytes[4 * i + 2],
+                bytes[4 * i + 3],
+            ])
+        };
+        let u16_at = |i: usize| u16::from_le_bytes([bytes[40 + 2 * i], bytes[41 + 2 * i]]);
+        Self {
+            accel_errors: u32_at(0),
+            gyro_errors: u32_at(1),
+            mag_errors: u32_at(2),
+            bmp280_errors: u32_at(3),
+            mag_timeout_errors: u32_at(4),
+            dma_errors: u32_at(5),
+            requests_early: u32_at(6),
+            gnss_bytes_dropped: u32_at(7),
+            gnss_frame_errors: u32_at(8),
+            watchdog_resets: u32_at(9),
+            accel_age_ms: u16_at(0),
+            gyro_age_ms: u16_at(1),
+            mag_age_ms: u16_at(2),
+            bmp280_age_ms: u16_at(3),
+        }
+    }
 }
 
 impl Default for InfoFrame {
@@ -173,6 +307,22 @@ impl Default for InfoFrame {
             bmm150_trim: [0; 16],
             uptime_ms: 0,
             requests_skipped: 0,
+            health: BoardHealth {
+                accel_errors: 0,
+                gyro_errors: 0,
+                mag_errors: 0,
+                bmp280_errors: 0,
+                mag_timeout_errors: 0,
+                dma_errors: 0,
+                requests_early: 0,
+                gnss_bytes_dropped: 0,
+                gnss_frame_errors: 0,
+                watchdog_resets: 0,
+                accel_age_ms: 0,
+                gyro_age_ms: 0,
+                mag_age_ms: 0,
+                bmp280_age_ms: 0,
+            },
         }
     }
 }
@@ -200,6 +350,24 @@ impl InfoFrame {
         bytes[52..56].copy_from_slice(&self.requests_skipped.to_le_bytes());
         let value = crc.checksum(&bytes[..56]);
         bytes[56..].copy_from_slice(&value.to_le_bytes());
+        bytes
+    }
+
+    /// Encodes a 108-byte version 2 frame (L = 100: version 1 plus [`BoardHealth`]) with the
+    /// CRC from `crc`. The `version` field is ignored: the frame says 2.
+    #[must_use]
+    pub fn encode_v2_with(&self, crc: &mut impl SensorCrc) -> [u8; INFO_V2_LEN] {
+        let mut bytes = [0u8; INFO_V2_LEN];
+        let v1 = Self {
+            version: 2,
+            ..*self
+        }
+        .encode_with(&mut NoCrc);
+        bytes[..56].copy_from_slice(&v1[..56]);
+        bytes[3] = INFO_V2_PAYLOAD_LEN;
+        bytes[56..INFO_V2_LEN - 4].copy_from_slice(&self.health.to_bytes());
+        let value = crc.checksum(&bytes[..INFO_V2_LEN - 4]);
+        bytes[INFO_V2_LEN - 4..].copy_from_slice(&value.to_le_bytes());
         bytes
     }
 
@@ -256,6 +424,27 @@ impl InfoFrame {
             out.requests_skipped =
                 u32::from_le_bytes([payload[48], payload[49], payload[50], payload[51]]);
         }
+        // Version 2 and later carry the health right after the version 1 payload.
+        if out.version >= 2 {
+            if let Some(Ok(health)) = frame
+                .get(56..56 + BoardHealth::LEN)
+                .map(<&[u8; BoardHealth::LEN]>::try_from)
+            {
+                if frame.len() >= INFO_V2_LEN {
+                    out.health = BoardHealth::from_bytes(health);
+                }
+            }
+        }
         out
+    }
+}
+
+/// Stands in for the CRC while the version 2 encoder borrows the version 1 layout (its CRC
+/// bytes are overwritten).
+struct NoCrc;
+
+impl SensorCrc for NoCrc {
+    fn checksum(&mut self, _bytes: &[u8]) -> u32 {
+        0
     }
 }

@@ -76,7 +76,9 @@ pub use builder::PacketBuilder;
 pub use crc::{SensorCrc, Stm32Crc};
 pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
 pub use gnss::{FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
-pub use info::{InfoError, InfoFrame, SensorStatus, INFO_V1_LEN, INFO_VERSION};
+pub use info::{
+    BoardHealth, InfoError, InfoFrame, SensorStatus, INFO_V1_LEN, INFO_V2_LEN, INFO_VERSION,
+};
 pub use packet::{PacketError, RawPacket, SensorPacket, PACKET_LEN};
 pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};
 

@@ -5,7 +5,9 @@ mod common;
 
 use dima_sensorboard::crc::crc32_bitwise;
 use dima_sensorboard::info::{info_frame_len, INFO_MAX_LEN};
-use dima_sensorboard::{InfoError, InfoFrame, SensorStatus, INFO_V1_LEN};
+use dima_sensorboard::{
+    BoardHealth, InfoError, InfoFrame, SensorStatus, Stm32Crc, INFO_V1_LEN, INFO_V2_LEN,
+};
 use proptest::prelude::*;
 
 /// BMP280 calibration registers 0x88..=0x9F, datasheet example (golden vector).
@@ -48,7 +50,94 @@ fn hand_info() -> InfoFrame {
         bmm150_trim: BMM150_TRIM,
         uptime_ms: 0x0102_0304,
         requests_skipped: 7,
+        ..InfoFrame::default()
     }
+}
+
+/// The version 2 frame of `hand_info` with every health field set to a distinct value, written
+/// byte by byte from the layout in the crate docs; CRC by the bitwise reference model.
+fn hand_frame_v2() -> [u8; 108] {
+    let mut f = [0u8; 108];
+    f[..56].copy_from_slice(&hand_frame()[..56]);
+    f[2] = 2;
+    f[3] = 100;
+    for (i, counter) in [1u32, 2, 3, 4, 5, 6, 7, 8, 9, 10].iter().enumerate() {
+        f[56 + 4 * i] = *counter as u8;
+    }
+    // The last counter spans all four bytes: 0x0A0B0C0D, little-endian.
+    f[92..96].copy_from_slice(&[0x0D, 0x0C, 0x0B, 0x0A]);
+    f[96..104].copy_from_slice(&[0x10, 0x00, 0x00, 0x01, 0xFF, 0xFF, 0x34, 0x12]);
+    let crc = crc32_bitwise(&f[..104]);
+    f[104..].copy_from_slice(&crc.to_le_bytes());
+    f
+}
+
+fn hand_health() -> BoardHealth {
+    BoardHealth {
+        accel_errors: 1,
+        gyro_errors: 2,
+        mag_errors: 3,
+        bmp280_errors: 4,
+        mag_timeout_errors: 5,
+        dma_errors: 6,
+        requests_early: 7,
+        gnss_bytes_dropped: 8,
+        gnss_frame_errors: 9,
+        watchdog_resets: 0x0A0B_0C0D,
+        accel_age_ms: 16,
+        gyro_age_ms: 256,
+        mag_age_ms: u16::MAX,
+        bmp280_age_ms: 0x1234,
+    }
+}
+
+#[test]
+fn hand_written_version_2_frame_decodes_with_its_health() {
+    let (info, len) = InfoFrame::decode(&hand_frame_v2()).expect("valid");
+    assert_eq!(len, INFO_V2_LEN);
+    assert_eq!(
+        info,
+        InfoFrame {
+            version: 2,
+            health: hand_health(),
+            ..hand_info()
+        }
+    );
+}
+
+#[test]
+fn version_2_encoder_writes_the_hand_written_bytes() {
+    let info = InfoFrame {
+        health: hand_health(),
+        ..hand_info()
+    };
+    assert_eq!(info.encode_v2_with(&mut Stm32Crc), hand_frame_v2());
+}
+
+#[test]
+fn version_1_frames_carry_no_health() {
+    let (info, _) = InfoFrame::decode(&hand_frame()).expect("valid");
+    assert_eq!(info.health, BoardHealth::default());
+}
+
+#[test]
+fn stream_decoder_finds_a_version_2_frame_between_packets() {
+    let packet = dima_sensorboard::SensorPacket::default().encode();
+    let mut bytes = packet.to_vec();
+    bytes.extend_from_slice(&hand_frame_v2());
+    bytes.extend_from_slice(&packet);
+    let mut decoder = dima_sensorboard::StreamDecoder::new();
+    let infos: Vec<_> = decoder
+        .frames(&bytes)
+        .filter_map(|f| match f {
+            dima_sensorboard::Frame::Info(info) => Some(info),
+            dima_sensorboard::Frame::Packet(_) => None,
+        })
+        .collect();
+    assert_eq!(infos.len(), 1);
+    assert_eq!(infos[0].health, hand_health());
+    assert_eq!(decoder.stats().packets, 2);
+    assert_eq!(decoder.stats().bytes_skipped, 0);
 }
 
 #[test]

@@ -19,7 +19,10 @@ use heapless::spsc::{Consumer, Producer};
 /// Bytes the reply queue holds: a MON-VER answer (about 280 bytes on an M8T) plus a few
 /// NAV-PVT frames arriving meanwhile. The configurator is polled every few milliseconds and
 /// reads up to 256 bytes per poll, far faster than 115 200 baud delivers them.
-pub const REPLY_QUEUE_LEN: usize = 512;
+///
+/// Without the `gnss-setup` feature nothing is configured and the queue shrinks to the
+/// smallest the queue type allows.
+pub const REPLY_QUEUE_LEN: usize = if cfg!(feature = "gnss-setup") { 512 } else { 2 };
 
 /// How the boot-time configuration ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -282,7 +285,7 @@ mod tests {
 
     #[test]
     fn silent_receiver_times_out_after_the_retries() {
-        let mut queue: Queue<u8, REPLY_QUEUE_LEN> = Queue::new();
+        let mut queue: Queue<u8, 512> = Queue::new();
         let (_producer, consumer) = queue.split();
         let mut port = ReplyPort::new(slow_tx(), consumer);
         let mut cfg = Configurator::<512>::new(Config::default(), 115_200);
@@ -302,7 +305,7 @@ mod tests {
         // UBX-ACK-NAK for UBX-MON-VER (class 0x0A, id 0x04); checksum by the 8-bit Fletcher
         // algorithm of the u-blox M8 protocol specification, worked by hand over 05 00 02 00 0A 04.
         const NAK_MON_VER: [u8; 10] = [0xB5, 0x62, 0x05, 0x00, 0x02, 0x00, 0x0A, 0x04, 0x15, 0x3E];
-        let mut queue: Queue<u8, REPLY_QUEUE_LEN> = Queue::new();
+        let mut queue: Queue<u8, 512> = Queue::new();
         let (producer, consumer) = queue.split();
         let mut tap = ReplyTap::new(producer);
         let mut port = ReplyPort::new(slow_tx(), consumer);

@@ -9,6 +9,7 @@
 //! - [`schedule`]: which sensor to read on which sampling tick (accelerometer and gyroscope
 //!   every tick, magnetometer in forced mode with data-ready polling, BMP280 in normal mode);
 //! - [`latest`]: the front half of the packet double buffer, the latest complete packet;
+//! - [`crc_check`]: the CRC unit's boot-time self-check and the software fallback;
 //! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
@@ -18,12 +19,14 @@
 #![deny(missing_docs)]
 
 pub mod blink;
+pub mod crc_check;
 pub mod gnss_setup;
 pub mod latest;
 pub mod request;
 pub mod schedule;
 pub mod sensors;
 
+pub use crc_check::{CheckedCrc, NibbleCrc};
 pub use gnss_setup::{Outcome as GnssSetupOutcome, ReplyPort, ReplyTap, SetupStatus};
 pub use latest::LatestPacket;
 pub use request::{AfterTransfer, Answer, RequestHandler, INFO_GAP_MS};

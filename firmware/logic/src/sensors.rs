@@ -40,8 +40,19 @@ pub struct Sensors<A, G, M, B> {
     accel_raw: AccelRaw,
     gyro_raw: GyroRaw,
     mag_words: MagPacketWords,
-    bus_errors: u32,
+    /// Failed transfers after boot per die: accelerometer, gyroscope, magnetometer, BMP280.
+    errors: [u32; 4],
+    /// Tick of the last good read per die (same order); `None` until the first one.
+    last_good: [Option<u32>; 4],
+    /// Ticks since boot.
+    ticks: u32,
 }
+
+/// Index of each die in [`Sensors::errors`] and [`Sensors::ages_ms`].
+const ACCEL: usize = 0;
+const GYRO: usize = 1;
+const MAG: usize = 2;
+const BARO: usize = 3;
 
 impl<A, G, M, B> Sensors<A, G, M, B>
 where
@@ -100,7 +111,9 @@ where
             accel_raw: AccelRaw::default(),
             gyro_raw: GyroRaw::default(),
             mag_words: MagPacketWords::default(),
-            bus_errors: 0,
+            errors: [0; 4],
+            last_good: [None; 4],
+            ticks: 0,
         };
         (sensors, report)
     }
@@ -115,26 +128,34 @@ where
         self.status.contains(flag)
     }
 
-    fn count<T, E>(&mut self, result: Result<T, E>) -> Option<T> {
-        if result.is_err() {
-            self.bus_errors = self.bus_errors.wrapping_add(1);
+    /// Counts a failed transfer of `die`, or records a good read.
+    fn count<T, E>(&mut self, die: usize, result: Result<T, E>) -> Option<T> {
+        match result {
+            Ok(value) => {
+                self.last_good[die] = Some(self.ticks);
+                Some(value)
+            }
+            Err(_) => {
+                self.errors[die] = self.errors[die].wrapping_add(1);
+                None
+            }
         }
-        result.ok()
     }
 
     /// Does the reads of one tick and writes bytes 2..=27 of the packet. Readings that fail
     /// keep their previous value (and are counted); dies that never answered stay zero.
     pub fn tick(&mut self, plan: TickPlan, schedule: &mut Schedule, packet: &mut PacketBuilder) {
+        self.ticks = self.ticks.wrapping_add(1);
         if plan.read_inertial {
             if self.ok(SensorStatus::ACCEL_OK) {
                 let read = self.accel.read_raw();
-                if let Some(raw) = self.count(read) {
+                if let Some(raw) = self.count(ACCEL, read) {
                     self.accel_raw = raw;
                 }
             }
             if self.ok(SensorStatus::GYRO_OK) {
                 let read = self.gyro.read_raw();
-                if let Some(raw) = self.count(read) {
+                if let Some(raw) = self.count(GYRO, read) {
                     self.gyro_raw = raw;
                 }
             }
@@ -145,16 +166,19 @@ where
                 MagAction::None => {}
                 MagAction::Trigger => {
                     let started = self.mag.start_forced();
-                    self.count(started);
+                    if started.is_err() {
+                        self.errors[MAG] = self.errors[MAG].wrapping_add(1);
+                    }
                 }
                 MagAction::Poll => match self.mag.poll_data() {
                     Ok(raw) => {
                         self.mag_words = raw.packet_words();
+                        self.last_good[MAG] = Some(self.ticks);
                         schedule.mag_polled(true);
                     }
                     Err(nb::Error::WouldBlock) => schedule.mag_polled(false),
                     Err(nb::Error::Other(_)) => {
-                        self.bus_errors = self.bus_errors.wrapping_add(1);
+                        self.errors[MAG] = self.errors[MAG].wrapping_add(1);
                         schedule.mag_polled(false);
                     }
                 },
@@ -163,7 +187,7 @@ where
 
         if plan.read_baro && self.ok(SensorStatus::BMP280_OK) {
             let read = self.baro.read_raw_bytes();
-            if let Some(bytes) = self.count(read) {
+            if let Some(bytes) = self.count(BARO, read) {
                 packet.bmp280_registers(bytes);
             }
         }
@@ -186,10 +210,31 @@ where
         )
     }
 
-    /// SPI transfers that failed after boot.
+    /// SPI transfers that failed after boot, all dies together.
     #[must_use]
     pub fn bus_errors(&self) -> u32 {
-        self.bus_errors
+        self.errors.iter().fold(0, |sum, &e| sum.wrapping_add(e))
+    }
+
+    /// SPI transfers that failed after boot: accelerometer, gyroscope, magnetometer, BMP280.
+    #[must_use]
+    pub fn errors(&self) -> [u32; 4] {
+        self.errors
+    }
+
+    /// Time since each die's last good read (same order), ms, for ticks of `period_us`;
+    /// `u16::MAX` if never (a die absent at boot) or longer ago.
+    #[must_use]
+    pub fn ages_ms(&self, period_us: u32) -> [u16; 4] {
+        self.last_good.map(|last| match last {
+            Some(tick) => {
+                // 32-bit only (no 64-bit division on the board); saturates after 71 minutes,
+                // long past u16::MAX ms.
+                let ms = self.ticks.wrapping_sub(tick).saturating_mul(period_us) / 1000;
+                u16::try_from(ms).unwrap_or(u16::MAX)
+            }
+            None => u16::MAX,
+        })
     }
 }
 
@@ -211,6 +256,8 @@ mod tests {
         high_registers: bool,
         dead: bool,
         transactions: u32,
+        /// Transactions from this one on fail (a die that breaks after boot).
+        fail_from: u32,
     }
 
     impl FakeDie {
@@ -228,6 +275,7 @@ mod tests {
                 high_registers,
                 dead: false,
                 transactions: 0,
+                fail_from: u32::MAX,
             };
             for (start, bytes) in regs {
                 let start = usize::from(*start);
@@ -259,7 +307,7 @@ mod tests {
     impl SpiDevice for FakeDie {
         fn transaction(&mut self, operations: &mut [Operation<'_, u8>]) -> Result<(), ErrorKind> {
             self.transactions += 1;
-            if self.dead {
+            if self.dead || self.transactions > self.fail_from {
                 return Err(ErrorKind::Other);
             }
             let mut cursor: Option<usize> = None;
@@ -402,6 +450,46 @@ mod tests {
         assert_eq!(packet[2..4], [0x30, 0x12]);
         // The dead die is not touched after boot.
         assert_eq!(sensors.bus_errors(), 0);
+    }
+
+    #[test]
+    fn a_die_that_breaks_after_boot_is_counted_per_die_and_ages() {
+        let mut gyro = gyro();
+        // Bring-up takes a handful of transactions; let two reads through, then fail.
+        let (sensors, _) = Sensors::init(accel(), self::gyro(), mag(), baro(), &mut NoDelay);
+        let boot_transactions = sensors.release().1.transactions;
+        gyro.fail_from = boot_transactions + 2;
+        let (mut sensors, report) = Sensors::init(accel(), gyro, mag(), baro(), &mut NoDelay);
+        assert!(report.status.contains(SensorStatus::GYRO_OK));
+        let mut schedule = Schedule::new(ScheduleConfig::DEFAULT);
+        let mut packet = PacketBuilder::new();
+        for _ in 0..12 {
+            let plan = schedule.next_tick();
+            sensors.tick(plan, &mut schedule, &mut packet);
+        }
+        // Ten of twelve gyro reads failed; nothing else did.
+        assert_eq!(sensors.errors(), [0, 10, 0, 0]);
+        assert_eq!(sensors.bus_errors(), 10);
+        // Last good gyro read on tick 2 of 12: 10 ticks of 1 ms ago. The accelerometer was
+        // read this tick; the BMP280 on tick 11 (every fifth tick from tick 1).
+        let ages = sensors.ages_ms(1000);
+        assert_eq!(ages[0], 0);
+        assert_eq!(ages[1], 10);
+        assert_eq!(ages[3], 1);
+        // The failed read kept the last good value in the packet.
+        assert_eq!(packet.as_bytes()[8..14], GYRO_DATA);
+    }
+
+    #[test]
+    fn dies_never_read_report_the_largest_age() {
+        let (sensors, _) = Sensors::init(
+            FakeDie::dead(),
+            FakeDie::dead(),
+            FakeDie::dead(),
+            FakeDie::dead(),
+            &mut NoDelay,
+        );
+        assert_eq!(sensors.ages_ms(1000), [u16::MAX; 4]);
     }
 
     #[test]

@@ -24,7 +24,7 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use dima_sensorboard::gnss::{nav_pvt, NavPvt, GNSS_FRAME_LEN};
-use dima_sensorboard::{Frame, InfoFrame, RawPacket, StreamDecoder};
+use dima_sensorboard::{Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder};
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
 const PAUSE: Duration = Duration::from_secs(2);
@@ -227,10 +227,29 @@ fn main() {
     );
     let first_info = infos.first().copied();
     if let Some(info) = first_info {
-        checks.check(info.version == 1, "info frame version 1");
+        checks.check(info.version == 2, "info frame version 2 (with health)");
+        // No sensor answers under QEMU: no read ever succeeded, none was attempted after boot.
+        checks.check(
+            info.health.accel_age_ms == u16::MAX
+                && info.health.bmp280_age_ms == u16::MAX
+                && info.health.accel_errors == 0,
+            &format!(
+                "absent sensors: never read, not retried ({:?})",
+                info.health
+            ),
+        );
         checks.check(
             info.firmware == [0, 1, 0],
             &format!("firmware version 0.1.0 (got {:?})", info.firmware),
+        );
+        // QEMU models no CRC unit (it reads zero): the boot self-check must fail, report it,
+        // and the software fallback must keep every packet valid (checked below).
+        checks.check(
+            info.status.contains(SensorStatus::CRC_UNIT_FAILED),
+            &format!(
+                "CRC unit self-check fails under QEMU and is reported (status {:#04x})",
+                info.status.bits()
+            ),
         );
         println!(
             "info: status {:#04x}, uptime {} ms, skipped {}",
@@ -323,6 +342,14 @@ fn main() {
             &format!(
                 "info frame reports GNSS frames seen (status {:#04x})",
                 second.status.bits()
+            ),
+        );
+        // The noise written before the NAV-PVT frame is dropped by the UBX reader and counted.
+        checks.check(
+            second.health.gnss_bytes_dropped > 0,
+            &format!(
+                "GNSS noise counted in the health ({} bytes dropped)",
+                second.health.gnss_bytes_dropped
             ),
         );
     }

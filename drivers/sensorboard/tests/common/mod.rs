@@ -85,6 +85,7 @@ pub fn info_frame() -> impl Strategy<Value = InfoFrame> {
                     bmm150_trim,
                     uptime_ms,
                     requests_skipped,
+                    ..InfoFrame::default()
                 }
             },
         )
