@@ -272,6 +272,54 @@ pub struct SensorInfoMessage {
     pub uptime_ms: u32,
     /// Requests the board skipped because an answer was still going out.
     pub requests_skipped: u32,
+    /// The board's health counters (version 2 frames; zero from version 1).
+    pub health: BoardHealthMessage,
+}
+
+/// The board's health since boot, as its info frame reports it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+pub struct BoardHealthMessage {
+    /// Failed SPI transfers with the accelerometer.
+    pub accel_errors: u32,
+    /// Failed SPI transfers with the gyroscope.
+    pub gyro_errors: u32,
+    /// Failed SPI transfers with the magnetometer.
+    pub mag_errors: u32,
+    /// Failed SPI transfers with the BMP280.
+    pub bmp280_errors: u32,
+    /// Magnetometer measurements that never became ready.
+    pub mag_timeout_errors: u32,
+    /// DMA transfer errors on the link to the host.
+    pub dma_errors: u32,
+    /// Requests that came before the first packet existed.
+    pub requests_early: u32,
+    /// GNSS bytes dropped outside valid UBX frames.
+    pub gnss_bytes_dropped: u32,
+    /// GNSS UBX frames with a bad checksum.
+    pub gnss_frame_errors: u32,
+    /// Resets by the watchdog since power-on.
+    pub watchdog_resets: u32,
+    /// Time since each sensor's last good read, ms: accelerometer, gyroscope, magnetometer,
+    /// BMP280.
+    pub last_good_read_age_ms: [u16; 4],
+}
+
+impl From<&dima_sensorboard::BoardHealth> for BoardHealthMessage {
+    fn from(h: &dima_sensorboard::BoardHealth) -> Self {
+        BoardHealthMessage {
+            accel_errors: h.accel_errors,
+            gyro_errors: h.gyro_errors,
+            mag_errors: h.mag_errors,
+            bmp280_errors: h.bmp280_errors,
+            mag_timeout_errors: h.mag_timeout_errors,
+            dma_errors: h.dma_errors,
+            requests_early: h.requests_early,
+            gnss_bytes_dropped: h.gnss_bytes_dropped,
+            gnss_frame_errors: h.gnss_frame_errors,
+            watchdog_resets: h.watchdog_resets,
+            last_good_read_age_ms: [h.accel_age_ms, h.gyro_age_ms, h.mag_age_ms, h.bmp280_age_ms],
+        }
+    }
 }
 
 impl From<&dima_sensorboard::InfoFrame> for SensorInfoMessage {
@@ -284,6 +332,7 @@ impl From<&dima_sensorboard::InfoFrame> for SensorInfoMessage {
             bmm150_trim: info.bmm150_trim.to_vec(),
             uptime_ms: info.uptime_ms,
             requests_skipped: info.requests_skipped,
+            health: (&info.health).into(),
         }
     }
 }

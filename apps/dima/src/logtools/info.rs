@@ -106,6 +106,48 @@ pub fn report(run: &LoggedRun) -> String {
             c.log_dropped
         );
     }
+    if let Some(info) = run.infos.last().filter(|i| i.msg.version < 2) {
+        let _ = writeln!(
+            out,
+            "sensor board (info frame v{}, firmware {}.{}.{}): requests skipped {}; no health \
+             counters before frame version 2",
+            info.msg.version,
+            info.msg.firmware[0],
+            info.msg.firmware[1],
+            info.msg.firmware[2],
+            info.msg.requests_skipped
+        );
+    }
+    if let Some(info) = run.infos.last().filter(|i| i.msg.version >= 2) {
+        let h = &info.msg.health;
+        let _ = writeln!(
+            out,
+            "sensor board (info frame v{}, firmware {}.{}.{}, up {:.1} s): requests skipped {} \
+             early {} | errors: accel {} gyro {} mag {} bmp280 {} mag-timeout {} dma {} gnss \
+             frames {} (bytes dropped {}) | watchdog resets {} | last good read ms: accel {} \
+             gyro {} mag {} bmp280 {}",
+            info.msg.version,
+            info.msg.firmware[0],
+            info.msg.firmware[1],
+            info.msg.firmware[2],
+            f64::from(info.msg.uptime_ms) * 1e-3,
+            info.msg.requests_skipped,
+            h.requests_early,
+            h.accel_errors,
+            h.gyro_errors,
+            h.mag_errors,
+            h.bmp280_errors,
+            h.mag_timeout_errors,
+            h.dma_errors,
+            h.gnss_frame_errors,
+            h.gnss_bytes_dropped,
+            h.watchdog_resets,
+            h.last_good_read_age_ms[0],
+            h.last_good_read_age_ms[1],
+            h.last_good_read_age_ms[2],
+            h.last_good_read_age_ms[3]
+        );
+    }
     if let Some(ground) = &run.ground_link {
         let _ = writeln!(out, "{ground}");
     }
