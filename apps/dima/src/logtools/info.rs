@@ -184,6 +184,50 @@ pub fn report(run: &LoggedRun) -> String {
 #[cfg(test)]
 mod tests {
     use super::percentile;
+    use crate::logtools::read::{LoggedRun, Timed};
+    use dima_core::schema::{BoardHealthMessage, SensorInfoMessage};
+
+    fn with_info(version: u8, health: BoardHealthMessage) -> LoggedRun {
+        LoggedRun {
+            infos: vec![Timed {
+                t_ns: 0,
+                msg: SensorInfoMessage {
+                    version,
+                    firmware: [0, 2, 0],
+                    status: 0,
+                    bmp280_calibration: Vec::new(),
+                    bmm150_trim: Vec::new(),
+                    uptime_ms: 61_500,
+                    requests_skipped: 3,
+                    health,
+                },
+            }],
+            ..LoggedRun::default()
+        }
+    }
+
+    #[test]
+    fn the_board_health_is_shown_from_frame_version_2() {
+        let health = BoardHealthMessage {
+            mag_errors: 7,
+            watchdog_resets: 1,
+            last_good_read_age_ms: [1, 1, 250, 40],
+            ..BoardHealthMessage::default()
+        };
+        let text = super::report(&with_info(2, health));
+        assert!(
+            text.contains("firmware 0.2.0, up 61.5 s): requests skipped 3"),
+            "{text}"
+        );
+        assert!(text.contains("mag 7 "), "{text}");
+        assert!(text.contains("watchdog resets 1"), "{text}");
+        assert!(text.contains("mag 250 bmp280 40"), "{text}");
+        let old = super::report(&with_info(1, BoardHealthMessage::default()));
+        assert!(
+            old.contains("no health counters before frame version 2"),
+            "{old}"
+        );
+    }
 
     #[test]
     fn nearest_rank_percentiles() {
