@@ -172,12 +172,19 @@ impl LinkHandle {
     }
 }
 
-impl Drop for LinkHandle {
-    fn drop(&mut self) {
+impl LinkHandle {
+    /// Ends the thread and waits for it (it drops its recorder sender on the way out).
+    pub fn shutdown(&mut self) {
         self.send(LinkControl::Shutdown);
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+    }
+}
+
+impl Drop for LinkHandle {
+    fn drop(&mut self) {
+        self.shutdown();
     }
 }
 

@@ -38,7 +38,7 @@ pub fn top_bar(ui: &mut egui::Ui, app: &mut GroundApp) {
                     }
                 });
             if ui
-                .button("⟳")
+                .button("Refresh")
                 .on_hover_text("refresh the list of serial ports")
                 .clicked()
             {

@@ -28,8 +28,9 @@ use crate::sim::{SimLaunch, SimRobot};
 use crate::telemetry::Telemetry;
 use crate::units::SensorCalibration;
 
-/// Repaint at least this often (link health and ages move without input).
-const REPAINT: Duration = Duration::from_millis(33);
+/// Repaint at least this often (link health and ages move without input; frames come at
+/// 2 Hz, and software-rendered frames cost the robot simulation CPU time).
+const REPAINT: Duration = Duration::from_millis(100);
 
 /// The outcome of a `--screenshot` run, written by the screenshot callback.
 type ScreenshotResult = Arc<Mutex<Option<Result<PathBuf, String>>>>;
@@ -256,6 +257,8 @@ impl eframe::App for GroundApp {
         if let Some(mut sim) = self.sim.take() {
             sim.stop(Duration::from_secs(5));
         }
+        // The link thread holds a sender of the recording: end it first.
+        self.link.shutdown();
         if let Some(r) = self.recorder.take() {
             match r.finish() {
                 Ok(n) => eprintln!("dima-ground: session recording closed ({n} messages)"),
