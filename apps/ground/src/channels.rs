@@ -13,11 +13,24 @@ use dima_groundlink::Percent;
 
 use crate::scheduler::ManualChannel;
 
-/// The channel table (limits, neutral and safe pulse widths per channel).
-#[derive(Debug, Clone, PartialEq, Default)]
+/// The channel table (limits, neutral and safe pulse widths per channel), with the AUTO speed
+/// limit from the same configuration.
+#[derive(Debug, Clone, PartialEq)]
 pub struct ChannelTable {
     /// Throttle, steering and tail as the robot's configuration has them.
     pub channels: ChannelsConfig,
+    /// The fastest speed setpoint the robot accepts, mm/s (`control.max_speed_mm_s`; AUTO is
+    /// forward-only, so 0 is the slowest).
+    pub max_speed_mm_s: i32,
+}
+
+impl Default for ChannelTable {
+    fn default() -> Self {
+        ChannelTable {
+            channels: ChannelsConfig::default(),
+            max_speed_mm_s: dima_core::config::ControlConfig::default().max_speed_mm_s,
+        }
+    }
 }
 
 impl ChannelTable {
@@ -32,6 +45,7 @@ impl ChannelTable {
         let config = Config::from_toml(&text, &path.display().to_string())?;
         Ok(ChannelTable {
             channels: config.channels,
+            max_speed_mm_s: config.control.max_speed_mm_s,
         })
     }
 
@@ -92,6 +106,7 @@ mod tests {
         .unwrap();
         let t = ChannelTable::from_robot_config(&path).unwrap();
         assert_eq!(t.pulse_us(ManualChannel::Throttle, pct(50)), 1500);
+        assert_eq!(t.max_speed_mm_s, ChannelTable::default().max_speed_mm_s);
         assert_eq!(t.neutral_percent(ManualChannel::Throttle), pct(25));
         std::fs::write(&path, "[channels.throttle]\nmin_us = 2100\n").unwrap();
         let e = ChannelTable::from_robot_config(&path).unwrap_err();

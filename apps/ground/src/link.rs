@@ -399,7 +399,7 @@ impl LinkWorker {
             std::thread::sleep(wait.max(Duration::from_millis(1)));
             return;
         };
-        let timeout = PollTimeout::try_from(wait.as_millis() as u16).unwrap_or(PollTimeout::ZERO);
+        let timeout = PollTimeout::from(wait.as_millis().min(u128::from(u16::MAX)) as u16);
         let mut fds = [PollFd::new(port.as_fd(), PollFlags::POLLIN)];
         let revents = match poll(&mut fds, timeout) {
             Ok(0) => return,
@@ -547,7 +547,7 @@ mod tests {
         while Instant::now() < end {
             let left = end.saturating_duration_since(Instant::now());
             let mut fds = [PollFd::new(robot.as_fd(), PollFlags::POLLIN)];
-            let ms = PollTimeout::try_from(left.as_millis().min(50) as u16).unwrap();
+            let ms = PollTimeout::from(left.as_millis().min(50) as u16);
             if poll(&mut fds, ms).unwrap() > 0 {
                 let n = robot.read(&mut buf).unwrap();
                 let t = Instant::now();

@@ -138,12 +138,16 @@ fn setpoints(ui: &mut egui::Ui, app: &mut GroundApp) {
     let mut sent = None;
     egui::Grid::new("setpoints").num_columns(3).show(ui, |ui| {
         ui.label("speed");
+        let max_m_s = f64::from(app.table.max_speed_mm_s) / 1000.0;
         ui.add(
             egui::DragValue::new(&mut form.speed_m_s)
                 .speed(0.05)
-                .range(-100.0..=100.0)
+                .range(0.0..=max_m_s)
                 .suffix(" m/s"),
-        );
+        )
+        .on_hover_text(format!(
+            "AUTO is forward-only, up to {max_m_s:.1} m/s (control.max_speed_mm_s)"
+        ));
         if ui.button("Send speed").clicked() {
             sent = Some(
                 speed_setpoint_mm_s(form.speed_m_s).map(|mm_s| Command::SpeedSetpoint { mm_s }),
