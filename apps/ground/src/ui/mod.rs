@@ -10,6 +10,7 @@ mod status;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -81,6 +82,9 @@ pub struct GroundApp {
     connection: ConnectionForm,
     setpoints: SetpointForm,
     screenshot: Option<ScreenshotPlan>,
+    /// Set by SIGINT/SIGTERM: close the window (stopping the robot and closing the recording)
+    /// instead of dying with the recording open.
+    stop_requested: Arc<AtomicBool>,
 }
 
 impl GroundApp {
@@ -122,8 +126,13 @@ impl GroundApp {
                 baud: cli.baud,
             });
         }
+        let stop_requested = Arc::new(AtomicBool::new(false));
+        for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+            signal_hook::flag::register(signal, stop_requested.clone())?;
+        }
         let started = Instant::now();
         Ok(GroundApp {
+            stop_requested,
             started,
             status: link.status(),
             link,
@@ -249,6 +258,9 @@ impl eframe::App for GroundApp {
         egui::CentralPanel::default().show(ui, |ui| charts::plots(ui, &self.telemetry));
         drive::revive_confirmation(&ctx, self);
         self.take_screenshot_when_due(&ctx);
+        if self.stop_requested.load(Ordering::Relaxed) {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
         ctx.request_repaint_after(REPAINT);
     }
 
