@@ -7,7 +7,7 @@
 //! must be released before it drives again, so a revive never finds the car already under
 //! throttle from a key nobody remembers holding.
 
-use dima_groundlink::{Command, Percent};
+use dima_groundlink::Percent;
 
 use crate::channels::ChannelTable;
 use crate::keys::AxisChange;
@@ -144,14 +144,10 @@ impl ManualControl {
     }
 }
 
-/// A speed or heading setpoint request for the link.
-pub fn setpoint(command: Command) -> LinkControl {
-    LinkControl::Request(command)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use dima_groundlink::Command;
 
     fn pct(v: u8) -> Percent {
         Percent::new(v).unwrap()

@@ -173,7 +173,7 @@ fn describe_data(c: dima_groundlink::Command) -> String {
 
 fn onboard(ui: &mut egui::Ui, app: &GroundApp) {
     ui.heading("Onboard");
-    let Some((_, frame, p)) = &app.telemetry.latest else {
+    let Some((_, _, p)) = &app.telemetry.latest else {
         ui.label("waiting for a display frame");
         return;
     };
@@ -232,5 +232,4 @@ fn onboard(ui: &mut egui::Ui, app: &GroundApp) {
             row("ground speed", format!("{:.2}", p.ground_speed_m_s), "m/s");
             row("heading of motion", format!("{:.1}", p.heading_deg), "°");
         });
-    let _ = frame;
 }
