@@ -1,0 +1,133 @@
+//! The command line of `dima-ground`.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+
+/// The DIMA ground station: drive the robot, kill and revive it, watch its sensors and GNSS,
+/// and record the session.
+///
+/// Keys: Up/Down or W/S throttle, Left/Right or A/D steering, Q/E tail (held: a step from
+/// neutral; released: neutral), Space kill (always), R held for one second revive.
+#[derive(Debug, Clone, Parser)]
+#[command(name = "dima-ground", version, about, long_about)]
+pub struct Cli {
+    /// Connect to this serial port (or pty) at start.
+    #[arg(long, value_name = "PATH", conflicts_with = "sim")]
+    pub port: Option<PathBuf>,
+    /// Baud rate of the XBee link.
+    #[arg(long, default_value_t = 9600, value_name = "N")]
+    pub baud: u32,
+    /// Run the simulated robot (as `dima sim --ground-pty` does) and connect to it; it stops
+    /// when the station exits.
+    #[arg(long)]
+    pub sim: bool,
+    /// Directory of the simulated robot's MCAP log (with --sim).
+    #[arg(long, default_value = "dima-logs", value_name = "DIR")]
+    pub sim_log_dir: PathBuf,
+    /// Stop the simulated robot after this many seconds (with --sim; default: at exit).
+    #[arg(long, value_name = "SECONDS", requires = "sim")]
+    pub sim_duration: Option<f64>,
+    /// The robot's configuration (`dima`'s TOML): its channel table gives the pulse widths
+    /// shown, and with --sim the simulated robot runs with it. Default: `dima`'s defaults.
+    #[arg(long, value_name = "FILE")]
+    pub robot_config: Option<PathBuf>,
+    /// A robot MCAP log with a sensor-board info frame: its calibration turns magnetometer and
+    /// barometer values into µT, Pa and °C (with --sim the simulated board's is used).
+    #[arg(long, value_name = "FILE")]
+    pub sensor_info: Option<PathBuf>,
+    /// Directory for the session recording (MCAP).
+    #[arg(long, default_value = "./dima-ground-logs", value_name = "DIR")]
+    pub log_dir: PathBuf,
+    /// Do not record the session.
+    #[arg(long)]
+    pub no_record: bool,
+    /// How far a held key moves an axis from neutral, percent.
+    #[arg(long, default_value_t = 20, value_name = "PERCENT",
+          value_parser = clap::value_parser!(u8).range(1..=50))]
+    pub key_step: u8,
+    /// Render the running window to this PNG after --after seconds, then exit 0.
+    #[arg(long, value_name = "FILE")]
+    pub screenshot: Option<PathBuf>,
+    /// Seconds before the screenshot.
+    #[arg(
+        long,
+        default_value_t = 5.0,
+        value_name = "SECONDS",
+        requires = "screenshot"
+    )]
+    pub after: f64,
+    /// Window size in logical pixels, WIDTHxHEIGHT.
+    #[arg(long, default_value = "1400x900", value_name = "WxH", value_parser = parse_size)]
+    pub window_size: (f32, f32),
+}
+
+fn parse_size(text: &str) -> Result<(f32, f32), String> {
+    let (w, h) = text
+        .split_once('x')
+        .ok_or_else(|| format!("`{text}`: expected WIDTHxHEIGHT, e.g. 1400x900"))?;
+    let n = |s: &str| {
+        s.trim()
+            .parse::<f32>()
+            .ok()
+            .filter(|v| (200.0..=10_000.0).contains(v))
+            .ok_or_else(|| format!("`{s}`: expected a size between 200 and 10000"))
+    };
+    Ok((n(w)?, n(h)?))
+}
+
+impl Cli {
+    /// Checks what clap cannot.
+    pub fn validate(&self) -> anyhow::Result<()> {
+        if !(self.after.is_finite() && self.after >= 0.0) {
+            anyhow::bail!("--after must be a number of seconds >= 0");
+        }
+        if crate::serial::baud_rate(self.baud).is_none() {
+            anyhow::bail!("--baud {}: not a standard rate", self.baud);
+        }
+        if let Some(d) = self.sim_duration {
+            if !(d.is_finite() && d > 0.0) {
+                anyhow::bail!("--sim-duration must be a positive number of seconds");
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flags() {
+        let c = Cli::try_parse_from(["dima-ground", "--port", "/dev/pts/4", "--baud", "115200"])
+            .unwrap();
+        assert_eq!(c.port, Some(PathBuf::from("/dev/pts/4")));
+        assert_eq!(c.baud, 115_200);
+        assert_eq!(c.log_dir, PathBuf::from("./dima-ground-logs"));
+        assert_eq!(c.key_step, 20);
+        assert_eq!(c.window_size, (1400.0, 900.0));
+        c.validate().unwrap();
+
+        let c = Cli::try_parse_from([
+            "dima-ground",
+            "--sim",
+            "--screenshot",
+            "a.png",
+            "--after",
+            "7",
+            "--window-size",
+            "800x600",
+        ])
+        .unwrap();
+        assert!(c.sim);
+        assert_eq!(c.after, 7.0);
+        assert_eq!(c.window_size, (800.0, 600.0));
+
+        assert!(Cli::try_parse_from(["dima-ground", "--sim", "--port", "/dev/x"]).is_err());
+        assert!(Cli::try_parse_from(["dima-ground", "--key-step", "0"]).is_err());
+        assert!(Cli::try_parse_from(["dima-ground", "--window-size", "big"]).is_err());
+        let bad = Cli::try_parse_from(["dima-ground", "--baud", "1234"]).unwrap();
+        assert!(bad.validate().is_err());
+    }
+}

@@ -1,0 +1,41 @@
+//! The DIMA ground station: the operator's side of the ground link.
+//!
+//! The user interface ([`ui`]) is a thin layer over plain modules, each with one job and its
+//! own tests:
+//! - [`serial`]: opening a serial port (or a pseudo-terminal) raw at a baud rate, and listing
+//!   the ports a robot's XBee could be on;
+//! - [`scheduler`]: which command frames go out when: a heartbeat every 100 ms, a pending
+//!   command in its place, held values repeated, a kill at once and repeated for 1 s;
+//! - [`link`]: the link thread that owns the port: sends what the scheduler says, decodes
+//!   display frames, counts everything, reconnects, and never blocks the user interface;
+//! - [`keys`]: the keyboard contract (arrows/WASD, Q/E, Space kills, R held 1 s revives) as a
+//!   pure function of the keys held and the time;
+//! - [`control`]: keys, gamepad and sliders merged into what the link holds and sends;
+//! - [`gamepad`]: sticks and a kill button through `gilrs`;
+//! - [`channels`]: percent to pulse width from the robot's channel table;
+//! - [`units`]: display-frame values in physical units, compensated with the sensor board's
+//!   calibration when it is known;
+//! - [`telemetry`]: the latest display frame in physical units and its history;
+//! - [`plots`]: time-series buffers and the GNSS track in local metres;
+//! - [`robot_view`]: the robot's mode as the station last knew it, from what it sent;
+//! - [`recording`]: the session log (everything sent and received, timestamped) as MCAP;
+//! - [`sim`]: `--sim`, the simulated robot exactly as `dima sim --ground-pty` runs it, in a
+//!   child process;
+//! - [`cli`]: the command line.
+#![deny(missing_docs)]
+
+pub mod channels;
+pub mod cli;
+pub mod control;
+pub mod gamepad;
+pub mod keys;
+pub mod link;
+pub mod plots;
+pub mod recording;
+pub mod robot_view;
+pub mod scheduler;
+pub mod serial;
+pub mod sim;
+pub mod telemetry;
+pub mod ui;
+pub mod units;

@@ -1,0 +1,433 @@
+//! Session recording: everything the station sends and receives, timestamped, in an MCAP file
+//! (readable by Foxglove and the `mcap` Python package).
+//!
+//! | topic | encoding | content |
+//! |---|---|---|
+//! | `/ground/command` | json ([`CommandRecord`]) | every command frame sent |
+//! | `/ground/display` | json ([`DisplayRecord`]) | every valid display frame, raw fields and SI |
+//! | `/ground/rx_bytes` | `dima-ground-bytes` | every chunk of bytes read, as read (replayable) |
+//! | `/ground/link` | json ([`LinkRecord`]) | connects, disconnects, errors |
+//!
+//! Log and publish times are Unix-epoch nanoseconds of the moment the link thread sent or read
+//! the bytes. The writer runs on its own thread, so a slow disk never delays the link; the
+//! current chunk is closed every second, so a crash loses at most the last second.
+
+use std::collections::BTreeMap;
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
+use std::thread::JoinHandle;
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+use anyhow::Context;
+use dima_groundlink::{Command, DisplayFrame};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::units::{Baro, MagField, Physical};
+
+/// Topic of the commands sent.
+pub const TOPIC_COMMAND: &str = "/ground/command";
+/// Topic of the display frames received.
+pub const TOPIC_DISPLAY: &str = "/ground/display";
+/// Topic of the raw bytes received.
+pub const TOPIC_RX_BYTES: &str = "/ground/rx_bytes";
+/// Topic of link events.
+pub const TOPIC_LINK: &str = "/ground/link";
+
+/// One command frame as sent.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima_ground.Command")]
+pub struct CommandRecord {
+    /// Command type (0 heartbeat, 1 kill, 2 revive, 3-5 throttle/steering/tail, 6 speed,
+    /// 7 heading).
+    pub kind: u8,
+    /// The type's name.
+    pub name: String,
+    /// The data field (percent, mm/s or 1e-5 degrees).
+    pub data: i32,
+    /// The 10-byte frame, hexadecimal.
+    pub frame_hex: String,
+}
+
+impl CommandRecord {
+    /// The record of `command`.
+    pub fn new(command: Command) -> CommandRecord {
+        CommandRecord {
+            kind: command.command_type() as u8,
+            name: format!("{:?}", command.command_type()),
+            data: command.data(),
+            frame_hex: hex(&command.encode()),
+        }
+    }
+}
+
+/// One display frame: the values on the wire and in physical units.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima_ground.Display")]
+pub struct DisplayRecord {
+    /// Accelerometer counts X, Y, Z.
+    pub acc: [i16; 3],
+    /// Gyroscope counts X, Y, Z.
+    pub gyro: [i16; 3],
+    /// Magnetometer counts X, Y, Z (before trim compensation).
+    pub mag: [i16; 3],
+    /// Magnetometer hall resistance.
+    pub mag_hall: u16,
+    /// BMP280 raw pressure.
+    pub baro_press: u32,
+    /// BMP280 raw temperature.
+    pub baro_temp: u32,
+    /// Acceleration, m/s².
+    pub acc_m_s2: [f32; 3],
+    /// Angular rate, °/s.
+    pub gyro_dps: [f32; 3],
+    /// Magnetic field, µT (null without the trim).
+    pub mag_ut: Option<[f32; 3]>,
+    /// Pressure, Pa (null without the calibration).
+    pub pressure_pa: Option<f32>,
+    /// Temperature, °C (null without the calibration).
+    pub temperature_c: Option<f32>,
+    /// Latitude, degrees.
+    pub lat_deg: f64,
+    /// Longitude, degrees.
+    pub lon_deg: f64,
+    /// Velocity north, east, down, m/s.
+    pub vel_ned_m_s: [f64; 3],
+    /// Height above the ellipsoid, m.
+    pub height_m: f64,
+    /// Height above mean sea level, m.
+    pub h_msl_m: f64,
+    /// Ground speed, m/s.
+    pub ground_speed_m_s: f64,
+    /// Heading of motion, degrees.
+    pub heading_deg: f64,
+}
+
+impl DisplayRecord {
+    /// The record of `frame`, converted as `physical`.
+    pub fn new(frame: &DisplayFrame, physical: &Physical) -> DisplayRecord {
+        let (pressure_pa, temperature_c) = match physical.baro {
+            Baro::Compensated {
+                pressure_pa,
+                temperature_c,
+            } => (pressure_pa, Some(temperature_c)),
+            Baro::Raw { .. } => (None, None),
+        };
+        DisplayRecord {
+            acc: frame.acc,
+            gyro: frame.gyro,
+            mag: frame.mag,
+            mag_hall: frame.mag_hall,
+            baro_press: frame.baro_press,
+            baro_temp: frame.baro_temp,
+            acc_m_s2: physical.acc_m_s2,
+            gyro_dps: physical.gyro_dps,
+            mag_ut: match physical.mag {
+                MagField::MicroTesla(v) => Some(v),
+                MagField::Raw(..) => None,
+            },
+            pressure_pa,
+            temperature_c,
+            lat_deg: physical.lat_deg,
+            lon_deg: physical.lon_deg,
+            vel_ned_m_s: physical.vel_ned_m_s,
+            height_m: physical.height_m,
+            h_msl_m: physical.h_msl_m,
+            ground_speed_m_s: physical.ground_speed_m_s,
+            heading_deg: physical.heading_deg,
+        }
+    }
+}
+
+/// A link event.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima_ground.Link")]
+pub struct LinkRecord {
+    /// What happened: `connected`, `disconnected`, `lost`, `error`.
+    pub event: String,
+    /// The port, when there is one.
+    pub port: Option<String>,
+    /// Baud rate, when connected.
+    pub baud: Option<u32>,
+    /// Details (the error text).
+    pub detail: Option<String>,
+}
+
+/// Something to record, with its time (Unix-epoch ns).
+#[derive(Debug, Clone)]
+pub enum RecordEvent {
+    /// A command frame was written.
+    Sent(u64, Command),
+    /// Bytes were read.
+    Received(u64, Vec<u8>),
+    /// A display frame was decoded from them.
+    Display(u64, Box<DisplayRecord>),
+    /// A link event.
+    Link(u64, LinkRecord),
+}
+
+/// Now, as Unix-epoch nanoseconds.
+pub fn now_ns() -> u64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
+}
+
+fn hex(bytes: &[u8]) -> String {
+    bytes.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+fn json_schema<T: JsonSchema>() -> String {
+    serde_json::to_string_pretty(&schemars::schema_for!(T)).unwrap_or_default()
+}
+
+/// The MCAP file being written.
+struct SessionFile {
+    writer: mcap::Writer<BufWriter<File>>,
+    command: u16,
+    display: u16,
+    rx_bytes: u16,
+    link: u16,
+    sequence: u32,
+}
+
+impl SessionFile {
+    fn create(path: &Path) -> anyhow::Result<SessionFile> {
+        let file = File::create(path)
+            .with_context(|| format!("recording: cannot create {} (writable?)", path.display()))?;
+        let mut writer = mcap::WriteOptions::new()
+            .compression(Some(mcap::Compression::Zstd))
+            .profile("")
+            .create(BufWriter::new(file))
+            .context("recording: starting the MCAP file")?;
+        let none = BTreeMap::new();
+        let mut json = |title: &str, schema: String, topic: &str| -> anyhow::Result<u16> {
+            let id = writer.add_schema(title, "jsonschema", schema.as_bytes())?;
+            Ok(writer.add_channel(id, topic, "json", &none)?)
+        };
+        let command = json(
+            "dima_ground.Command",
+            json_schema::<CommandRecord>(),
+            TOPIC_COMMAND,
+        )?;
+        let display = json(
+            "dima_ground.Display",
+            json_schema::<DisplayRecord>(),
+            TOPIC_DISPLAY,
+        )?;
+        let link = json("dima_ground.Link", json_schema::<LinkRecord>(), TOPIC_LINK)?;
+        let rx_bytes = writer.add_channel(0, TOPIC_RX_BYTES, "dima-ground-bytes", &none)?;
+        Ok(SessionFile {
+            writer,
+            command,
+            display,
+            rx_bytes,
+            link,
+            sequence: 0,
+        })
+    }
+
+    fn write(&mut self, channel_id: u16, t_ns: u64, data: &[u8]) -> anyhow::Result<()> {
+        self.sequence = self.sequence.wrapping_add(1);
+        self.writer.write_to_known_channel(
+            &mcap::records::MessageHeader {
+                channel_id,
+                sequence: self.sequence,
+                log_time: t_ns,
+                publish_time: t_ns,
+            },
+            data,
+        )?;
+        Ok(())
+    }
+
+    fn record(&mut self, event: &RecordEvent) -> anyhow::Result<()> {
+        match event {
+            RecordEvent::Sent(t, c) => {
+                let json = serde_json::to_vec(&CommandRecord::new(*c))?;
+                self.write(self.command, *t, &json)
+            }
+            RecordEvent::Received(t, bytes) => self.write(self.rx_bytes, *t, bytes),
+            RecordEvent::Display(t, d) => {
+                let json = serde_json::to_vec(d)?;
+                self.write(self.display, *t, &json)
+            }
+            RecordEvent::Link(t, l) => {
+                let json = serde_json::to_vec(l)?;
+                self.write(self.link, *t, &json)
+            }
+        }
+    }
+}
+
+/// The recording: a writer thread and the sender that feeds it. Dropping it (or
+/// [`finish`](Self::finish)) writes the summary and closes the file.
+pub struct Recorder {
+    sender: Option<Sender<RecordEvent>>,
+    thread: Option<JoinHandle<anyhow::Result<u64>>>,
+    path: PathBuf,
+}
+
+impl Recorder {
+    /// Starts a recording in `dir` (created if missing), named `dima-ground-<unix seconds>.mcap`.
+    pub fn start(dir: &Path) -> anyhow::Result<Recorder> {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("recording: cannot create {}", dir.display()))?;
+        let secs = now_ns() / 1_000_000_000;
+        let mut path = dir.join(format!("dima-ground-{secs}.mcap"));
+        let mut n = 1;
+        while path.exists() {
+            path = dir.join(format!("dima-ground-{secs}-{n}.mcap"));
+            n += 1;
+        }
+        let file = SessionFile::create(&path)?;
+        let (sender, receiver) = mpsc::channel();
+        let thread = std::thread::Builder::new()
+            .name("recorder".into())
+            .spawn(move || write_loop(file, receiver))
+            .context("recording: starting the writer thread")?;
+        Ok(Recorder {
+            sender: Some(sender),
+            thread: Some(thread),
+            path,
+        })
+    }
+
+    /// The file being written.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// A sender for the link thread.
+    pub fn sender(&self) -> Sender<RecordEvent> {
+        self.sender
+            .clone()
+            .expect("the sender lives until finish or drop")
+    }
+
+    /// Closes the file; returns the number of messages written.
+    pub fn finish(mut self) -> anyhow::Result<u64> {
+        self.close()
+    }
+
+    fn close(&mut self) -> anyhow::Result<u64> {
+        self.sender.take();
+        match self.thread.take() {
+            Some(t) => t
+                .join()
+                .map_err(|_| anyhow::anyhow!("recording: the writer thread panicked"))?,
+            None => Ok(0),
+        }
+    }
+}
+
+impl Drop for Recorder {
+    fn drop(&mut self) {
+        if let Err(e) = self.close() {
+            eprintln!("dima-ground: {e:#}");
+        }
+    }
+}
+
+/// Writes until every sender is gone; closes the chunk every second.
+fn write_loop(mut file: SessionFile, events: Receiver<RecordEvent>) -> anyhow::Result<u64> {
+    let mut written = 0u64;
+    let mut dirty = false;
+    loop {
+        match events.recv_timeout(Duration::from_secs(1)) {
+            Ok(event) => {
+                file.record(&event)?;
+                written += 1;
+                dirty = true;
+            }
+            Err(RecvTimeoutError::Timeout) => {
+                if std::mem::take(&mut dirty) {
+                    file.writer.flush()?;
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+    }
+    file.writer.finish()?;
+    Ok(written)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dima_groundlink::Percent;
+
+    #[test]
+    fn a_session_reads_back_with_every_topic() {
+        let dir = std::env::temp_dir().join(format!("dima-ground-rec-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let recorder = Recorder::start(&dir).unwrap();
+        let path = recorder.path().to_owned();
+        let tx = recorder.sender();
+        let frame = DisplayFrame {
+            acc: [1, -2, 1000],
+            lat_e7: 473_769_000,
+            lon_e7: 85_417_000,
+            ..DisplayFrame::default()
+        };
+        let physical = Physical::from_frame(&frame, None);
+        tx.send(RecordEvent::Link(
+            10,
+            LinkRecord {
+                event: "connected".into(),
+                port: Some("/dev/pts/3".into()),
+                baud: Some(9600),
+                detail: None,
+            },
+        ))
+        .unwrap();
+        tx.send(RecordEvent::Sent(
+            20,
+            Command::Throttle(Percent::new(70).unwrap()),
+        ))
+        .unwrap();
+        tx.send(RecordEvent::Received(30, frame.encode().to_vec()))
+            .unwrap();
+        tx.send(RecordEvent::Display(
+            30,
+            Box::new(DisplayRecord::new(&frame, &physical)),
+        ))
+        .unwrap();
+        drop(tx);
+        assert_eq!(recorder.finish().unwrap(), 4);
+
+        let bytes = std::fs::read(&path).unwrap();
+        let mut seen = Vec::new();
+        for m in mcap::MessageStream::new(&bytes).unwrap() {
+            let m = m.unwrap();
+            seen.push((m.channel.topic.clone(), m.log_time));
+            match m.channel.topic.as_str() {
+                TOPIC_COMMAND => {
+                    let c: CommandRecord = serde_json::from_slice(&m.data).unwrap();
+                    assert_eq!((c.kind, c.data), (3, 70));
+                    assert_eq!(c.frame_hex.len(), 20);
+                    assert!(c.frame_hex.starts_with("2403"));
+                }
+                TOPIC_DISPLAY => {
+                    let d: DisplayRecord = serde_json::from_slice(&m.data).unwrap();
+                    assert_eq!(d.acc, [1, -2, 1000]);
+                    assert!((d.lat_deg - 47.3769).abs() < 1e-9);
+                    assert_eq!(d.pressure_pa, None);
+                }
+                TOPIC_RX_BYTES => assert_eq!(m.data.as_ref(), frame.encode().as_slice()),
+                TOPIC_LINK => assert!(String::from_utf8_lossy(&m.data).contains("connected")),
+                other => panic!("unexpected topic {other}"),
+            }
+            let schema = m.channel.schema.as_ref();
+            if m.channel.message_encoding == "json" {
+                let s = schema.expect("json channels declare a schema");
+                assert_eq!(s.encoding, "jsonschema");
+            }
+        }
+        assert_eq!(seen.len(), 4, "{seen:?}");
+        assert_eq!(seen[1], (TOPIC_COMMAND.to_string(), 20));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,303 @@
+//! Which command frames go out when (ground link v1, DESIGN 2.2).
+//!
+//! - One slot every [`HEARTBEAT_PERIOD`]: the pending commands go out in it (coalesced: only the
+//!   latest value per command type), and the values the operator holds (a key, a stick, a
+//!   slider being dragged) are repeated in every slot; with nothing to say the slot carries a
+//!   heartbeat. So a pending command replaces the heartbeat once.
+//! - A kill goes out at once, outside the slot rhythm, and then in every slot for
+//!   [`KILL_REPEAT`], ahead of everything else. Pending and held manual values are dropped
+//!   when a kill is requested: the robot ignores them when KILLED and the operator should not
+//!   find a stale throttle waiting after a revive.
+//! - A revive ends the repetition of an earlier kill (the operator's latest decision wins).
+//!
+//! Time is an input ([`Instant`] arguments), so every rule is tested without sleeping.
+
+use std::time::{Duration, Instant};
+
+use dima_groundlink::{Command, CommandType};
+
+/// The slot period: one frame (at least a heartbeat) every 100 ms.
+pub const HEARTBEAT_PERIOD: Duration = Duration::from_millis(100);
+/// How long a kill is repeated after it was requested.
+pub const KILL_REPEAT: Duration = Duration::from_secs(1);
+
+/// The manual channels an operator can hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ManualChannel {
+    /// Throttle (command type 3).
+    Throttle,
+    /// Steering (command type 4).
+    Steering,
+    /// Tail (command type 5).
+    Tail,
+}
+
+impl ManualChannel {
+    /// All three, in wire order.
+    pub const ALL: [ManualChannel; 3] = [
+        ManualChannel::Throttle,
+        ManualChannel::Steering,
+        ManualChannel::Tail,
+    ];
+
+    fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The command carrying `percent` on this channel.
+    pub fn command(self, percent: dima_groundlink::Percent) -> Command {
+        match self {
+            ManualChannel::Throttle => Command::Throttle(percent),
+            ManualChannel::Steering => Command::Steering(percent),
+            ManualChannel::Tail => Command::Tail(percent),
+        }
+    }
+
+    /// A short lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            ManualChannel::Throttle => "throttle",
+            ManualChannel::Steering => "steering",
+            ManualChannel::Tail => "tail",
+        }
+    }
+}
+
+/// The command schedule of one link session.
+#[derive(Debug, Clone)]
+pub struct CommandScheduler {
+    period: Duration,
+    next_slot: Option<Instant>,
+    kill_until: Option<Instant>,
+    kill_now: bool,
+    /// Pending commands in request order, at most one per type.
+    pending: Vec<Command>,
+    held: [Option<Command>; 3],
+}
+
+impl Default for CommandScheduler {
+    fn default() -> Self {
+        CommandScheduler::new(HEARTBEAT_PERIOD)
+    }
+}
+
+impl CommandScheduler {
+    /// A schedule with slots every `period` (the protocol's is [`HEARTBEAT_PERIOD`]).
+    pub fn new(period: Duration) -> CommandScheduler {
+        CommandScheduler {
+            period,
+            next_slot: None,
+            kill_until: None,
+            kill_now: false,
+            pending: Vec::new(),
+            held: [None; 3],
+        }
+    }
+
+    /// Queues `command` for the next slot (a kill goes out at once: see the module docs).
+    pub fn request(&mut self, command: Command, now: Instant) {
+        match command {
+            Command::Kill => {
+                self.kill_now = true;
+                self.kill_until = Some(now + KILL_REPEAT);
+                self.pending.clear();
+                self.held = [None; 3];
+            }
+            Command::Heartbeat => {}
+            other => {
+                if other == Command::Revive {
+                    self.kill_until = None;
+                    self.kill_now = false;
+                }
+                let kind = other.command_type();
+                self.pending.retain(|c| c.command_type() != kind);
+                self.pending.push(other);
+            }
+        }
+    }
+
+    /// Holds `command` on `channel` (repeated in every slot) or, with `None`, stops holding it.
+    /// A new held value is also sent in the next slot like any pending command.
+    pub fn hold(&mut self, channel: ManualChannel, command: Option<Command>) {
+        self.held[channel.index()] = command;
+    }
+
+    /// The value held on `channel`, if any.
+    pub fn held(&self, channel: ManualChannel) -> Option<Command> {
+        self.held[channel.index()]
+    }
+
+    /// Whether a kill is still being repeated at `now`.
+    pub fn killing(&self, now: Instant) -> bool {
+        self.kill_until.is_some_and(|until| now < until)
+    }
+
+    /// When [`poll`](Self::poll) next has something to send (`now` if it has already).
+    pub fn next_due(&self, now: Instant) -> Instant {
+        if self.kill_now {
+            return now;
+        }
+        self.next_slot.unwrap_or(now)
+    }
+
+    /// The frames due at `now`, in the order to send them (empty between slots).
+    pub fn poll(&mut self, now: Instant) -> Vec<Command> {
+        let mut out = Vec::new();
+        if std::mem::take(&mut self.kill_now) {
+            out.push(Command::Kill);
+            // The immediate kill counts as this slot's frame; the rhythm restarts from it.
+            self.next_slot = Some(now + self.period);
+            return out;
+        }
+        let slot = self.next_slot.unwrap_or(now);
+        if now < slot {
+            return out;
+        }
+        // Catch up without bursts: the next slot is one period after this one, or after now
+        // when the caller was late by more than a period.
+        let next = slot + self.period;
+        self.next_slot = Some(if next <= now { now + self.period } else { next });
+        if self.killing(now) {
+            out.push(Command::Kill);
+            return out;
+        }
+        out.append(&mut self.pending);
+        for held in self.held.iter().flatten() {
+            let kind: CommandType = held.command_type();
+            if !out.iter().any(|c| c.command_type() == kind) {
+                out.push(*held);
+            }
+        }
+        if out.is_empty() {
+            out.push(Command::Heartbeat);
+        }
+        out
+    }
+
+    /// Forgets the slot rhythm (after a reconnect the first slot is immediate); requests and
+    /// held values stay.
+    pub fn restart(&mut self) {
+        self.next_slot = None;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use dima_groundlink::Percent;
+
+    fn ms(t0: Instant, n: u64) -> Instant {
+        t0 + Duration::from_millis(n)
+    }
+
+    fn pct(v: u8) -> Percent {
+        Percent::new(v).unwrap()
+    }
+
+    /// Everything sent over `0..=end_ms`, polled every millisecond, with the time it went out.
+    fn run(s: &mut CommandScheduler, t0: Instant, end_ms: u64) -> Vec<(u64, Command)> {
+        let mut sent = Vec::new();
+        for t in 0..=end_ms {
+            for c in s.poll(ms(t0, t)) {
+                sent.push((t, c));
+            }
+        }
+        sent
+    }
+
+    #[test]
+    fn a_heartbeat_every_100_ms_when_idle() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        let sent = run(&mut s, t0, 1_000);
+        let times: Vec<u64> = sent.iter().map(|(t, _)| *t).collect();
+        assert_eq!(times, (0..=10).map(|k| k * 100).collect::<Vec<_>>());
+        assert!(sent.iter().all(|(_, c)| *c == Command::Heartbeat));
+    }
+
+    #[test]
+    fn a_pending_command_replaces_the_heartbeat_once() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        assert_eq!(s.poll(t0), vec![Command::Heartbeat]);
+        s.request(Command::Throttle(pct(60)), ms(t0, 30));
+        s.request(Command::Throttle(pct(70)), ms(t0, 40));
+        s.request(Command::Steering(pct(20)), ms(t0, 50));
+        assert!(s.poll(ms(t0, 99)).is_empty());
+        assert_eq!(
+            s.poll(ms(t0, 100)),
+            vec![Command::Throttle(pct(70)), Command::Steering(pct(20))],
+            "coalesced per type, in request order, instead of the heartbeat"
+        );
+        assert_eq!(s.poll(ms(t0, 200)), vec![Command::Heartbeat]);
+    }
+
+    #[test]
+    fn held_values_repeat_every_slot_until_released() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        s.hold(ManualChannel::Throttle, Some(Command::Throttle(pct(80))));
+        let sent = run(&mut s, t0, 350);
+        assert_eq!(sent.len(), 4);
+        assert!(sent.iter().all(|(_, c)| *c == Command::Throttle(pct(80))));
+        s.hold(ManualChannel::Throttle, None);
+        s.request(Command::Throttle(pct(50)), ms(t0, 360));
+        assert_eq!(s.poll(ms(t0, 400)), vec![Command::Throttle(pct(50))]);
+        assert_eq!(s.poll(ms(t0, 500)), vec![Command::Heartbeat]);
+    }
+
+    #[test]
+    fn kill_goes_out_at_once_and_repeats_for_one_second() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        s.hold(ManualChannel::Throttle, Some(Command::Throttle(pct(90))));
+        assert_eq!(s.poll(t0), vec![Command::Throttle(pct(90))]);
+        s.request(Command::Steering(pct(10)), ms(t0, 20));
+        s.request(Command::Kill, ms(t0, 37));
+        assert_eq!(s.next_due(ms(t0, 37)), ms(t0, 37));
+        assert_eq!(
+            s.poll(ms(t0, 37)),
+            vec![Command::Kill],
+            "not at the next slot"
+        );
+        let sent: Vec<(u64, Command)> = (38..=1_400)
+            .flat_map(|t| s.poll(ms(t0, t)).into_iter().map(move |c| (t, c)))
+            .collect();
+        let kills: Vec<u64> = sent
+            .iter()
+            .filter(|(_, c)| *c == Command::Kill)
+            .map(|(t, _)| *t)
+            .collect();
+        assert_eq!(kills, vec![137, 237, 337, 437, 537, 637, 737, 837, 937]);
+        // After the second: heartbeats only; the held throttle and pending steering were dropped.
+        assert!(sent
+            .iter()
+            .filter(|(t, _)| *t > 1_037)
+            .all(|(_, c)| *c == Command::Heartbeat));
+        assert_eq!(s.held(ManualChannel::Throttle), None);
+    }
+
+    #[test]
+    fn revive_ends_the_kill_repetition() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        s.request(Command::Kill, t0);
+        assert_eq!(s.poll(t0), vec![Command::Kill]);
+        assert_eq!(s.poll(ms(t0, 100)), vec![Command::Kill]);
+        s.request(Command::Revive, ms(t0, 150));
+        assert!(!s.killing(ms(t0, 150)));
+        assert_eq!(s.poll(ms(t0, 200)), vec![Command::Revive]);
+        assert_eq!(s.poll(ms(t0, 300)), vec![Command::Heartbeat]);
+    }
+
+    #[test]
+    fn late_polls_do_not_burst() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        assert_eq!(s.poll(t0).len(), 1);
+        // The caller stalled for 550 ms: one frame, then the rhythm resumes from there.
+        assert_eq!(s.poll(ms(t0, 550)).len(), 1);
+        assert!(s.poll(ms(t0, 600)).is_empty());
+        assert_eq!(s.poll(ms(t0, 650)).len(), 1);
+    }
+}

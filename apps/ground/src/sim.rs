@@ -1,0 +1,203 @@
+//! `--sim`: the simulated robot, exactly as `dima sim --ground-pty` runs it (the same runner
+//! from `dima-sim` and the same application from `dima`), in a child process of this binary.
+//!
+//! A child process keeps the robot's threads, signals and pseudo-terminals apart from the
+//! user interface, and lets the station stop it like any robot: SIGTERM, after which the
+//! application writes its safe outputs and closes its MCAP log. The child re-runs this binary
+//! with the hidden first argument [`SIM_ROBOT_ARG`], so nothing else needs to be built. It
+//! also asks the kernel for a SIGTERM should the station die first.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, ExitCode};
+use std::time::{Duration, Instant};
+
+use clap::Parser;
+use dima_sim::cli::SimArgs;
+use dima_sim::runner::{run_simulation, StatusMode};
+use nix::sys::signal::{kill, Signal};
+use nix::unistd::Pid;
+
+/// First argument that turns this binary into the simulated robot.
+pub const SIM_ROBOT_ARG: &str = "sim-robot";
+/// Name of the ground-station pty link in the simulation's run directory.
+pub const GROUND_PTY_LINK: &str = "ground-station";
+
+/// Flags of the simulated robot (the child process).
+#[derive(Debug, Parser)]
+#[command(
+    name = "dima-ground sim-robot",
+    about = "The simulated robot behind `dima-ground --sim`"
+)]
+pub struct SimRobotArgs {
+    /// Directory for the pty links; the ground station's is `<DIR>/ground-station`.
+    #[arg(long, value_name = "DIR")]
+    pub run_dir: PathBuf,
+    /// The flags of `dima sim`.
+    #[command(flatten)]
+    pub sim: SimArgs,
+}
+
+/// What the station asks of the simulated robot.
+#[derive(Debug, Clone)]
+pub struct SimLaunch {
+    /// Directory for the robot's MCAP log.
+    pub log_dir: PathBuf,
+    /// The robot's configuration file (its ports are replaced by the simulation's).
+    pub robot_config: Option<PathBuf>,
+    /// Stop after this many seconds (None: until the station exits).
+    pub duration_s: Option<f64>,
+}
+
+/// The running simulated robot.
+pub struct SimRobot {
+    child: Child,
+    run_dir: PathBuf,
+}
+
+impl SimRobot {
+    /// Starts the robot; its ground pty appears at [`ground_pty`](Self::ground_pty) within a
+    /// second or so (the link thread keeps trying until it does).
+    pub fn start(launch: &SimLaunch) -> anyhow::Result<SimRobot> {
+        let exe = std::env::current_exe()
+            .map_err(|e| anyhow::anyhow!("--sim: cannot find this program's path: {e}"))?;
+        let run_dir = std::env::temp_dir().join(format!("dima-ground-sim-{}", std::process::id()));
+        let mut command = Command::new(exe);
+        command
+            .arg(SIM_ROBOT_ARG)
+            .arg("--run-dir")
+            .arg(&run_dir)
+            .arg("--ground-pty")
+            .arg("--quiet")
+            .arg("--log-dir")
+            .arg(&launch.log_dir);
+        if let Some(c) = &launch.robot_config {
+            command.arg("--config").arg(c);
+        }
+        if let Some(d) = launch.duration_s {
+            command.arg("--duration").arg(d.to_string());
+        }
+        let child = command
+            .spawn()
+            .map_err(|e| anyhow::anyhow!("--sim: cannot start the simulated robot: {e}"))?;
+        Ok(SimRobot { child, run_dir })
+    }
+
+    /// The path of the robot's ground-station pty (a stable link to `/dev/pts/N`).
+    pub fn ground_pty(&self) -> PathBuf {
+        self.run_dir.join(GROUND_PTY_LINK)
+    }
+
+    /// The child's process id.
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    /// Whether the robot has exited (and with what status).
+    pub fn exited(&mut self) -> Option<std::process::ExitStatus> {
+        self.child.try_wait().ok().flatten()
+    }
+
+    /// Stops the robot: SIGTERM, up to `grace` for its safe outputs and log, then SIGKILL.
+    pub fn stop(&mut self, grace: Duration) {
+        if self.exited().is_some() {
+            return;
+        }
+        if let Ok(pid) = i32::try_from(self.child.id()) {
+            let _ = kill(Pid::from_raw(pid), Signal::SIGTERM);
+        }
+        let t0 = Instant::now();
+        while t0.elapsed() < grace {
+            if self.exited().is_some() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        eprintln!("dima-ground: the simulated robot did not stop within {grace:?}; killing it");
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+impl Drop for SimRobot {
+    fn drop(&mut self) {
+        self.stop(Duration::from_secs(5));
+    }
+}
+
+/// The child process: `dima sim --ground-pty` with the run directory the station chose.
+pub fn run_robot(args: &[String]) -> ExitCode {
+    let args = match SimRobotArgs::try_parse_from(args) {
+        Ok(a) => a,
+        Err(e) => e.exit(),
+    };
+    // Stop with the station, even if it is killed before it can stop us.
+    let parent = nix::unistd::getppid();
+    if nix::sys::prctl::set_pdeathsig(Signal::SIGTERM).is_err() || parent.as_raw() == 1 {
+        eprintln!("dima-ground sim-robot: not started by a station; stopping");
+        return ExitCode::from(2);
+    }
+    let mut options = match args.sim.options() {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("dima-ground sim-robot: {e:#}");
+            return ExitCode::from(2);
+        }
+    };
+    options.ground_pty = true;
+    options.run_dir = args.run_dir.clone();
+    options.status = StatusMode::Quiet;
+    let result = run_simulation(&options, |launch| {
+        dima::app::install_signal_handlers(&launch.stop)?;
+        dima::sim::run_app(launch)
+    });
+    match result {
+        Err(e) => {
+            eprintln!("dima-ground sim-robot: {e:#}");
+            ExitCode::from(2)
+        }
+        Ok(report) => {
+            eprintln!("simulated robot: {}", report.summary().trim_end());
+            if let Some(p) = &report.app.log_path {
+                eprintln!("simulated robot: MCAP log {}", p.display());
+            }
+            ExitCode::SUCCESS
+        }
+    }
+}
+
+/// The robot's newest MCAP log in `dir` (for tools and tests).
+pub fn newest_log(dir: &Path) -> Option<PathBuf> {
+    std::fs::read_dir(dir)
+        .ok()?
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "mcap"))
+        .max_by_key(|p| p.metadata().and_then(|m| m.modified()).ok())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn robot_flags_are_dima_sims() {
+        let a = SimRobotArgs::try_parse_from([
+            SIM_ROBOT_ARG,
+            "--run-dir",
+            "/tmp/x",
+            "--ground-pty",
+            "--quiet",
+            "--log-dir",
+            "/tmp/logs",
+            "--duration",
+            "2.5",
+        ])
+        .unwrap();
+        assert_eq!(a.run_dir, PathBuf::from("/tmp/x"));
+        let o = a.sim.options().unwrap();
+        assert!(o.ground_pty);
+        assert_eq!(o.log_dir, PathBuf::from("/tmp/logs"));
+        assert_eq!(o.run_length_s(), Some(2.5));
+        assert_eq!(o.scenario.name, "default");
+    }
+}

@@ -1,0 +1,61 @@
+//! The plots: acceleration, angular rate, speed and heading over time, and the GNSS track.
+
+use eframe::egui;
+use egui_plot::{Legend, Line, Plot, Points};
+
+use crate::telemetry::Telemetry;
+
+pub fn plots(ui: &mut egui::Ui, t: &Telemetry) {
+    let height = ((ui.available_height() - 40.0) / 2.0).max(120.0);
+    let width = ui.available_width();
+    ui.horizontal(|ui| {
+        ui.vertical(|ui| {
+            ui.set_width(width * 0.5 - 6.0);
+            ui.label("acceleration, m/s²");
+            Plot::new("acc")
+                .height(height / 2.0 - 12.0)
+                .legend(Legend::default())
+                .show(ui, |p| {
+                    for (i, name) in ["X", "Y", "Z"].into_iter().enumerate() {
+                        p.line(Line::new(format!("acc {name}"), t.acc[i].points()));
+                    }
+                });
+            ui.label("angular rate, °/s");
+            Plot::new("gyro")
+                .height(height / 2.0 - 12.0)
+                .legend(Legend::default())
+                .show(ui, |p| {
+                    for (i, name) in ["X", "Y", "Z"].into_iter().enumerate() {
+                        p.line(Line::new(format!("gyro {name}"), t.gyro[i].points()));
+                    }
+                });
+        });
+        ui.vertical(|ui| {
+            ui.label("GNSS track, m east / north of the first fix");
+            Plot::new("track")
+                .height(height)
+                .data_aspect(1.0)
+                .show(ui, |p| {
+                    let points = t.track.points();
+                    if let Some(last) = points.last().copied() {
+                        p.line(Line::new("track", points).width(2.0));
+                        p.points(Points::new("robot", vec![last]).radius(5.0));
+                    }
+                });
+        });
+    });
+    ui.label("ground speed, m/s (left) and heading of motion, ° / 100 (so both fit)");
+    Plot::new("speed-heading")
+        .height(height)
+        .legend(Legend::default())
+        .show(ui, |p| {
+            p.line(Line::new("ground speed m/s", t.speed.points()));
+            let heading: Vec<[f64; 2]> = t
+                .heading
+                .points()
+                .into_iter()
+                .map(|[x, y]| [x, y / 100.0])
+                .collect();
+            p.line(Line::new("heading °/100", heading));
+        });
+}

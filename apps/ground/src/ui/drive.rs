@@ -1,0 +1,228 @@
+//! The driving panel: kill, revive, the manual sliders with their pulse widths, control-mode
+//! setpoints, the gamepad and the keys.
+
+use dima_groundlink::{Command, Percent};
+use eframe::egui::{self, Color32, RichText};
+
+use super::connection::{BAD, GOOD, WARN};
+use super::GroundApp;
+use crate::control::Source;
+use crate::keys::REVIVE_HOLD;
+use crate::link::LinkControl;
+use crate::scheduler::ManualChannel;
+use crate::units::{heading_setpoint_deg_e5, speed_setpoint_mm_s};
+
+pub fn left_panel(ui: &mut egui::Ui, app: &mut GroundApp) {
+    egui::Panel::left("drive")
+        .resizable(false)
+        .exact_size(330.0)
+        .show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                kill_and_revive(ui, app);
+                ui.separator();
+                manual(ui, app);
+                ui.separator();
+                setpoints(ui, app);
+                ui.separator();
+                gamepad(ui, app);
+                ui.separator();
+                keys_legend(ui, app);
+            });
+        });
+}
+
+fn kill_and_revive(ui: &mut egui::Ui, app: &mut GroundApp) {
+    let kill = egui::Button::new(
+        RichText::new("KILL  (Space)")
+            .size(26.0)
+            .strong()
+            .color(Color32::WHITE),
+    )
+    .fill(BAD)
+    .min_size(egui::vec2(ui.available_width(), 56.0));
+    if ui.add(kill).clicked() {
+        app.kill();
+    }
+    if app.status.killing {
+        ui.label(RichText::new("sending kill (repeated for 1 s)").color(BAD));
+    }
+    ui.horizontal(|ui| {
+        if ui
+            .add(egui::Button::new("Revive…").min_size(egui::vec2(90.0, 28.0)))
+            .on_hover_text("asks for confirmation; or hold R for one second")
+            .clicked()
+        {
+            app.confirm_revive = true;
+        }
+        let progress = egui::ProgressBar::new(app.revive_progress)
+            .desired_width(ui.available_width())
+            .text(if app.revive_progress > 0.0 {
+                format!(
+                    "R held {:.1} s",
+                    app.revive_progress * REVIVE_HOLD.as_secs_f32()
+                )
+            } else {
+                "hold R 1 s to revive".to_owned()
+            });
+        ui.add(progress);
+    });
+}
+
+/// The Revive button's confirmation.
+pub fn revive_confirmation(ctx: &egui::Context, app: &mut GroundApp) {
+    if !app.confirm_revive {
+        return;
+    }
+    let modal = egui::Modal::new(egui::Id::unique("confirm-revive")).show(ctx, |ui| {
+        ui.heading("Revive the robot?");
+        ui.label("It leaves KILLED/FAILSAFE and follows manual commands.");
+        ui.horizontal(|ui| {
+            if ui
+                .button(RichText::new("Revive").color(GOOD).strong())
+                .clicked()
+            {
+                app.revive();
+                app.confirm_revive = false;
+            }
+            if ui.button("Cancel").clicked() {
+                app.confirm_revive = false;
+            }
+        });
+    });
+    if modal.should_close() {
+        app.confirm_revive = false;
+    }
+}
+
+fn manual(ui: &mut egui::Ui, app: &mut GroundApp) {
+    ui.heading("Manual");
+    for (i, channel) in ManualChannel::ALL.into_iter().enumerate() {
+        let mut value = app.manual.shown[i].get();
+        let pulse = app.table.pulse_us(channel, app.manual.shown[i]);
+        let holder = match app.manual.holder(channel) {
+            Some(Source::Key) => " (key)",
+            Some(Source::Gamepad) => " (gamepad)",
+            Some(Source::Slider) => " (slider)",
+            None => "",
+        };
+        ui.label(format!("{}{holder}", channel.name()));
+        ui.horizontal(|ui| {
+            let r = ui.add(egui::Slider::new(&mut value, 0..=100).suffix(" %"));
+            ui.label(RichText::new(format!("{pulse} µs")).monospace());
+            let v = Percent::new(value).unwrap_or(Percent::HALF);
+            app.slider_dragged[i] = r.dragged().then_some(v);
+            if r.changed() && !r.dragged() {
+                if let Some(request) = app.manual.set(channel, v) {
+                    app.link.send(request);
+                }
+            }
+        });
+    }
+    if ui
+        .button("Centre all")
+        .on_hover_text("send each channel's neutral")
+        .clicked()
+    {
+        for c in ManualChannel::ALL {
+            let n = app.manual.neutral(c);
+            if let Some(request) = app.manual.set(c, n) {
+                app.link.send(request);
+            }
+        }
+    }
+}
+
+fn setpoints(ui: &mut egui::Ui, app: &mut GroundApp) {
+    ui.heading("Control mode");
+    let form = &mut app.setpoints;
+    let mut sent = None;
+    egui::Grid::new("setpoints").num_columns(3).show(ui, |ui| {
+        ui.label("speed");
+        let max_m_s = f64::from(app.table.max_speed_mm_s) / 1000.0;
+        ui.add(
+            egui::DragValue::new(&mut form.speed_m_s)
+                .speed(0.05)
+                .range(0.0..=max_m_s)
+                .suffix(" m/s"),
+        )
+        .on_hover_text(format!(
+            "AUTO is forward-only, up to {max_m_s:.1} m/s (control.max_speed_mm_s)"
+        ));
+        if ui.button("Send speed").clicked() {
+            sent = Some(
+                speed_setpoint_mm_s(form.speed_m_s).map(|mm_s| Command::SpeedSetpoint { mm_s }),
+            );
+        }
+        ui.end_row();
+        ui.label("heading");
+        ui.add(
+            egui::DragValue::new(&mut form.heading_deg)
+                .speed(1.0)
+                .range(0.0..=359.99)
+                .suffix(" °"),
+        );
+        if ui.button("Send heading").clicked() {
+            sent = Some(
+                heading_setpoint_deg_e5(form.heading_deg)
+                    .map(|deg_e5| Command::HeadingSetpoint { deg_e5 }),
+            );
+        }
+        ui.end_row();
+    });
+    match sent {
+        Some(Ok(command)) => {
+            form.message = Some(format!("sent {command:?}"));
+            app.link.send(LinkControl::Request(command));
+        }
+        Some(Err(e)) => form.message = Some(format!("not sent: {e}")),
+        None => {}
+    }
+    if let Some(m) = &app.setpoints.message {
+        ui.small(m);
+    }
+    ui.small("A setpoint switches MANUAL to AUTO; any manual command switches back.");
+}
+
+fn gamepad(ui: &mut egui::Ui, app: &mut GroundApp) {
+    ui.heading("Gamepad");
+    match (&app.gamepad.name, app.gamepads.unavailable()) {
+        (_, Some(why)) => {
+            ui.label(RichText::new(format!("unavailable: {why}")).color(WARN));
+        }
+        (Some(name), None) => {
+            ui.label(
+                RichText::new(format!(
+                    "{name}: left stick throttle, right stick steering, A/× kill"
+                ))
+                .color(GOOD),
+            );
+        }
+        (None, None) => {
+            ui.label("none connected (left stick throttle, right stick steering, A/× kill)");
+        }
+    }
+}
+
+fn keys_legend(ui: &mut egui::Ui, app: &GroundApp) {
+    ui.heading("Keys");
+    let step = app.keyboard.step();
+    egui::Grid::new("keys")
+        .num_columns(2)
+        .striped(true)
+        .show(ui, |ui| {
+            for (keys, what) in [
+                ("Space", "KILL (always)".to_owned()),
+                ("R held 1 s", "revive".to_owned()),
+                ("Up / W, Down / S", format!("throttle ±{step} % while held")),
+                (
+                    "Right / D, Left / A",
+                    format!("steering ±{step} % while held"),
+                ),
+                ("E, Q", format!("tail ±{step} % while held")),
+            ] {
+                ui.label(RichText::new(keys).monospace());
+                ui.label(what);
+                ui.end_row();
+            }
+        });
+}

@@ -1,0 +1,343 @@
+//! The window: a thin layer that reads input, hands it to the plain modules and draws their
+//! state. Each frame: frames from the link into [`Telemetry`], keys and gamepad through
+//! [`KeyboardDriver`] and [`ManualControl`] to the link, then the panels.
+
+mod charts;
+mod connection;
+mod drive;
+mod input;
+mod status;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use dima_groundlink::Command;
+use eframe::egui;
+
+use crate::channels::ChannelTable;
+use crate::cli::Cli;
+use crate::control::{ManualControl, ManualInputs};
+use crate::gamepad::{stick_percent, GamepadInput, Gamepads};
+use crate::keys::KeyboardDriver;
+use crate::link::{LinkControl, LinkEvent, LinkHandle, LinkStatus};
+use crate::recording::Recorder;
+use crate::scheduler::ManualChannel;
+use crate::sim::{SimLaunch, SimRobot};
+use crate::telemetry::Telemetry;
+use crate::units::SensorCalibration;
+
+/// Repaint at least this often (link health and ages move without input; frames come at
+/// 2 Hz, and software-rendered frames cost the robot simulation CPU time).
+const REPAINT: Duration = Duration::from_millis(100);
+
+/// The outcome of a `--screenshot` run, written by the screenshot callback.
+type ScreenshotResult = Arc<Mutex<Option<Result<PathBuf, String>>>>;
+
+/// The `--screenshot FILE --after SECONDS` plan.
+struct ScreenshotPlan {
+    path: PathBuf,
+    after: Duration,
+    requested: bool,
+    result: ScreenshotResult,
+}
+
+/// The connection bar's editable state.
+struct ConnectionForm {
+    ports: Vec<PathBuf>,
+    path_text: String,
+    baud: u32,
+    auto_reconnect: bool,
+}
+
+/// Control-mode setpoints as typed.
+struct SetpointForm {
+    speed_m_s: f64,
+    heading_deg: f64,
+    message: Option<String>,
+}
+
+/// The ground station's window.
+pub struct GroundApp {
+    started: Instant,
+    link: LinkHandle,
+    status: LinkStatus,
+    recorder: Option<Recorder>,
+    recording_note: String,
+    sim: Option<SimRobot>,
+    sim_note: Option<String>,
+    table: ChannelTable,
+    table_source: String,
+    keyboard: KeyboardDriver,
+    manual: ManualControl,
+    gamepads: Gamepads,
+    gamepad: GamepadInput,
+    revive_progress: f32,
+    confirm_revive: bool,
+    /// Sliders being dragged in the last frame, with their value.
+    slider_dragged: [Option<dima_groundlink::Percent>; 3],
+    telemetry: Telemetry,
+    connection: ConnectionForm,
+    setpoints: SetpointForm,
+    screenshot: Option<ScreenshotPlan>,
+    /// Set by SIGINT/SIGTERM: close the window (stopping the robot and closing the recording)
+    /// instead of dying with the recording open.
+    stop_requested: Arc<AtomicBool>,
+}
+
+impl GroundApp {
+    /// Sets everything up from the command line (starting the simulated robot with --sim).
+    fn new(cli: &Cli, screenshot_result: ScreenshotResult) -> anyhow::Result<GroundApp> {
+        let (table, table_source) = match &cli.robot_config {
+            Some(path) => (
+                ChannelTable::from_robot_config(path)?,
+                path.display().to_string(),
+            ),
+            None => (ChannelTable::default(), "dima's defaults".to_owned()),
+        };
+        let calibration = match (&cli.sensor_info, cli.sim) {
+            (Some(path), _) => Some(SensorCalibration::from_robot_log(path)?),
+            (None, true) => Some(SensorCalibration::simulated_board()),
+            (None, false) => None,
+        };
+        let (recorder, recording_note) = if cli.no_record {
+            (None, "not recording (--no-record)".to_owned())
+        } else {
+            let r = Recorder::start(&cli.log_dir)?;
+            let note = format!("recording to {}", r.path().display());
+            (Some(r), note)
+        };
+        let link = LinkHandle::spawn(recorder.as_ref().map(Recorder::sender), calibration.clone())?;
+        let sim = if cli.sim {
+            Some(SimRobot::start(&SimLaunch {
+                log_dir: cli.sim_log_dir.clone(),
+                robot_config: cli.robot_config.clone(),
+                duration_s: cli.sim_duration,
+            })?)
+        } else {
+            None
+        };
+        let port = sim.as_ref().map(SimRobot::ground_pty).or(cli.port.clone());
+        if let Some(path) = &port {
+            link.send(LinkControl::Connect {
+                path: path.clone(),
+                baud: cli.baud,
+            });
+        }
+        let stop_requested = Arc::new(AtomicBool::new(false));
+        for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+            signal_hook::flag::register(signal, stop_requested.clone())?;
+        }
+        let started = Instant::now();
+        Ok(GroundApp {
+            stop_requested,
+            started,
+            status: link.status(),
+            link,
+            recorder,
+            recording_note,
+            sim_note: sim.as_ref().map(|s| {
+                format!(
+                    "simulated robot (pid {}), its log in {}",
+                    s.pid(),
+                    cli.sim_log_dir.display()
+                )
+            }),
+            sim,
+            keyboard: KeyboardDriver::new(&table, cli.key_step),
+            manual: ManualControl::new(&table),
+            table,
+            table_source,
+            gamepads: Gamepads::new(),
+            gamepad: GamepadInput::default(),
+            revive_progress: 0.0,
+            confirm_revive: false,
+            slider_dragged: [None; 3],
+            telemetry: Telemetry::new(started, calibration),
+            connection: ConnectionForm {
+                ports: crate::serial::list_ports(),
+                path_text: port.map(|p| p.display().to_string()).unwrap_or_default(),
+                baud: cli.baud,
+                auto_reconnect: true,
+            },
+            setpoints: SetpointForm {
+                speed_m_s: 1.0,
+                heading_deg: 0.0,
+                message: None,
+            },
+            screenshot: cli.screenshot.clone().map(|path| ScreenshotPlan {
+                path,
+                after: Duration::from_secs_f64(cli.after),
+                requested: false,
+                result: screenshot_result,
+            }),
+        })
+    }
+
+    /// A kill from any source: at once, and the manual sources must be let go.
+    fn kill(&mut self) {
+        self.link.send(LinkControl::Request(Command::Kill));
+        self.manual.killed();
+    }
+
+    fn revive(&mut self) {
+        self.link.send(LinkControl::Request(Command::Revive));
+    }
+
+    /// Frames in, input to the link.
+    fn logic(&mut self, ctx: &egui::Context) {
+        let now = Instant::now();
+        for event in self.link.drain_events() {
+            let LinkEvent::Frame(at, frame) = event;
+            self.telemetry.ingest(at, frame);
+        }
+        self.status = self.link.status();
+
+        let keys = input::read_keys(ctx);
+        let actions = self.keyboard.update(keys, now);
+        self.revive_progress = actions.revive_progress;
+        self.gamepad = self.gamepads.poll();
+        if actions.kill || self.gamepad.kill {
+            self.kill();
+        }
+        if actions.revive {
+            self.revive();
+        }
+        let stick = |v: Option<f32>, c| v.and_then(|v| stick_percent(v, self.manual.neutral(c)));
+        let inputs = ManualInputs {
+            keys: actions.axes,
+            gamepad: [
+                stick(self.gamepad.throttle, ManualChannel::Throttle),
+                stick(self.gamepad.steering, ManualChannel::Steering),
+                None,
+            ],
+            slider_dragged: self.slider_dragged,
+        };
+        for request in self.manual.update(&inputs) {
+            self.link.send(request);
+        }
+    }
+
+    fn take_screenshot_when_due(&mut self, ctx: &egui::Context) {
+        let Some(plan) = self.screenshot.as_mut() else {
+            return;
+        };
+        if let Some(done) = plan
+            .result
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .as_ref()
+        {
+            if let Err(e) = done {
+                eprintln!("dima-ground: screenshot failed: {e}");
+            }
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+            return;
+        }
+        if !plan.requested && self.started.elapsed() >= plan.after {
+            plan.requested = true;
+            let (path, result) = (plan.path.clone(), plan.result.clone());
+            ctx.request_screenshot(move |image| {
+                let outcome = save_png(&path, &image).map(|()| path.clone());
+                *result.lock().unwrap_or_else(|e| e.into_inner()) = Some(outcome);
+            });
+        }
+    }
+}
+
+impl eframe::App for GroundApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        self.logic(&ctx);
+        connection::top_bar(ui, self);
+        status::bottom_bar(ui, self);
+        drive::left_panel(ui, self);
+        status::right_panel(ui, self);
+        egui::CentralPanel::default().show(ui, |ui| charts::plots(ui, &self.telemetry));
+        drive::revive_confirmation(&ctx, self);
+        self.take_screenshot_when_due(&ctx);
+        if self.stop_requested.load(Ordering::Relaxed) {
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
+        ctx.request_repaint_after(REPAINT);
+    }
+
+    fn on_exit(&mut self, _gl: Option<&eframe::glow::Context>) {
+        // Stop the robot first (it goes safe), then close the recording.
+        if let Some(mut sim) = self.sim.take() {
+            sim.stop(Duration::from_secs(5));
+        }
+        // The link thread holds a sender of the recording: end it first.
+        self.link.shutdown();
+        if let Some(r) = self.recorder.take() {
+            match r.finish() {
+                Ok(n) => eprintln!("dima-ground: session recording closed ({n} messages)"),
+                Err(e) => eprintln!("dima-ground: {e:#}"),
+            }
+        }
+    }
+}
+
+/// Writes an egui screenshot as an RGBA PNG.
+fn save_png(path: &std::path::Path, image: &egui::ColorImage) -> Result<(), String> {
+    let [w, h] = image.size;
+    let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), w as u32, h as u32);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder.set_depth(png::BitDepth::Eight);
+    let mut writer = encoder.write_header().map_err(|e| e.to_string())?;
+    let rgba: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
+    writer.write_image_data(&rgba).map_err(|e| e.to_string())?;
+    writer.finish().map_err(|e| e.to_string())
+}
+
+/// Runs the station until its window closes. Exit status 0; with --screenshot, 0 only when
+/// the PNG was written.
+pub fn run(cli: &Cli) -> ExitCode {
+    let result: ScreenshotResult = Arc::new(Mutex::new(None));
+    let app = match GroundApp::new(cli, result.clone()) {
+        Ok(app) => app,
+        Err(e) => {
+            eprintln!("dima-ground: {e:#}");
+            return ExitCode::from(2);
+        }
+    };
+    let options = eframe::NativeOptions {
+        viewport: egui::ViewportBuilder::default()
+            .with_title("DIMA ground station")
+            .with_inner_size([cli.window_size.0, cli.window_size.1]),
+        ..Default::default()
+    };
+    let outcome = eframe::run_native(
+        "dima-ground",
+        options,
+        Box::new(move |_cc| Ok(Box::new(app))),
+    );
+    if let Err(e) = outcome {
+        eprintln!(
+            "dima-ground: cannot open the window: {e} (an X11 display is needed: DISPLAY set? \
+             Under Xvfb use LIBGL_ALWAYS_SOFTWARE=1)"
+        );
+        return ExitCode::from(2);
+    }
+    if cli.screenshot.is_some() {
+        match result.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            Some(Ok(path)) => {
+                eprintln!("dima-ground: screenshot {}", path.display());
+                ExitCode::SUCCESS
+            }
+            Some(Err(e)) => {
+                eprintln!("dima-ground: screenshot failed: {e}");
+                ExitCode::FAILURE
+            }
+            None => {
+                eprintln!("dima-ground: the window closed before the screenshot");
+                ExitCode::FAILURE
+            }
+        }
+    } else {
+        ExitCode::SUCCESS
+    }
+}
