@@ -62,6 +62,7 @@
 //! # Ok::<(), bosch_bmp280::Error<embedded_hal::spi::ErrorKind>>(())
 //! ```
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 

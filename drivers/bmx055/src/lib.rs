@@ -80,6 +80,7 @@
 //! assert_eq!((ut.x, ut.y, ut.z), (29, -21, -45));
 //! ```
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 

@@ -75,6 +75,7 @@
 //! maestro.set_pwm(PwmTiming::new(100, 200).unwrap());
 //! ```
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 

@@ -114,6 +114,7 @@
 //!   WriteReady` ports.
 //! - `defmt`: `defmt::Format` for the data and error types.
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 

@@ -60,6 +60,7 @@
 //! [`OutputPin`]: embedded_hal::digital::OutputPin
 //! [`Read`]: embedded_hal_nb::serial::Read
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 

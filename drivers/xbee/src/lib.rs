@@ -77,6 +77,7 @@
 //! - `embedded-io`: `embedded_io::{Read, Write}` for [`Transparent`].
 //! - `defmt`: `defmt::Format` for the public types.
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
