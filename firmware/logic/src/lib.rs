@@ -18,6 +18,7 @@
 #![deny(missing_docs)]
 
 pub mod blink;
+pub mod dima;
 pub mod gnss_setup;
 pub mod latest;
 pub mod request;

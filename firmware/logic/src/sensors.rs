@@ -6,8 +6,9 @@
 //! Afterwards [`Sensors::tick`] does what the sampling schedule says and writes the register
 //! words into the packet being assembled.
 
+use crate::dima;
 use crate::schedule::{MagAction, Schedule, TickPlan};
-use bosch_bmp280::{Bmp280, Config as BaroConfig, SpiInterface as BaroSpi};
+use bosch_bmp280::{Bmp280, SpiInterface as BaroSpi};
 use bosch_bmx055::accel::{AccelConfig, AccelRaw};
 use bosch_bmx055::gyro::{GyroConfig, GyroRaw};
 use bosch_bmx055::interface::SpiInterface;
@@ -82,7 +83,7 @@ where
         }
         let mut baro = Bmp280::new_spi(baro);
         for _ in 0..BARO_ATTEMPTS {
-            if baro.init(delay).is_ok() && baro.configure(BaroConfig::dima()).is_ok() {
+            if baro.init(delay).is_ok() && baro.configure(dima::BAROMETER).is_ok() {
                 if let Some(calibration) = baro.calibration() {
                     report.bmp280_calibration = calibration.to_bytes();
                     report.status |= SensorStatus::BMP280_OK;

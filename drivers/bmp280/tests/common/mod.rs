@@ -106,3 +106,17 @@ pub fn i2c_init(addr: u8) -> Vec<I2cT> {
         i2c_read(addr, 0x88, &DATASHEET_CALIB_BYTES),
     ]
 }
+
+/// Largest 20-bit ADC value.
+pub const ADC_MAX: u32 = bosch_bmp280::RawSample::ADC_MAX;
+
+/// Register bytes 0xF7..=0xFC to `(adc_P, adc_T)` through the public sample type.
+pub fn adc_from_bytes(bytes: &[u8; 6]) -> (u32, u32) {
+    let raw = bosch_bmp280::RawSample::from_register_bytes(bytes);
+    (raw.adc_p, raw.adc_t)
+}
+
+/// `(adc_P, adc_T)` to register bytes 0xF7..=0xFC through the public sample type.
+pub fn bytes_from_adc(adc_p: u32, adc_t: u32) -> [u8; 6] {
+    bosch_bmp280::RawSample { adc_p, adc_t }.to_register_bytes()
+}
