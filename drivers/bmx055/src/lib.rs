@@ -38,8 +38,8 @@
 //!   in both directions, plus the simulator direction (physical values to raw words,
 //!   including a best-effort inverse of the magnetometer compensation, [`mag::inverse`]).
 //! - `async` feature: `AsyncAccelerometer`, `AsyncGyroscope`, `AsyncMagnetometer` and
-//!   `AsyncBmx055` over
-//!   embedded-hal-async, next to the blocking API. `defmt` feature: `defmt::Format` on the
+//!   `AsyncBmx055` over embedded-hal-async, next to the blocking API and generated from the same
+//!   source (`maybe_async_cfg`), so the two cannot drift. `defmt` feature: `defmt::Format` on the
 //!   public types.
 //!
 //! Every wait is bounded (a number of polls with a delay) or left to the caller (`nb`).
@@ -58,7 +58,7 @@
 //!
 //! // `spi` is the accelerometer's own `SpiDevice` (chip select CSB1).
 //! let mut accel = Accelerometer::new_spi(spi);
-//! accel.init(&mut delay, &AccelConfig::DIMA)?; // ±2 g, 1000 Hz, normal mode
+//! accel.init(&mut delay, &AccelConfig::default())?; // ±2 g, 1000 Hz, normal mode
 //! let raw = accel.read_raw()?;
 //! let mg = raw.mg(accel.range());
 //! assert_eq!(raw.words.z, 0x4000); // the packet word, status bits masked
@@ -86,8 +86,6 @@
 
 pub mod accel;
 mod access;
-#[cfg(feature = "async")]
-pub mod asynch;
 mod error;
 mod facade;
 pub mod gyro;
@@ -99,10 +97,21 @@ mod types;
 
 pub use accel::Accelerometer;
 #[cfg(feature = "async")]
-pub use asynch::{AsyncAccelerometer, AsyncBmx055, AsyncGyroscope, AsyncMagnetometer};
-pub use error::Error;
+pub use accel::AsyncAccelerometer;
+pub use error::{DeviceError, Error};
+#[cfg(feature = "async")]
+pub use facade::AsyncBmx055;
 pub use facade::{Bmx055, Bmx055Config, ImuSample};
+#[cfg(feature = "async")]
+pub use gyro::AsyncGyroscope;
 pub use gyro::Gyroscope;
+#[cfg(feature = "async")]
+pub use mag::AsyncMagnetometer;
 pub use mag::Magnetometer;
 pub use packet::ImuPacketWords;
 pub use types::{FifoData, FifoMode, FifoStatus, InterruptPin, PinConfig, Xyz};
+
+/// The README's code blocks, compiled (and run where they need no hardware) as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

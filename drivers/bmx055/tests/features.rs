@@ -109,7 +109,7 @@ fn accel_fifo_stream_reads_whole_frames() {
             data: FifoData::Xyz,
             watermark: 32,
         }),
-        Err(Error::InvalidInput)
+        Err(Error::Device(bosch_bmx055::DeviceError::InvalidInput))
     );
     spi.done();
 }

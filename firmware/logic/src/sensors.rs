@@ -9,10 +9,10 @@
 use crate::dima;
 use crate::schedule::{MagAction, Schedule, TickPlan};
 use bosch_bmp280::{Bmp280, SpiInterface as BaroSpi};
-use bosch_bmx055::accel::{AccelConfig, AccelRaw};
-use bosch_bmx055::gyro::{GyroConfig, GyroRaw};
+use bosch_bmx055::accel::AccelRaw;
+use bosch_bmx055::gyro::GyroRaw;
 use bosch_bmx055::interface::SpiInterface;
-use bosch_bmx055::mag::{MagConfig, MagPacketWords};
+use bosch_bmx055::mag::MagPacketWords;
 use bosch_bmx055::{Accelerometer, Gyroscope, ImuPacketWords, Magnetometer};
 use dima_sensorboard::{PacketBuilder, SensorStatus};
 use embedded_hal::delay::DelayNs;
@@ -66,15 +66,15 @@ where
         };
 
         let mut accel = Accelerometer::new_spi(accel);
-        if accel.init(delay, &AccelConfig::DIMA).is_ok() {
+        if accel.init(delay, &dima::ACCEL).is_ok() {
             report.status |= SensorStatus::ACCEL_OK;
         }
         let mut gyro = Gyroscope::new_spi(gyro);
-        if gyro.init(delay, &GyroConfig::DIMA).is_ok() {
+        if gyro.init(delay, &dima::GYRO).is_ok() {
             report.status |= SensorStatus::GYRO_OK;
         }
         let mut mag = Magnetometer::new_spi(mag);
-        if let Ok(trim) = mag.init(delay, &MagConfig::DIMA) {
+        if let Ok(trim) = mag.init(delay, &dima::MAG) {
             report.status |= SensorStatus::MAG_OK;
             let (low, mid, high) = trim.to_bursts();
             report.bmm150_trim[..2].copy_from_slice(&low);

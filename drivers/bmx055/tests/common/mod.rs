@@ -87,3 +87,25 @@ pub fn accel_deflection(axis: usize, counts: i16) -> [u8; 6] {
     b[2 * axis + 1] = w[1];
     b
 }
+
+/// A worked configuration used across the tests: ±2 g, 1000 Hz, normal mode.
+pub const DIMA_ACCEL: bosch_bmx055::accel::AccelConfig = bosch_bmx055::accel::AccelConfig {
+    range: bosch_bmx055::accel::AccelRange::G2,
+    bandwidth: bosch_bmx055::accel::AccelBandwidth::Hz1000,
+    power: bosch_bmx055::accel::AccelPowerMode::Normal,
+};
+/// ±2000 °/s, 2000 Hz / 230 Hz (0x81), normal mode.
+pub const DIMA_GYRO: bosch_bmx055::gyro::GyroConfig = bosch_bmx055::gyro::GyroConfig {
+    range: bosch_bmx055::gyro::GyroRange::Dps2000,
+    bandwidth: bosch_bmx055::gyro::GyroBandwidth::Odr2000Bw230,
+    power: bosch_bmx055::gyro::GyroPowerMode::Normal,
+};
+/// Low-power preset, forced mode.
+pub const DIMA_MAG: bosch_bmx055::mag::MagConfig =
+    bosch_bmx055::mag::MagConfig::forced(bosch_bmx055::mag::MagPreset::LowPower);
+/// The three together.
+pub const DIMA_IMU: bosch_bmx055::Bmx055Config = bosch_bmx055::Bmx055Config {
+    accel: DIMA_ACCEL,
+    gyro: DIMA_GYRO,
+    mag: DIMA_MAG,
+};
