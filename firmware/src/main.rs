@@ -354,7 +354,7 @@ mod app {
                     sensors,
                 },
                 gnss_rx,
-                reader: GnssReader::new(),
+                reader: GnssReader::with_capacity(),
                 reply_tap: ReplyTap::new(reply_producer),
                 gnss_port: ReplyPort::new(gnss_tx, reply_consumer),
                 led,
@@ -498,7 +498,7 @@ mod app {
         {
             let port = cx.local.gnss_port;
             let mut configurator =
-                neo_m8t::Configurator::<512>::new(gnss_receiver_config(), GNSS_BAUD);
+                neo_m8t::Configurator::<512>::with_capacity(gnss_receiver_config(), GNSS_BAUD);
             let outcome = loop {
                 match configurator.poll(port, Mono::now().ticks()) {
                     Ok(neo_m8t::Progress::Pending) => {}

@@ -125,7 +125,7 @@ fn expired(now_ms: u32, deadline_ms: u32) -> bool {
 /// # transactions.push(Transaction::read_error(nb::Error::WouldBlock));
 /// # let mut serial = Mock::new(&transactions);
 /// // The receiver is at 115200 baud already: no switch needed.
-/// let mut cfg = Configurator::<512>::new(Config::default(), 115_200);
+/// let mut cfg = Configurator::<512>::with_capacity(Config::default(), 115_200);
 /// let mut now_ms = 0u32;
 /// # for _ in 0..1 {
 /// match cfg.poll(&mut serial, now_ms) {
@@ -157,12 +157,21 @@ pub struct Configurator<const N: usize = 512> {
     line_errors: u32,
 }
 
-impl<const N: usize> Configurator<N> {
+impl Configurator {
     /// A configurator for `config`, talking to a receiver whose UART1 is at
-    /// `current_baud_rate` (the host UART must be at that rate too).
+    /// `current_baud_rate` (the host UART must be at that rate too), with the default 512-byte
+    /// reply buffer.
     pub fn new(config: Config, current_baud_rate: u32) -> Self {
+        Self::with_capacity(config, current_baud_rate)
+    }
+}
+
+impl<const N: usize> Configurator<N> {
+    /// As [`Configurator::new`], with an `N`-byte reply buffer
+    /// (`Configurator::<128>::with_capacity(config, baud)`; MON-VER needs up to 512).
+    pub fn with_capacity(config: Config, current_baud_rate: u32) -> Self {
         Self {
-            framer: UbxFramer::new(),
+            framer: UbxFramer::with_capacity(),
             config,
             timeout_ms: DEFAULT_TIMEOUT_MS,
             settle_ms: DEFAULT_SWITCH_SETTLE_MS,
@@ -317,7 +326,9 @@ impl<const N: usize> Configurator<N> {
                         Outcome::Nak { class, id } if self.phase == Phase::SwitchedAwaiting => {
                             return Err(self.port_change_rejected(class, id))
                         }
-                        Outcome::Nak { class, id } => return Err(Error::Nak { class, id }),
+                        Outcome::Nak { class, id } => {
+                            return Err(Error::Device(crate::error::DeviceError::Nak { class, id }))
+                        }
                         Outcome::None => {}
                     }
                     if !expired(now_ms, self.deadline_ms) {
@@ -327,9 +338,9 @@ impl<const N: usize> Configurator<N> {
                     let switched = self.phase == Phase::SwitchedAwaiting;
                     if self.attempt > self.max_retries {
                         return Err(if switched {
-                            Error::BaudSwitchFailed {
+                            Error::Device(crate::error::DeviceError::BaudSwitchFailed {
                                 baud_rate: self.config.baud_rate,
-                            }
+                            })
                         } else {
                             self.timeout_error()
                         });
@@ -384,14 +395,14 @@ impl<const N: usize> Configurator<N> {
     /// [`baud_rate`](Self::baud_rate) goes back to it, for the caller to switch the host UART.
     fn port_change_rejected<E>(&mut self, class: u8, id: u8) -> Error<E> {
         self.baud_rate = self.previous_baud_rate;
-        Error::Nak { class, id }
+        Error::Device(crate::error::DeviceError::Nak { class, id })
     }
 
     fn timeout_error<E>(&self) -> Error<E> {
-        Error::Timeout {
+        Error::Device(crate::error::DeviceError::Timeout {
             class: self.tx.class(),
             id: self.tx.id(),
-        }
+        })
     }
 
     fn command(&self) -> Option<Command> {
