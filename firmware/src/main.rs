@@ -43,8 +43,8 @@ mod app {
         ReplyTap, RequestHandler, SetupStatus,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
-    use dima_sensorboard::gnss::GNSS_FRAME_LEN;
-    use dima_sensorboard::info::INFO_VERSION;
+    use dima_sensorboard::GNSS_FRAME_LEN;
+    use dima_sensorboard::INFO_VERSION;
     use dima_sensorboard::{InfoFrame, PacketBuilder, SensorStatus, PACKET_LEN};
     use embedded_hal_bus::spi::AtomicDevice;
     use embedded_hal_bus::util::AtomicCell;

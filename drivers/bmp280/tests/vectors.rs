@@ -1,5 +1,5 @@
 //! Golden vectors from the BMP280 datasheet's calculation example and a real device's
-//! calibration (shared/vectors/README.md), never values produced by this crate.
+//! calibration (an independent implementation's test data), never values produced by this crate.
 
 mod common;
 

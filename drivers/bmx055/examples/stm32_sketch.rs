@@ -1,4 +1,4 @@
-//! Sketch of the sensor-board sampling task (DESIGN section 3), written against the
+//! Sketch of the sensor-board sampling task (±2 g / 1000 Hz, ±2000 °/s / 0x81, magnetometer low-power preset in forced mode), written against the
 //! embedded-hal traits so it builds anywhere; `main` runs it on mocked buses.
 //!
 //! On the STM32F4 board the three SPI devices come from one SPI1 bus (PA5 SCK, PA6 MISO,

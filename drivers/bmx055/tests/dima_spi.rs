@@ -1,4 +1,4 @@
-//! The DIMA sensor-board configuration as exact SPI transactions (DESIGN section 3):
+//! The DIMA sensor-board configuration as exact SPI transactions (±2 g / 1000 Hz, ±2000 °/s / 0x81, magnetometer low-power preset in forced mode):
 //! accel ±2 g / 1000 Hz / normal, gyro ±2000 °/s / 0x81 / normal, magnetometer low-power
 //! preset in forced mode, and a forced magnetometer read that polls data ready.
 

@@ -10,8 +10,7 @@ use neo_m8t::Error;
 use neo_m8t::ProtocolVersion;
 use neo_m8t::{Config, Configurator, Progress};
 
-/// Golden UBX frames from /work/shared/vectors/README.md ("ublox 0.10 builders and pyubx2
-/// agree"), verbatim.
+/// Golden UBX frames on which the ublox 0.10 builders and pyubx2 agree, verbatim.
 const MON_VER_POLL: [u8; 8] = [0xB5, 0x62, 0x0A, 0x04, 0x00, 0x00, 0x0E, 0x34];
 const CFG_PRT_UART1_115200: [u8; 28] = [
     0xB5, 0x62, 0x06, 0x00, 0x14, 0x00, 0x01, 0x00, 0x00, 0x00, 0xC0, 0x08, 0x00, 0x00, 0x00, 0xC2,

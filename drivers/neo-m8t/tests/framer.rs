@@ -4,8 +4,7 @@ use neo_m8t::{checksum, encode_frame};
 use neo_m8t::{Frame, GnssStream, Message, NavPvt, UbxFramer};
 use proptest::prelude::*;
 
-/// Golden UBX frames from /work/shared/vectors/README.md ("ublox 0.10 builders and pyubx2
-/// agree"), verbatim.
+/// Golden UBX frames on which the ublox 0.10 builders and pyubx2 agree, verbatim.
 const CFG_RATE_200MS: [u8; 14] = [
     0xB5, 0x62, 0x06, 0x08, 0x06, 0x00, 0xC8, 0x00, 0x01, 0x00, 0x01, 0x00, 0xDE, 0x6A,
 ];

@@ -3,8 +3,8 @@
 
 mod common;
 
-use dima_sensorboard::crc::crc32_bitwise;
-use dima_sensorboard::info::{info_frame_len, INFO_MAX_LEN};
+use dima_sensorboard::crc32_bitwise;
+use dima_sensorboard::{info_frame_len, INFO_MAX_LEN};
 use dima_sensorboard::{InfoError, InfoFrame, SensorStatus, INFO_V1_LEN};
 use proptest::prelude::*;
 

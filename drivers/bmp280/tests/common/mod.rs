@@ -5,7 +5,7 @@ use bosch_bmp280::Calibration;
 use embedded_hal_mock::eh1::i2c::Transaction as I2cT;
 use embedded_hal_mock::eh1::spi::Transaction as SpiT;
 
-// Source: BMP280 datasheet calculation example, as listed in shared/vectors/README.md.
+// Source: BMP280 datasheet, compensation calculation example.
 /// Registers 0x88..=0x9F of the datasheet calculation example.
 pub const DATASHEET_CALIB_BYTES: [u8; 24] = [
     0x70, 0x6B, 0x43, 0x67, 0x18, 0xFC, 0x7D, 0x8E, 0x43, 0xD6, 0xD0, 0x0B, 0x27, 0x0B, 0x8C, 0x00,
@@ -37,7 +37,8 @@ pub const DATASHEET_P_PA: u32 = 100653;
 pub const DATASHEET_T_DOUBLE: f64 = 25.0825;
 pub const DATASHEET_P_DOUBLE: f64 = 100653.258;
 
-// Source: calibration parse vector of another real device, shared/vectors/README.md.
+// Source: calibration parse vector of another real device, from an independent implementation's
+// test data.
 pub const OTHER_CALIB_BYTES: [u8; 24] = [
     0xEF, 0x6B, 0xAE, 0x65, 0x18, 0xFC, 0x98, 0x93, 0x15, 0xD6, 0xD0, 0x0B, 0xEA, 0x15, 0x92, 0x00,
     0xF9, 0xFF, 0x8C, 0x3C, 0xF8, 0xC6, 0x70, 0x17,
