@@ -130,7 +130,7 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
 
     /// Set the target of `channel` (pulse width in quarter-microseconds).
     ///
-    /// Errors with [`Error::OutOfRange`] if the channel has limits and `target` is outside
+    /// Errors with [`TargetError::OutOfRange`](crate::TargetError::OutOfRange) if the channel has limits and `target` is outside
     /// them (including [`QuarterMicros::OFF`]: use [`stop_pulses`](Self::stop_pulses)).
     pub fn set_target(
         &mut self,
@@ -151,7 +151,7 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         self.iface.write_all(&frame)
     }
 
-    /// Set `channel` to its configured neutral target; [`Error::Target(crate::TargetError::InvalidInput)`] if it has no
+    /// Set `channel` to its configured neutral target; [`TargetError::InvalidInput`](crate::TargetError::InvalidInput) if it has no
     /// limits (and so no neutral).
     pub fn set_neutral(&mut self, channel: Channel) -> Result<(), Error<I::Error>> {
         let neutral = self
@@ -260,7 +260,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
     ///
     /// Bytes waiting before the command is sent are discarded first (counted in
     /// [`stale_bytes`](Self::stale_bytes)), so a late answer to an earlier query is never
-    /// taken for this one; if more than 64 are waiting, [`Error::Device(crate::DeviceError::UnexpectedData)`].
+    /// taken for this one; if more than 64 are waiting, [`DeviceError::UnexpectedData`](crate::DeviceError::UnexpectedData).
     fn query(
         &mut self,
         command: &Command,

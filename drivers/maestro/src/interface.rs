@@ -97,13 +97,13 @@ impl<D: embedded_hal::delay::DelayNs> Deadline for DelayDeadline<'_, D> {
 }
 
 /// Default number of `WouldBlock` polls tolerated per written byte before a write gives up
-/// with [`Error::Device(crate::DeviceError::Timeout)`].
+/// with [`DeviceError::Timeout`](crate::DeviceError::Timeout).
 pub const DEFAULT_WRITE_POLLS_PER_BYTE: u32 = 1_000_000;
 
 /// Transport over embedded-hal-nb 1.0 serial.
 ///
 /// A byte the transmitter refuses (`WouldBlock`) `write_polls_per_byte` times in a row ends
-/// the write with [`Error::Device(crate::DeviceError::Timeout)`], so a wedged UART cannot hang the caller.
+/// the write with [`DeviceError::Timeout`](crate::DeviceError::Timeout), so a wedged UART cannot hang the caller.
 #[derive(Debug)]
 pub struct NbSerial<S> {
     serial: S,
@@ -192,7 +192,7 @@ mod io {
     /// Transport over embedded-io 0.7 (`Write`, plus `Read + ReadReady` for queries).
     ///
     /// A whole packet goes to `write` in as few calls as the port accepts. `write` returning
-    /// `Ok(0)` is retried within a poll budget and then reported as [`Error::Device(crate::DeviceError::Timeout)`]
+    /// `Ok(0)` is retried within a poll budget and then reported as [`DeviceError::Timeout`](crate::DeviceError::Timeout)
     /// (embedded-io's own `write_all` would panic). Reads only happen when `read_ready()` says
     /// a byte is there, so they never block.
     #[derive(Debug)]

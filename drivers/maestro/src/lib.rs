@@ -27,10 +27,10 @@
 //!   counting what it drops) for simulating a Maestro.
 //! - A sans-IO [`TargetEncoder`]: the checked per-cycle target bytes without a driver, for an
 //!   application that writes them itself with its own deadline.
-//! - Per-channel [`Limits`]: an out-of-range target is an error ([`Error::OutOfRange`]) and
+//! - Per-channel [`Limits`]: an out-of-range target is an error ([`TargetError::OutOfRange`]) and
 //!   nothing is sent; clamping is a separate, explicit call ([`Limits::clamp`]).
 //! - Replies are read against a caller-given [`Deadline`] ([`PollBudget`], [`DelayDeadline`] or a
-//!   closure); a missing or short reply is [`Error::Device(pololu_maestro::DeviceError::Timeout)`], never a hang or stale data.
+//!   closure); a missing or short reply is [`DeviceError::Timeout`], never a hang or stale data.
 //!
 //! # Example
 //!

@@ -111,7 +111,7 @@ fn expired(now_ms: u32, deadline_ms: u32) -> bool {
 /// after `settle_ms` (the ACK sent at the old rate is lost). Without one before the timeout
 /// it asks to go back to the old rate and sends CFG-PRT again. An ACK-NAK of CFG-PRT is not
 /// a confirmation: the receiver kept its old rate, [`Configurator::baud_rate`] goes back to
-/// it and the result is [`Error::Nak`].
+/// it and the result is [`DeviceError::Nak`](crate::DeviceError::Nak).
 ///
 /// `N` is the receive buffer; MON-VER needs about 280 bytes on an M8T.
 ///
@@ -244,7 +244,7 @@ impl<const N: usize> Configurator<N> {
     /// checks deadlines against `now_ms` (any monotonic millisecond clock; wrapping is fine).
     ///
     /// Every phase has a deadline, including writing (a transmitter that never drains ends
-    /// in [`Error::Timeout`]). After an error, start again with a new `Configurator`.
+    /// in [`DeviceError::Timeout`](crate::DeviceError::Timeout)). After an error, start again with a new `Configurator`.
     pub fn poll<S>(&mut self, serial: &mut S, now_ms: u32) -> Result<Progress, Error<S::Error>>
     where
         S: Read<u8> + Write<u8>,
@@ -364,7 +364,7 @@ impl<const N: usize> Configurator<N> {
     /// Runs [`poll`](Self::poll) to completion, sleeping 1 ms between polls and counting
     /// those sleeps as the clock. `set_baud_rate` must switch the host UART; if it cannot,
     /// the check at the new rate fails and the switch is retried, then reported as
-    /// [`Error::BaudSwitchFailed`].
+    /// [`DeviceError::BaudSwitchFailed`](crate::DeviceError::BaudSwitchFailed).
     ///
     /// Elapsed time is under-estimated by the time the polls themselves take, so real
     /// timeouts are at least the configured ones; the total is still bounded.

@@ -19,7 +19,7 @@
 //!   latest NAV-PVT frame, and fills the CRC through [`SensorCrc`].
 //! - The info frame ([`InfoFrame`], start token `$I`): firmware version, sensor status, BMP280
 //!   calibration and BMM150 trim registers, uptime and skipped requests; its layout and trigger
-//!   are documented in [`info`].
+//!   are documented on [`InfoFrame`].
 //! - A sans-IO [`StreamDecoder`]: any chunking, no allocation, bounded buffer, resynchronises
 //!   inside rejected bytes, counts what it drops ([`DecoderStats`]); yields [`Frame`]s.
 //! - A host driver [`SensorBoard`], generic over an embedded-hal [`OutputPin`] (request line)

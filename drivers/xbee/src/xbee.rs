@@ -20,7 +20,7 @@ use crate::types::ApiEscaping;
 /// In transparent mode: the module as a byte pipe, with guarded AT command mode.
 ///
 /// A thin wrapper: the serial port, the command-mode state and one 48-byte line buffer; no
-/// allocation. It implements embedded-hal-nb [`Read<u8>`] and [`Write<u8>`] (and, with the
+/// allocation. It implements embedded-hal-nb [`Read<u8>`](embedded_hal_nb::serial::Read) and [`Write<u8>`](embedded_hal_nb::serial::Write) (and, with the
 /// `embedded-io` feature, `embedded_io::Read`/`Write`), so framed protocols run over it as over
 /// the bare port.
 ///
