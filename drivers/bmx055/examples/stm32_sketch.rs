@@ -8,16 +8,16 @@
 //! `Bmx055::init(&mut delay, &IMU_CONFIG)` and sends the returned trim to the host;
 //! a timer task then calls [`fill_packet`] into the back buffer of its double buffer.
 
-use bosch_bmx055::packet::{PACKET_LEN, PACKET_OFFSET};
 use bosch_bmx055::{Bmx055, Bmx055Config, Error};
+use bosch_bmx055::{PACKET_LEN, PACKET_OFFSET};
 use embedded_hal::spi::SpiDevice;
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::spi::{Mock, Transaction as T};
 
 type Imu<A, G, M> = Bmx055<
-    bosch_bmx055::interface::SpiInterface<A>,
-    bosch_bmx055::interface::SpiInterface<G>,
-    bosch_bmx055::interface::SpiInterface<M>,
+    bosch_bmx055::SpiInterface<A>,
+    bosch_bmx055::SpiInterface<G>,
+    bosch_bmx055::SpiInterface<M>,
 >;
 
 /// Timer task body: sample the three dies (no waiting) and write packet bytes 2..=21.

@@ -1,18 +1,18 @@
 //! [`Bmx055`]: the three dies as one device, for boards that use all of them.
 
+#[cfg(feature = "async")]
+use crate::accel::AsyncAccelerometer;
 use crate::accel::{AccelConfig, AccelRaw, Accelerometer};
+#[cfg(feature = "async")]
+use crate::gyro::AsyncGyroscope;
 use crate::gyro::{GyroConfig, GyroRaw, Gyroscope};
 #[cfg(feature = "async")]
 use crate::interface::AsyncRegisterInterface;
 use crate::interface::{RegisterInterface, SpiInterface};
+#[cfg(feature = "async")]
+use crate::mag::AsyncMagnetometer;
 use crate::mag::{MagConfig, MagOpMode, MagPacketWords, MagTrim, Magnetometer};
 use crate::packet::ImuPacketWords;
-#[cfg(feature = "async")]
-use crate::AsyncAccelerometer;
-#[cfg(feature = "async")]
-use crate::AsyncGyroscope;
-#[cfg(feature = "async")]
-use crate::AsyncMagnetometer;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
 #[cfg(feature = "async")]

@@ -3,7 +3,10 @@
 
 mod common;
 
-use bosch_bmx055::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer, Xyz};
+use bosch_bmx055::accel::AsyncAccelerometer;
+use bosch_bmx055::gyro::AsyncGyroscope;
+use bosch_bmx055::mag::AsyncMagnetometer;
+use bosch_bmx055::Xyz;
 use common::{
     accel_deflection, accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write,
 };

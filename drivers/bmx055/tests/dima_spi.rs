@@ -4,7 +4,10 @@
 
 mod common;
 
-use bosch_bmx055::{Accelerometer, Error, Gyroscope, Magnetometer, Xyz};
+use bosch_bmx055::accel::Accelerometer;
+use bosch_bmx055::gyro::Gyroscope;
+use bosch_bmx055::mag::Magnetometer;
+use bosch_bmx055::{Error, Xyz};
 use common::{
     accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write, TRIM_1, TRIM_2, TRIM_3,
 };

@@ -5,7 +5,7 @@ mod common;
 use bosch_bmx055::accel::{accel_word_to_mg, AccelRange};
 use bosch_bmx055::gyro::{gyro_word_to_dps, GyroRange};
 use bosch_bmx055::mag::{compensate_f32, MagTrim};
-use bosch_bmx055::packet::{packet_words_from_physical, ImuPhysical};
+use bosch_bmx055::{packet_words_from_physical, ImuPhysical};
 use bosch_bmx055::{Bmx055, ImuPacketWords, Xyz};
 use common::{
     accel_deflection, accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write, TRIM_1,

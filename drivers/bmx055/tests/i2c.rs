@@ -3,9 +3,12 @@
 mod common;
 
 use bosch_bmx055::accel::AccelAddress;
+use bosch_bmx055::accel::Accelerometer;
 use bosch_bmx055::gyro::GyroAddress;
+use bosch_bmx055::gyro::Gyroscope;
 use bosch_bmx055::mag::MagAddress;
-use bosch_bmx055::{Accelerometer, Gyroscope, Magnetometer, Xyz};
+use bosch_bmx055::mag::Magnetometer;
+use bosch_bmx055::Xyz;
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::i2c::{Mock as I2cMock, Transaction as T};
 

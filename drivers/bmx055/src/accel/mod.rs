@@ -6,7 +6,7 @@
 mod fifo;
 mod interrupt;
 mod offset;
-pub mod register;
+pub(crate) mod register;
 mod selftest;
 mod types;
 

@@ -2,7 +2,7 @@
 
 mod fifo;
 mod interrupt;
-pub mod register;
+pub(crate) mod register;
 mod selftest;
 mod types;
 

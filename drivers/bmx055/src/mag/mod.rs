@@ -5,7 +5,7 @@
 
 pub mod compensation;
 pub mod inverse;
-pub mod register;
+pub(crate) mod register;
 mod trim;
 mod types;
 
