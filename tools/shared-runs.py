@@ -37,10 +37,14 @@ def shared_runs(blocking, asynchronous):
     for i in range(len(blocking) - MIN + 1):
         seen.setdefault(tuple(l for l, _, _ in blocking[i:i + MIN]), (blocking[i][1], blocking[i][2]))
     runs = []
+    previous_matched = False
     for j in range(len(asynchronous) - MIN + 1):
         key = tuple(l for l, _, _ in asynchronous[j:j + MIN])
-        if key in seen:
+        matched = key in seen
+        # Consecutive matching windows are one run; report where each run starts.
+        if matched and not previous_matched:
             runs.append((seen[key], (asynchronous[j][1], asynchronous[j][2])))
+        previous_matched = matched
     return runs
 
 
