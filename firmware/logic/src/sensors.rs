@@ -9,14 +9,10 @@
 use crate::dima;
 use crate::schedule::{MagAction, Schedule, TickPlan};
 use bosch_bmp280::{Bmp280, SpiInterface as BaroSpi};
-use bosch_bmx055::accel::AccelRaw;
-use bosch_bmx055::gyro::GyroRaw;
-use bosch_bmx055::SpiInterface;
-use bosch_bmx055::mag::MagPacketWords;
-use bosch_bmx055::ImuPacketWords;
-use bosch_bmx055::accel::Accelerometer;
-use bosch_bmx055::gyro::Gyroscope;
-use bosch_bmx055::mag::Magnetometer;
+use bosch_bmx055::accel::{AccelRaw, Accelerometer};
+use bosch_bmx055::gyro::{GyroRaw, Gyroscope};
+use bosch_bmx055::mag::{MagPacketWords, Magnetometer};
+use bosch_bmx055::{ImuPacketWords, SpiInterface};
 use dima_sensorboard::{PacketBuilder, SensorStatus};
 use embedded_hal::delay::DelayNs;
 use embedded_hal::spi::SpiDevice;
