@@ -1,6 +1,6 @@
 //! The STM32 CRC unit as the sensor packet CRC.
 
-use dima_sensorboard::crc::SensorCrc;
+use dima_sensorboard::SensorCrc;
 use stm32f4xx_hal::crc32::Crc32;
 
 /// The hardware CRC unit, fed one zero-extended byte per 32-bit word as the original board did

@@ -43,10 +43,9 @@ mod app {
         ReplyPort, ReplyTap, RequestHandler, SetupStatus,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
-    use dima_sensorboard::gnss::GNSS_FRAME_LEN;
-    use dima_sensorboard::info::INFO_VERSION;
     use dima_sensorboard::{
-        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, INFO_V2_LEN, PACKET_LEN,
+        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN, INFO_V2_LEN,
+        INFO_VERSION, PACKET_LEN,
     };
     use embedded_hal_bus::spi::AtomicDevice;
     use embedded_hal_bus::util::AtomicCell;
@@ -390,7 +389,7 @@ mod app {
                     ticks: 0,
                 },
                 gnss_rx,
-                reader: GnssReader::new(),
+                reader: GnssReader::with_capacity(),
                 reply_tap: ReplyTap::new(reply_producer),
                 gnss_port: ReplyPort::new(gnss_tx, reply_consumer),
                 led,
@@ -565,7 +564,7 @@ mod app {
         {
             let port = cx.local.gnss_port;
             let mut configurator =
-                neo_m8t::Configurator::<512>::new(gnss_receiver_config(), GNSS_BAUD);
+                neo_m8t::Configurator::<512>::with_capacity(gnss_receiver_config(), GNSS_BAUD);
             let outcome = loop {
                 match configurator.poll(port, Mono::now().ticks()) {
                     Ok(neo_m8t::Progress::Pending) => {}

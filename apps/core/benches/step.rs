@@ -12,7 +12,7 @@ use dima_core::config::Config;
 use dima_core::step::{CycleInputs, SensorInput};
 use dima_core::{Command, Core, CoreState};
 use dima_groundlink::Percent;
-use dima_sensorboard::gnss::nav_pvt::FLAG_GNSS_FIX_OK;
+use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
 
 const CYCLES: u64 = 1_000;

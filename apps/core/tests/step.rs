@@ -7,7 +7,7 @@ use dima_core::monitor::PacketVerdict;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
 use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReviveRefusal};
 use dima_groundlink::Percent;
-use dima_sensorboard::gnss::nav_pvt::FLAG_GNSS_FIX_OK;
+use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
 
 const MS: Nanos = 1_000_000;

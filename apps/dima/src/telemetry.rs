@@ -15,7 +15,7 @@ use std::time::{Duration, Instant};
 use dima_groundlink::{Command, CommandDecoder, CommandStats, DisplayFrame};
 use dima_sensorboard::SensorPacket;
 use embedded_hal_nb::serial::{Read, Write};
-use xbee_driver::Transparent;
+use xbee_driver::{Transparent, XBee};
 
 use crate::app::record::Snapshot;
 use crate::devices::serial::SerialPort;
@@ -121,7 +121,7 @@ struct RadioFailed;
 
 /// Reads what the radio has (bounded) into the decoder.
 fn receive(
-    radio: &mut Transparent<SerialPort>,
+    radio: &mut XBee<SerialPort, Transparent>,
     decoder: &mut CommandDecoder,
     mut deliver: impl FnMut(Command),
 ) -> Result<(), RadioFailed> {
@@ -142,7 +142,7 @@ fn receive(
 /// Sends `bytes` through the radio, waiting for room until `deadline_ns`; `Ok(false)` when the
 /// deadline passed first (the rest of the frame is not sent; the receiver resynchronises).
 fn send(
-    radio: &mut Transparent<SerialPort>,
+    radio: &mut XBee<SerialPort, Transparent>,
     bytes: &[u8],
     deadline_ns: u64,
 ) -> Result<bool, RadioFailed> {
@@ -222,7 +222,7 @@ pub fn spawn_telemetry(
                 );
             }
             let mut stats = TelemetryStats::default();
-            let mut radio: Option<Transparent<SerialPort>> = None;
+            let mut radio: Option<XBee<SerialPort, Transparent>> = None;
             let mut decoder = CommandDecoder::new();
             let mut hand_off = CommandHandOff::new(commands);
             let mut last_open: Option<Instant> = None;
@@ -238,7 +238,7 @@ pub fn spawn_telemetry(
                             tracing::info!("XBee: connected");
                             failures = 0;
                             decoder.reset();
-                            radio = Some(Transparent::new(port));
+                            radio = Some(XBee::new(port));
                         }
                         Err(e) => {
                             failures += 1;

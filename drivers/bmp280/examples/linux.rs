@@ -50,7 +50,7 @@ where
     let chip = bmp.init(&mut delay)?;
     println!("found {chip:?}, calibration {:?}", bmp.calibration());
 
-    bmp.configure(Config::dima())?;
+    bmp.configure(Config::default())?;
     for _ in 0..10 {
         thread::sleep(Duration::from_millis(100));
         let m = bmp.measure()?;

@@ -2,8 +2,8 @@
 
 /// The twelve calibration words `dig_T1`..`dig_P9` (datasheet table 17), read once at bring-up.
 ///
-/// The DIMA host receives these bytes from the sensor board and compensates raw packets with
-/// them, so the type converts both ways between the 24 register bytes and the words.
+/// A host that receives raw samples from a sensor board compensates them with these words, so
+/// the type converts both ways between the 24 register bytes and the words.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Calibration {

@@ -2,8 +2,7 @@
 //! measurement time the datasheet derives from them.
 //!
 //! A [`Config`] maps one-to-one onto the `ctrl_meas` (0xF4) and `config` (0xF5) registers and is
-//! applied by the driver in one call. Presets follow the datasheet (section 3.4, tables 4 and 7)
-//! and the DIMA sensor board.
+//! applied by the driver in one call. Presets follow the datasheet (section 3.4, tables 4 and 7).
 
 use crate::register;
 
@@ -194,7 +193,20 @@ impl Resolution {
 
 /// Everything the `ctrl_meas` and `config` registers hold, applied in one driver call.
 ///
-/// [`Default`] is [`Config::dima`]: continuous x1/x1 measurements every 6 ms or so.
+/// [`Default`] is normal mode at ultra low power (pressure and temperature x1), filter off,
+/// standby 0.5 ms, 4-wire SPI: `ctrl_meas` = 0x27 and `config` = 0x00, a new sample about every
+/// 6 ms, so a control loop at up to 160 Hz always finds a fresh one.
+///
+/// A worked example, fast pressure for altitude hold (datasheet table 7, "handheld device
+/// dynamic", with a shorter filter):
+/// ```
+/// use bosch_bmp280::{Config, Filter, Resolution, Standby};
+///
+/// let config = Config::normal(Resolution::Standard, Standby::Ms0_5, Filter::X4);
+/// assert_eq!(config.ctrl_meas(), 0x2F); // temperature x1, pressure x4, normal mode
+/// assert_eq!(config.config_register(), 0x08); // t_sb 0.5 ms, filter 4
+/// assert_eq!(Config::default().ctrl_meas(), 0x27);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Config {
@@ -215,25 +227,11 @@ pub struct Config {
 
 impl Default for Config {
     fn default() -> Self {
-        Self::dima()
+        Self::normal(Resolution::UltraLowPower, Standby::Ms0_5, Filter::Off)
     }
 }
 
 impl Config {
-    /// The DIMA sensor board's setting: normal mode, pressure and temperature x1, filter off,
-    /// standby 0.5 ms, 4-wire SPI. That is `ctrl_meas` = 0x27 and `config` = 0x00, a new sample
-    /// about every 6 ms, so the 250 Hz control loop always finds a fresh one.
-    pub const fn dima() -> Self {
-        Self {
-            mode: PowerMode::Normal,
-            temperature_oversampling: Oversampling::X1,
-            pressure_oversampling: Oversampling::X1,
-            filter: Filter::Off,
-            standby: Standby::Ms0_5,
-            spi_3wire: false,
-        }
-    }
-
     /// An oversampling preset (datasheet table 4) in forced mode, filter off, standby 0.5 ms:
     /// one measurement per `start_forced`.
     pub const fn forced(resolution: Resolution) -> Self {

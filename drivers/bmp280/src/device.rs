@@ -1,17 +1,34 @@
-//! The blocking driver.
+//! The driver, written once: `maybe_async_cfg` generates the blocking [`Bmp280`] from this
+//! async source by dropping `async` and `.await`, and keeps the async [`Bmp280Async`] with the
+//! `async` feature. Both issue the same register accesses with the same waits.
+
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 
 use embedded_hal::delay::DelayNs;
 
 use crate::calibration::Calibration;
 use crate::compensation::{self, Measurement};
 use crate::config::{Config, PowerMode};
+#[cfg(feature = "async")]
+use crate::interface::AsyncInterface;
 use crate::interface::{I2cInterface, Interface, SpiInterface};
 use crate::raw::RawSample;
 use crate::register::{self, Status};
 use crate::sequence;
 use crate::types::{Chip, DeviceError, Error, I2cAddress};
 
-/// A BMP280 on an SPI or I2C bus (blocking API).
+#[maybe_async_cfg::maybe(
+    sync(),
+    async(feature = "async"),
+    idents(
+        Bmp280(sync, async = "Bmp280Async"),
+        Interface(sync, async = "AsyncInterface"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
+/// A BMP280 on an SPI or I2C bus; `Bmp280Async` (feature `async`) is the same driver on
+/// embedded-hal-async with the same methods, each `async`.
 ///
 /// Create it with [`Bmp280::new_spi`] or [`Bmp280::new_i2c`], bring it up with
 /// [`Bmp280::init`], apply a [`Config`] with [`Bmp280::configure`], then read samples with
@@ -25,6 +42,15 @@ pub struct Bmp280<IFACE> {
     accept_bme280: bool,
 }
 
+#[maybe_async_cfg::maybe(
+    sync(),
+    async(feature = "async"),
+    idents(
+        Bmp280(sync, async = "Bmp280Async"),
+        Interface(sync, async = "AsyncInterface"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<SPI> Bmp280<SpiInterface<SPI>> {
     /// A driver on an embedded-hal [`SpiDevice`](embedded_hal::spi::SpiDevice) (SPI mode 0 or
     /// 3, up to 10 MHz). Nothing is sent until [`Bmp280::init`].
@@ -38,6 +64,15 @@ impl<SPI> Bmp280<SpiInterface<SPI>> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(),
+    async(feature = "async"),
+    idents(
+        Bmp280(sync, async = "Bmp280Async"),
+        Interface(sync, async = "AsyncInterface"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<I2C> Bmp280<I2cInterface<I2C>> {
     /// A driver on an embedded-hal [`I2c`](embedded_hal::i2c::I2c) bus at the address selected
     /// by the SDO pin. Nothing is sent until [`Bmp280::init`].
@@ -51,6 +86,15 @@ impl<I2C> Bmp280<I2cInterface<I2C>> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(),
+    async(feature = "async"),
+    idents(
+        Bmp280(sync, async = "Bmp280Async"),
+        Interface(sync, async = "AsyncInterface"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE> Bmp280<IFACE> {
     /// A driver on any [`Interface`] implementation.
     pub const fn new(iface: IFACE) -> Self {
@@ -63,7 +107,7 @@ impl<IFACE> Bmp280<IFACE> {
     }
 
     /// Lets [`Bmp280::init`] accept a BME280 (chip id 0x60) and drive its pressure and
-    /// temperature part; by default a BME280 is rejected with [`Error::Bme280NotAccepted`].
+    /// temperature part; by default a BME280 is rejected with [`DeviceError::Bme280NotAccepted`].
     /// On a BME280 the two longest standby codes mean 10 ms and 20 ms (see [`Chip::Bme280`]).
     pub const fn accept_bme280(mut self, accept: bool) -> Self {
         self.accept_bme280 = accept;
@@ -85,13 +129,17 @@ impl<IFACE> Bmp280<IFACE> {
     pub const fn config(&self) -> Config {
         self.config
     }
-
-    /// Destroys the driver and gives the interface back.
-    pub fn into_interface(self) -> IFACE {
-        self.iface
-    }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(),
+    async(feature = "async"),
+    idents(
+        Bmp280(sync, async = "Bmp280Async"),
+        Interface(sync, async = "AsyncInterface"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE, E> Bmp280<IFACE>
 where
     IFACE: Interface<Error = E>,
@@ -100,41 +148,43 @@ where
     /// (`im_update`), and one read of the 24 calibration bytes. Afterwards the device is in
     /// sleep mode; call [`Bmp280::configure`].
     ///
-    /// Takes 2 to 7 ms. Fails with [`Error::InvalidChipId`] or [`Error::Bme280NotAccepted`] for
-    /// the wrong chip, [`Error::Timeout`] if the NVM copy never ends, and
-    /// [`Error::InvalidCalibration`] if the calibration would make the pressure formula divide
+    /// Takes 2 to 7 ms. Fails with [`DeviceError::InvalidChipId`] or [`DeviceError::Bme280NotAccepted`] for
+    /// the wrong chip, [`DeviceError::Timeout`] if the NVM copy never ends, and
+    /// [`DeviceError::InvalidCalibration`] if the calibration would make the pressure formula divide
     /// by zero.
-    pub fn init(&mut self, delay: &mut impl DelayNs) -> Result<Chip, Error<E>> {
-        self.soft_reset(delay)?;
-        let chip = Chip::from_id(self.chip_id()?, self.accept_bme280)?;
-        self.wait_nvm_copy(delay)?;
-        self.read_calibration()?;
+    pub async fn init(&mut self, delay: &mut impl DelayNs) -> Result<Chip, Error<E>> {
+        self.soft_reset(delay).await?;
+        let chip = Chip::from_id(self.chip_id().await?, self.accept_bme280)?;
+        self.wait_nvm_copy(delay).await?;
+        self.read_calibration().await?;
         Ok(chip)
     }
 
     /// Soft reset (0xE0 <- 0xB6), then the 2 ms start-up wait. All registers return to their
     /// reset values (sleep mode); the calibration is kept.
-    pub fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<E>> {
-        self.write(register::RESET, register::RESET_COMMAND)?;
+    pub async fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<E>> {
+        self.write(register::RESET, register::RESET_COMMAND).await?;
         self.config = sequence::reset_config();
-        delay.delay_us(sequence::STARTUP_US);
+        delay.delay_us(sequence::STARTUP_US).await;
         Ok(())
     }
 
     /// Reads the chip id register (0xD0).
-    pub fn chip_id(&mut self) -> Result<u8, Error<E>> {
-        self.read_byte(register::CHIP_ID)
+    pub async fn chip_id(&mut self) -> Result<u8, Error<E>> {
+        self.read_byte(register::CHIP_ID).await
     }
 
     /// Reads the status register (0xF3).
-    pub fn status(&mut self) -> Result<Status, Error<E>> {
-        Ok(Status::from_bits_retain(self.read_byte(register::STATUS)?))
+    pub async fn status(&mut self) -> Result<Status, Error<E>> {
+        Ok(Status::from_bits_retain(
+            self.read_byte(register::STATUS).await?,
+        ))
     }
 
     /// Reads and stores the calibration (0x88..=0x9F in one burst).
-    pub fn read_calibration(&mut self) -> Result<Calibration, Error<E>> {
+    pub async fn read_calibration(&mut self) -> Result<Calibration, Error<E>> {
         let mut bytes = [0u8; register::CALIB_LEN];
-        self.read(register::CALIB_START, &mut bytes)?;
+        self.read(register::CALIB_START, &mut bytes).await?;
         let calibration = Calibration::from_bytes(&bytes);
         if calibration.dig_p1 == 0 {
             return Err(DeviceError::InvalidCalibration.into());
@@ -145,18 +195,18 @@ where
 
     /// Applies `config`: sleep first (so the `config` register write is not ignored), then
     /// `config` (0xF5), then `ctrl_meas` (0xF4) with the requested mode. Three register writes.
-    pub fn configure(&mut self, config: Config) -> Result<(), Error<E>> {
+    pub async fn configure(&mut self, config: Config) -> Result<(), Error<E>> {
         for (reg, value) in sequence::config_writes(&config) {
-            self.write(reg, value)?;
+            self.write(reg, value).await?;
         }
         self.config = config;
         Ok(())
     }
 
     /// Reads `ctrl_meas` and `config` back from the device.
-    pub fn read_config(&mut self) -> Result<Config, Error<E>> {
+    pub async fn read_config(&mut self) -> Result<Config, Error<E>> {
         let mut regs = [0u8; 2];
-        self.read(register::CTRL_MEAS, &mut regs)?;
+        self.read(register::CTRL_MEAS, &mut regs).await?;
         Ok(Config::from_registers(regs[0], regs[1]))
     }
 
@@ -166,105 +216,123 @@ where
     ///
     /// This leaves normal mode if it was configured: afterwards [`Bmp280::config`] reports
     /// forced mode, and the device sleeps once the measurement is done.
-    pub fn start_forced(&mut self) -> Result<(), Error<E>> {
-        self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))?;
+    pub async fn start_forced(&mut self) -> Result<(), Error<E>> {
+        self.write(register::CTRL_MEAS, sequence::forced_start(&self.config))
+            .await?;
         self.config.mode = PowerMode::Forced;
         Ok(())
     }
 
     /// True while a conversion runs (`status` bit 3).
-    pub fn is_measuring(&mut self) -> Result<bool, Error<E>> {
-        Ok(sequence::measuring(self.read_byte(register::STATUS)?))
+    pub async fn is_measuring(&mut self) -> Result<bool, Error<E>> {
+        Ok(sequence::measuring(self.read_byte(register::STATUS).await?))
     }
 
     /// Polls a forced measurement: `WouldBlock` while it runs, else the compensated
-    /// sample. Fails with [`Error::NotCalibrated`] before reading anything if the calibration is
+    /// sample. Fails with [`DeviceError::NotCalibrated`] before reading anything if the calibration is
     /// unknown.
     ///
     /// Each poll reads `status` and `ctrl_meas` in one burst; the measurement runs while
     /// `measuring` (status bit 3) is set or the mode bits still read forced (the device returns
     /// to sleep when done). The mode bits cover the moment right after the start when
-    /// `measuring` can still read 0 (see [`sequence::forced_busy`]), so any poll after
+    /// `measuring` can still read 0 , so any poll after
     /// [`Bmp280::start_forced`] returned is valid; polling only after
     /// [`Config::measurement_time_typ_us`] saves bus traffic. Without a started measurement
     /// the previous sample is returned.
-    pub fn poll_forced(&mut self) -> nb::Result<Measurement, Error<E>> {
-        let calibration = self.calibration.ok_or(Error::NotCalibrated)?;
-        let raw = self.poll_forced_raw()?;
+    pub async fn poll_forced(&mut self) -> nb::Result<Measurement, Error<E>> {
+        let calibration = self
+            .calibration
+            .ok_or(Error::Device(DeviceError::NotCalibrated))?;
+        let raw = self.poll_forced_raw().await?;
         Ok(compensation::compensate(&calibration, raw).map_err(Error::from)?)
     }
 
     /// Polls a forced measurement for the raw values only (no calibration needed).
-    pub fn poll_forced_raw(&mut self) -> nb::Result<RawSample, Error<E>> {
+    pub async fn poll_forced_raw(&mut self) -> nb::Result<RawSample, Error<E>> {
         let mut regs = [0u8; 2];
-        self.read(register::STATUS, &mut regs)?;
+        self.read(register::STATUS, &mut regs).await?;
         if sequence::forced_busy(regs[0], regs[1]) {
             return Err(nb::Error::WouldBlock);
         }
-        Ok(self.read_raw()?)
+        Ok(self.read_raw().await?)
     }
 
     /// One forced measurement, start to result: waits the typical time, then polls
     /// ([`Bmp280::poll_forced`]) every 0.5 ms until the datasheet's maximum time plus 2 ms has
-    /// passed ([`Error::Timeout`] after that).
-    pub fn measure_forced(&mut self, delay: &mut impl DelayNs) -> Result<Measurement, Error<E>> {
+    /// passed ([`DeviceError::Timeout`] after that).
+    pub async fn measure_forced(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<Measurement, Error<E>> {
         if self.calibration.is_none() {
-            return Err(Error::NotCalibrated);
+            return Err(DeviceError::NotCalibrated.into());
         }
-        self.start_forced()?;
-        delay.delay_us(self.config.measurement_time_typ_us());
+        self.start_forced().await?;
+        delay.delay_us(self.config.measurement_time_typ_us()).await;
         for _ in 0..sequence::forced_polls(&self.config) {
-            match self.poll_forced() {
+            match self.poll_forced().await {
                 Ok(m) => return Ok(m),
                 Err(nb::Error::Other(e)) => return Err(e),
-                Err(nb::Error::WouldBlock) => delay.delay_us(sequence::FORCED_POLL_INTERVAL_US),
+                Err(nb::Error::WouldBlock) => {
+                    delay.delay_us(sequence::FORCED_POLL_INTERVAL_US).await
+                }
             }
         }
-        Err(Error::Timeout)
+        Err(DeviceError::Timeout.into())
     }
 
     /// Reads the 6 data registers 0xF7..=0xFC in one burst, in register order (pressure MSB,
-    /// LSB, XLSB, temperature MSB, LSB, XLSB): the bytes the DIMA sensor packet carries.
-    pub fn read_raw_bytes(&mut self) -> Result<[u8; 6], Error<E>> {
+    /// LSB, XLSB, temperature MSB, LSB, XLSB): the bytes a raw-sample link (e.g. a sensor board packet) carries.
+    pub async fn read_raw_bytes(&mut self) -> Result<[u8; 6], Error<E>> {
         let mut bytes = [0u8; register::DATA_LEN];
-        self.read(register::DATA_START, &mut bytes)?;
+        self.read(register::DATA_START, &mut bytes).await?;
         Ok(bytes)
     }
 
     /// Reads one raw sample (one burst of 0xF7..=0xFC).
-    pub fn read_raw(&mut self) -> Result<RawSample, Error<E>> {
-        Ok(RawSample::from_register_bytes(&self.read_raw_bytes()?))
+    pub async fn read_raw(&mut self) -> Result<RawSample, Error<E>> {
+        Ok(RawSample::from_register_bytes(
+            &self.read_raw_bytes().await?,
+        ))
     }
 
     /// Reads the latest sample and compensates it (normal mode, or after a finished forced
     /// measurement). The result keeps the raw values.
-    pub fn measure(&mut self) -> Result<Measurement, Error<E>> {
-        let calibration = self.calibration.ok_or(Error::NotCalibrated)?;
-        let raw = self.read_raw()?;
+    pub async fn measure(&mut self) -> Result<Measurement, Error<E>> {
+        let calibration = self
+            .calibration
+            .ok_or(Error::Device(DeviceError::NotCalibrated))?;
+        let raw = self.read_raw().await?;
         Ok(compensation::compensate(&calibration, raw)?)
     }
 
-    fn wait_nvm_copy(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<E>> {
+    async fn wait_nvm_copy(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<E>> {
         for _ in 0..sequence::NVM_POLLS {
-            if !sequence::nvm_busy(self.read_byte(register::STATUS)?) {
+            if !sequence::nvm_busy(self.read_byte(register::STATUS).await?) {
                 return Ok(());
             }
-            delay.delay_us(sequence::NVM_POLL_INTERVAL_US);
+            delay.delay_us(sequence::NVM_POLL_INTERVAL_US).await;
         }
-        Err(Error::Timeout)
+        Err(DeviceError::Timeout.into())
     }
 
-    fn read_byte(&mut self, reg: u8) -> Result<u8, Error<E>> {
+    async fn read_byte(&mut self, reg: u8) -> Result<u8, Error<E>> {
         let mut byte = [0u8];
-        self.read(reg, &mut byte)?;
+        self.read(reg, &mut byte).await?;
         Ok(byte[0])
     }
 
-    fn read(&mut self, reg: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
-        self.iface.read_registers(reg, buf).map_err(Error::Comm)
+    async fn read(&mut self, reg: u8, buf: &mut [u8]) -> Result<(), Error<E>> {
+        self.iface
+            .read_registers(reg, buf)
+            .await
+            .map_err(Error::Comm)
     }
 
-    fn write(&mut self, reg: u8, value: u8) -> Result<(), Error<E>> {
-        self.iface.write_register(reg, value).map_err(Error::Comm)
+    async fn write(&mut self, reg: u8, value: u8) -> Result<(), Error<E>> {
+        self.iface
+            .write_register(reg, value)
+            .await
+            .map_err(Error::Comm)
     }
 }

@@ -3,35 +3,39 @@
 //! The driver takes one embedded-hal 1.0 [`SpiDevice`] (which owns the chip select; share a bus
 //! with `embedded-hal-bus`) or an [`I2c`] bus plus the [`I2cAddress`] strap. Both interface
 //! types implement [`Interface`] and, with the `async` feature, `AsyncInterface` over the
-//! embedded-hal-async traits.
+//! embedded-hal-async traits, from one source (`maybe_async_cfg`).
 
 use embedded_hal::i2c::I2c;
 use embedded_hal::spi::{Operation, SpiDevice};
+#[cfg(feature = "async")]
+use embedded_hal_async::{
+    i2c::I2c as AsyncI2c,
+    spi::{Operation as AsyncOperation, SpiDevice as AsyncSpiDevice},
+};
 
 use crate::register::{SPI_READ, SPI_WRITE_MASK};
 use crate::types::I2cAddress;
 
-/// Blocking register access to a BMP280.
+#[maybe_async_cfg::maybe(
+    sync(),
+    async(feature = "async"),
+    idents(
+        Interface(sync, async = "AsyncInterface"),
+        SpiDevice(sync, async = "AsyncSpiDevice"),
+        Operation(sync, async = "AsyncOperation"),
+        I2c(sync, async = "AsyncI2c")
+    )
+)]
+/// Register access to a BMP280: implemented by [`SpiInterface`] and [`I2cInterface`] over the
+/// embedded-hal traits, and as `AsyncInterface` over the embedded-hal-async ones (feature
+/// `async`). Implement it for another transport (a simulator, a bus driven by DMA).
+#[allow(async_fn_in_trait)] // as embedded-hal-async: the caller's executor decides on Send
 pub trait Interface {
     /// Bus error type.
     type Error;
 
     /// Reads `buf.len()` consecutive registers starting at `register` in one bus transaction
     /// (the device auto-increments the address, so a burst keeps a sample consistent).
-    fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error>;
-
-    /// Writes one register.
-    fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error>;
-}
-
-/// Async register access to a BMP280 (feature `async`).
-#[cfg(feature = "async")]
-#[allow(async_fn_in_trait)] // as embedded-hal-async: the caller's executor decides on Send
-pub trait AsyncInterface {
-    /// Bus error type.
-    type Error;
-
-    /// Reads `buf.len()` consecutive registers starting at `register` in one bus transaction.
     async fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error>;
 
     /// Writes one register.
@@ -59,30 +63,24 @@ impl<SPI> SpiInterface<SPI> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Interface(sync, async = "AsyncInterface"),
+        SpiDevice(sync, async = "AsyncSpiDevice"),
+        Operation(sync, async = "AsyncOperation"),
+        I2c(sync, async = "AsyncI2c")
+    )
+)]
 impl<SPI: SpiDevice> Interface for SpiInterface<SPI> {
-    type Error = SPI::Error;
-
-    fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error> {
-        self.spi.transaction(&mut [
-            Operation::Write(&[register | SPI_READ]),
-            Operation::Read(buf),
-        ])
-    }
-
-    fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error> {
-        self.spi.write(&[register & SPI_WRITE_MASK, value])
-    }
-}
-
-#[cfg(feature = "async")]
-impl<SPI: embedded_hal_async::spi::SpiDevice> AsyncInterface for SpiInterface<SPI> {
     type Error = SPI::Error;
 
     async fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error> {
         self.spi
             .transaction(&mut [
-                embedded_hal_async::spi::Operation::Write(&[register | SPI_READ]),
-                embedded_hal_async::spi::Operation::Read(buf),
+                Operation::Write(&[register | SPI_READ]),
+                Operation::Read(buf),
             ])
             .await
     }
@@ -122,20 +120,17 @@ impl<I2C> I2cInterface<I2C> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Interface(sync, async = "AsyncInterface"),
+        SpiDevice(sync, async = "AsyncSpiDevice"),
+        Operation(sync, async = "AsyncOperation"),
+        I2c(sync, async = "AsyncI2c")
+    )
+)]
 impl<I2C: I2c> Interface for I2cInterface<I2C> {
-    type Error = I2C::Error;
-
-    fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error> {
-        self.i2c.write_read(self.address, &[register], buf)
-    }
-
-    fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error> {
-        self.i2c.write(self.address, &[register, value])
-    }
-}
-
-#[cfg(feature = "async")]
-impl<I2C: embedded_hal_async::i2c::I2c> AsyncInterface for I2cInterface<I2C> {
     type Error = I2C::Error;
 
     async fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error> {

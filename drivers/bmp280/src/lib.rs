@@ -10,24 +10,25 @@
 //!   [`Bmp280::accept_bme280`]), bounded wait for the NVM copy, one read of the calibration.
 //! - One typed [`Config`] (power mode, oversampling, IIR filter, standby, 3-wire SPI) applied by
 //!   [`Bmp280::configure`], with the datasheet presets ([`Config::forced`], [`Config::normal`],
-//!   [`Config::indoor_navigation`], ...) and the DIMA setting [`Config::dima`] (`ctrl_meas`
-//!   0x27). The measurement time follows from it: [`Config::measurement_time_typ_us`],
+//!   [`Config::indoor_navigation`], ...); [`Config::default`] is normal mode at x1/x1 with
+//!   0.5 ms standby (`ctrl_meas` 0x27). The measurement time follows from it: [`Config::measurement_time_typ_us`],
 //!   [`Config::measurement_time_max_us`].
 //! - Forced mode without fixed sleeps: [`Bmp280::start_forced`] then [`Bmp280::poll_forced`]
 //!   (`nb`, `WouldBlock` while `status.measuring` is set or `ctrl_meas` still reads forced
 //!   mode), or [`Bmp280::measure_forced`] with a
 //!   borrowed delay and a deadline.
 //! - Normal mode: [`Bmp280::measure`] (one burst read, compensated, raw values kept),
-//!   [`Bmp280::read_raw`] and [`Bmp280::read_raw_bytes`] (the register bytes the DIMA sensor
-//!   packet carries; [`raw::adc_from_bytes`] and [`raw::bytes_from_adc`] convert).
+//!   [`Bmp280::read_raw`] and [`Bmp280::read_raw_bytes`] (the register bytes, for a board that
+//!   forwards raw samples; [`RawSample::from_register_bytes`] and
+//!   [`RawSample::to_register_bytes`] convert).
 //! - [`compensation`]: the datasheet formulas as pure functions (integer temperature in 0.01 °C,
 //!   64-bit pressure in Q24.8 Pa, the 32-bit pressure variant, `f32` helpers), for hosts that
 //!   receive raw samples and the [`Calibration`] bytes; [`compensation::inverse`] finds the raw
 //!   values for a temperature and pressure, for simulators.
 //! - [`Error`] with the bus error and device errors, `Display`, `core::error::Error`;
 //!   `defmt::Format` with the `defmt` feature.
-//! - Feature `async`: `asynch::Bmp280Async`, the same driver on embedded-hal-async. The
-//!   blocking API stays available.
+//! - Feature `async`: `Bmp280Async`, the same driver on embedded-hal-async, generated from the
+//!   same source as [`Bmp280`] (so the two cannot drift). The blocking API stays available.
 //!
 //! Bus sharing (several chip selects on one SPI bus) is the job of `embedded-hal-bus`.
 //!
@@ -53,7 +54,7 @@
 //! // `spi` is an embedded-hal 1.0 SpiDevice, `delay` a DelayNs.
 //! let mut bmp = Bmp280::new_spi(spi);
 //! bmp.init(&mut delay)?;
-//! bmp.configure(Config::dima())?; // normal mode, x1/x1, t_sb 0.5 ms, filter off
+//! bmp.configure(Config::default())?; // normal mode, x1/x1, t_sb 0.5 ms, filter off
 //! let m = bmp.measure()?;
 //! assert_eq!(m.temperature_centi_celsius, 2508); // 25.08 °C
 //! assert_eq!(m.pressure_pa(), 100_653);
@@ -62,19 +63,20 @@
 //! # Ok::<(), bosch_bmp280::Error<embedded_hal::spi::ErrorKind>>(())
 //! ```
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
-#[cfg(feature = "async")]
-pub mod asynch;
 mod calibration;
 pub mod compensation;
 mod config;
 mod device;
-pub mod interface;
-pub mod raw;
-pub mod register;
-pub mod sequence;
+mod interface;
+mod raw;
+mod register;
+#[cfg(test)]
+mod register_tests;
+mod sequence;
 mod types;
 
 pub use calibration::Calibration;
@@ -87,9 +89,12 @@ pub use register::Status;
 pub use types::{Chip, DeviceError, Error, I2cAddress};
 
 #[cfg(feature = "async")]
-pub use asynch::Bmp280Async;
+pub use device::Bmp280Async;
 #[cfg(feature = "async")]
 pub use interface::AsyncInterface;
+/// `nb`, re-exported for `nb::block!` around [`Bmp280::poll_forced`] and for matching
+/// `nb::Error::WouldBlock`.
+pub use nb;
 
 /// The README's code blocks, compiled and run as doctests.
 #[cfg(doctest)]

@@ -1,5 +1,5 @@
-//! Raw 20-bit ADC values and their register bytes (0xF7..=0xFC), the form the DIMA sensor
-//! packet carries (DESIGN 2.1, offsets 22-27).
+//! Raw 20-bit ADC values and their register bytes (0xF7..=0xFC), the form a sensor board that
+//! forwards raw samples to a host carries.
 
 /// Largest 20-bit ADC value.
 pub const ADC_MAX: u32 = (1 << 20) - 1;
@@ -50,13 +50,23 @@ pub struct RawSample {
 }
 
 impl RawSample {
-    /// A sample from the 6 register bytes 0xF7..=0xFC (see [`adc_from_bytes`]).
+    /// Largest 20-bit ADC value.
+    pub const ADC_MAX: u32 = ADC_MAX;
+
+    /// Value of a data register whose measurement was skipped (oversampling `Skip`).
+    pub const ADC_SKIPPED: u32 = ADC_SKIPPED;
+
+    /// A sample from the 6 register bytes 0xF7..=0xFC, in register order (`press_msb`,
+    /// `press_lsb`, `press_xlsb`, `temp_msb`, `temp_lsb`, `temp_xlsb`): each value is
+    /// `msb << 12 | lsb << 4 | xlsb >> 4`; the low nibble of each XLSB byte is ignored.
     pub const fn from_register_bytes(bytes: &[u8; 6]) -> Self {
         let (adc_p, adc_t) = adc_from_bytes(bytes);
         Self { adc_p, adc_t }
     }
 
-    /// The 6 register bytes 0xF7..=0xFC of this sample (see [`bytes_from_adc`]).
+    /// The 6 register bytes 0xF7..=0xFC of this sample, the inverse of
+    /// [`RawSample::from_register_bytes`]: bits above the 20th are dropped, each XLSB low nibble
+    /// is 0 as the device sends it.
     pub const fn to_register_bytes(&self) -> [u8; 6] {
         bytes_from_adc(self.adc_p, self.adc_t)
     }

@@ -68,7 +68,7 @@ impl Chip {
     }
 }
 
-/// Device-level failures, independent of the bus (the [`Error`] variants other than `Comm`).
+/// Device-level failures, independent of the bus; [`Error::Device`] carries them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum DeviceError {
@@ -113,36 +113,19 @@ impl fmt::Display for DeviceError {
 
 impl core::error::Error for DeviceError {}
 
-/// Errors of the driver: the bus error `E` or a device error.
+/// Errors of the driver: the bus error `E`, or a [`DeviceError`] nested whole.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error<E> {
     /// The SPI or I2C transfer failed.
     Comm(E),
-    /// See [`DeviceError::InvalidChipId`].
-    InvalidChipId {
-        /// The value read from 0xD0.
-        found: u8,
-    },
-    /// See [`DeviceError::Bme280NotAccepted`].
-    Bme280NotAccepted,
-    /// See [`DeviceError::NotCalibrated`].
-    NotCalibrated,
-    /// See [`DeviceError::InvalidCalibration`].
-    InvalidCalibration,
-    /// See [`DeviceError::Timeout`].
-    Timeout,
+    /// The device answered, but not as a working BMP280 does.
+    Device(DeviceError),
 }
 
 impl<E> From<DeviceError> for Error<E> {
     fn from(e: DeviceError) -> Self {
-        match e {
-            DeviceError::InvalidChipId { found } => Error::InvalidChipId { found },
-            DeviceError::Bme280NotAccepted => Error::Bme280NotAccepted,
-            DeviceError::NotCalibrated => Error::NotCalibrated,
-            DeviceError::InvalidCalibration => Error::InvalidCalibration,
-            DeviceError::Timeout => Error::Timeout,
-        }
+        Error::Device(e)
     }
 }
 
@@ -150,15 +133,16 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Error::Comm(e) => write!(f, "BMP280 bus error: {e:?}"),
-            Error::InvalidChipId { found } => {
-                fmt::Display::fmt(&DeviceError::InvalidChipId { found: *found }, f)
-            }
-            Error::Bme280NotAccepted => fmt::Display::fmt(&DeviceError::Bme280NotAccepted, f),
-            Error::NotCalibrated => fmt::Display::fmt(&DeviceError::NotCalibrated, f),
-            Error::InvalidCalibration => fmt::Display::fmt(&DeviceError::InvalidCalibration, f),
-            Error::Timeout => fmt::Display::fmt(&DeviceError::Timeout, f),
+            Error::Device(e) => fmt::Display::fmt(e, f),
         }
     }
 }
 
-impl<E: fmt::Debug> core::error::Error for Error<E> {}
+impl<E: fmt::Debug> core::error::Error for Error<E> {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            Error::Comm(_) => None,
+            Error::Device(e) => Some(e),
+        }
+    }
+}

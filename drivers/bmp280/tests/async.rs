@@ -8,7 +8,7 @@ use std::pin::pin;
 use std::sync::Arc;
 use std::task::{Context, Poll, Wake, Waker};
 
-use bosch_bmp280::{Bmp280Async, Chip, Config, Error, I2cAddress, Resolution};
+use bosch_bmp280::{Bmp280Async, Chip, Config, DeviceError, Error, I2cAddress, Resolution};
 use common::*;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, Transaction as D};
 use embedded_hal_mock::eh1::i2c::Mock as I2cMock;
@@ -46,7 +46,7 @@ fn spi_init_configure_measure() {
     let mut delay = CheckedDelay::new(&[D::async_delay_us(2000)]);
     block_on(async {
         assert_eq!(bmp.init(&mut delay).await, Ok(Chip::Bmp280));
-        bmp.configure(Config::dima()).await.unwrap();
+        bmp.configure(Config::default()).await.unwrap();
         let m = bmp.measure().await.unwrap();
         assert_eq!(m.temperature_centi_celsius, DATASHEET_T_CENTI);
         assert_eq!(m.pressure_q24_8, DATASHEET_P_Q24_8);
@@ -100,12 +100,49 @@ fn i2c_wrong_chip_and_uncalibrated() {
     let mut bmp = Bmp280Async::new_i2c(I2cMock::new(&expectations), I2cAddress::SdoLow);
     let mut delay = CheckedDelay::new(&[D::async_delay_us(2000)]);
     block_on(async {
-        assert_eq!(bmp.init(&mut delay).await, Err(Error::Bme280NotAccepted));
-        assert_eq!(bmp.measure().await, Err(Error::NotCalibrated));
+        assert_eq!(
+            bmp.init(&mut delay).await,
+            Err(Error::Device(DeviceError::Bme280NotAccepted))
+        );
+        assert_eq!(
+            bmp.measure().await,
+            Err(Error::Device(DeviceError::NotCalibrated))
+        );
         assert_eq!(
             bmp.measure_forced(&mut delay).await,
-            Err(Error::NotCalibrated)
+            Err(Error::Device(DeviceError::NotCalibrated))
         );
+    });
+    delay.done();
+    bmp.release().done();
+}
+
+#[test]
+fn spi_start_then_poll_forced() {
+    // The same transactions and datasheet vector as the blocking driver's forced-mode poll.
+    let expectations = [
+        spi_init(),
+        spi_write(0x74, 0x24),
+        spi_write(0x75, 0x00),
+        spi_write(0x74, 0x25),
+        spi_write(0x74, 0x25),
+        spi_read(0xF3, &[0x08, 0x25]),
+        spi_read(0xF3, &[0x00, 0x24]),
+        spi_read(0xF7, &DATASHEET_DATA_BYTES),
+    ]
+    .concat();
+    let mut bmp = Bmp280Async::new_spi(SpiMock::new(&expectations));
+    let mut delay = CheckedDelay::new(&[D::async_delay_us(2000)]);
+    block_on(async {
+        bmp.init(&mut delay).await.unwrap();
+        bmp.configure(Config::forced(Resolution::UltraLowPower))
+            .await
+            .unwrap();
+        bmp.start_forced().await.unwrap();
+        assert_eq!(bmp.poll_forced().await, Err(nb::Error::WouldBlock));
+        let m = bmp.poll_forced().await.unwrap();
+        assert_eq!(m.temperature_centi_celsius, DATASHEET_T_CENTI);
+        assert_eq!(m.pressure_q24_8, DATASHEET_P_Q24_8);
     });
     delay.done();
     bmp.release().done();

@@ -2,7 +2,7 @@
 
 mod common;
 
-use bosch_bmp280::{Bmp280, Chip, Config, Error, I2cAddress, Resolution};
+use bosch_bmp280::{Bmp280, Chip, Config, DeviceError, Error, I2cAddress, Resolution};
 use common::*;
 use embedded_hal::i2c::ErrorKind;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, NoopDelay, Transaction as D};
@@ -32,7 +32,7 @@ fn bme280_is_rejected_unless_accepted() {
     let mut bmp = Bmp280::new_i2c(Mock::new(&expectations), I2cAddress::SdoLow);
     assert_eq!(
         bmp.init(&mut NoopDelay::new()),
-        Err(Error::Bme280NotAccepted)
+        Err(Error::Device(DeviceError::Bme280NotAccepted))
     );
     bmp.release().done();
 
@@ -56,7 +56,7 @@ fn dima_preset_writes_plain_register_addresses() {
         i2c_write(a, 0xF4, 0x27),
     ];
     let mut bmp = Bmp280::new_i2c(Mock::new(&expectations), I2cAddress::SdoHigh);
-    bmp.configure(Config::dima()).unwrap();
+    bmp.configure(Config::default()).unwrap();
     bmp.release().done();
 }
 
@@ -114,11 +114,11 @@ fn bus_errors_are_passed_through() {
 
 #[test]
 fn error_messages_name_the_device_and_the_cause() {
-    let e: Error<ErrorKind> = Error::InvalidChipId { found: 0xFF };
+    let e: Error<ErrorKind> = Error::Device(DeviceError::InvalidChipId { found: 0xFF });
     let text = e.to_string();
     assert!(text.contains("0xff") && text.contains("0x58"), "{text}");
-    let e: Error<ErrorKind> = Error::NotCalibrated;
+    let e: Error<ErrorKind> = Error::Device(DeviceError::NotCalibrated);
     assert!(e.to_string().contains("init"));
-    let e: &dyn core::error::Error = &Error::<ErrorKind>::Timeout;
+    let e: &dyn core::error::Error = &Error::<ErrorKind>::Device(DeviceError::Timeout);
     assert!(e.to_string().contains("BMP280"));
 }

@@ -5,8 +5,8 @@ mod common;
 
 use bosch_bmp280::compensation::inverse::*;
 use bosch_bmp280::compensation::*;
-use bosch_bmp280::raw::{adc_from_bytes, bytes_from_adc, ADC_MAX};
 use bosch_bmp280::{Calibration, Config, RawSample};
+use common::{adc_from_bytes, bytes_from_adc, ADC_MAX};
 use common::{DATASHEET_CALIB, OTHER_CALIB};
 use proptest::prelude::*;
 

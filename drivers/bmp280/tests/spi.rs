@@ -5,7 +5,7 @@
 
 mod common;
 
-use bosch_bmp280::{Bmp280, Chip, Config, Error, Oversampling, PowerMode, Resolution};
+use bosch_bmp280::{Bmp280, Chip, Config, DeviceError, Error, Oversampling, PowerMode, Resolution};
 use common::*;
 use embedded_hal::spi::ErrorKind;
 use embedded_hal_mock::eh1::delay::{CheckedDelay, NoopDelay, Transaction as D};
@@ -69,7 +69,10 @@ fn init_times_out_when_im_update_never_clears() {
         D::delay_us(1000),
         D::delay_us(1000),
     ]);
-    assert_eq!(bmp.init(&mut delay), Err(Error::Timeout));
+    assert_eq!(
+        bmp.init(&mut delay),
+        Err(Error::Device(DeviceError::Timeout))
+    );
     assert_eq!(bmp.calibration(), None);
     delay.done();
     bmp.release().done();
@@ -93,11 +96,27 @@ fn chip_ids_are_classified() {
         (0x58, false, Ok(Chip::Bmp280)),
         (0x56, false, Ok(Chip::Bmp280Sample(0x56))),
         (0x57, false, Ok(Chip::Bmp280Sample(0x57))),
-        (0x60, false, Err(Error::Bme280NotAccepted)),
+        (
+            0x60,
+            false,
+            Err(Error::Device(DeviceError::Bme280NotAccepted)),
+        ),
         (0x60, true, Ok(Chip::Bme280)),
-        (0x00, false, Err(Error::InvalidChipId { found: 0x00 })),
-        (0xFF, true, Err(Error::InvalidChipId { found: 0xFF })),
-        (0x55, false, Err(Error::InvalidChipId { found: 0x55 })),
+        (
+            0x00,
+            false,
+            Err(Error::Device(DeviceError::InvalidChipId { found: 0x00 })),
+        ),
+        (
+            0xFF,
+            true,
+            Err(Error::Device(DeviceError::InvalidChipId { found: 0xFF })),
+        ),
+        (
+            0x55,
+            false,
+            Err(Error::Device(DeviceError::InvalidChipId { found: 0x55 })),
+        ),
     ] {
         let (result, mut mock) = init_with_id(id, accept);
         assert_eq!(result, expected, "id {id:#04x}");
@@ -120,7 +139,7 @@ fn a_calibration_that_divides_by_zero_is_rejected() {
     let mut bmp = driver(&expectations);
     assert_eq!(
         bmp.init(&mut NoopDelay::new()),
-        Err(Error::InvalidCalibration)
+        Err(Error::Device(DeviceError::InvalidCalibration))
     );
     assert_eq!(bmp.calibration(), None);
     bmp.release().done();
@@ -137,8 +156,8 @@ fn dima_preset_is_three_exact_writes() {
     ]
     .concat();
     let mut bmp = driver(&expectations);
-    bmp.configure(Config::dima()).unwrap();
-    assert_eq!(bmp.config(), Config::dima());
+    bmp.configure(Config::default()).unwrap();
+    assert_eq!(bmp.config(), Config::default());
     bmp.release().done();
 }
 
@@ -160,7 +179,7 @@ fn indoor_navigation_preset_writes() {
 #[test]
 fn spi_3wire_and_long_standby_reach_the_config_register() {
     // t_sb 4 s = 111, filter off, spi3w_en = 1 -> 0b111_000_01 = 0xE1.
-    let config = Config::dima()
+    let config = Config::default()
         .with_standby(bosch_bmp280::Standby::Ms4000)
         .with_spi_3wire(true);
     let expectations = [
@@ -177,7 +196,7 @@ fn spi_3wire_and_long_standby_reach_the_config_register() {
 #[test]
 fn read_config_decodes_both_registers() {
     let mut bmp = driver(&spi_read(0xF4, &[0x27, 0x00]));
-    assert_eq!(bmp.read_config(), Ok(Config::dima()));
+    assert_eq!(bmp.read_config(), Ok(Config::default()));
     bmp.release().done();
 }
 
@@ -220,14 +239,17 @@ fn normal_mode_measurement_is_compensated_with_the_datasheet_result() {
 #[test]
 fn compensated_reads_before_init_fail_without_bus_traffic() {
     let mut bmp = driver(&[]);
-    assert_eq!(bmp.measure(), Err(Error::NotCalibrated));
+    assert_eq!(
+        bmp.measure(),
+        Err(Error::Device(DeviceError::NotCalibrated))
+    );
     assert_eq!(
         bmp.poll_forced(),
-        Err(nb::Error::Other(Error::NotCalibrated))
+        Err(nb::Error::Other(Error::Device(DeviceError::NotCalibrated)))
     );
     assert_eq!(
         bmp.measure_forced(&mut NoopDelay::new()),
-        Err(Error::NotCalibrated)
+        Err(Error::Device(DeviceError::NotCalibrated))
     );
     bmp.release().done();
 }
@@ -353,7 +375,10 @@ fn measure_forced_gives_up_after_the_maximum_time() {
     bmp.configure(Config::forced(Resolution::UltraLowPower))
         .unwrap();
     let mut delay = CheckedDelay::new(&delays);
-    assert_eq!(bmp.measure_forced(&mut delay), Err(Error::Timeout));
+    assert_eq!(
+        bmp.measure_forced(&mut delay),
+        Err(Error::Device(DeviceError::Timeout))
+    );
     delay.done();
     bmp.release().done();
 }
@@ -388,10 +413,10 @@ fn a_forced_start_from_normal_mode_is_reported_by_config() {
     ]
     .concat();
     let mut bmp = driver(&expectations);
-    bmp.configure(Config::dima()).unwrap();
+    bmp.configure(Config::default()).unwrap();
     assert_eq!(bmp.config().mode, PowerMode::Normal);
     bmp.start_forced().unwrap();
-    assert_eq!(bmp.config(), Config::dima().with_mode(PowerMode::Forced));
+    assert_eq!(bmp.config(), Config::default().with_mode(PowerMode::Forced));
     bmp.release().done();
 }
 

@@ -1,5 +1,5 @@
 //! Golden vectors from the BMP280 datasheet's calculation example and a real device's
-//! calibration (shared/vectors/README.md), never values produced by this crate.
+//! calibration (an independent implementation's test data), never values produced by this crate.
 
 mod common;
 
@@ -7,9 +7,9 @@ use bosch_bmp280::compensation::{
     compensate, pressure_pa_32bit, pressure_pa_f32, pressure_q24_8, t_fine,
     temperature_celsius_f32, temperature_centi_celsius,
 };
-use bosch_bmp280::raw::{adc_from_bytes, bytes_from_adc};
 use bosch_bmp280::{Calibration, RawSample};
 use common::*;
+use common::{adc_from_bytes, bytes_from_adc};
 
 #[test]
 fn datasheet_calibration_bytes_parse_to_the_datasheet_words() {

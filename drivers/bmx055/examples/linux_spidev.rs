@@ -10,6 +10,22 @@ use linux_embedded_hal::spidev::{SpiModeFlags, SpidevOptions};
 use linux_embedded_hal::{Delay, SpidevDevice};
 use std::error::Error;
 
+/// ±2 g / 1000 Hz, ±2000 °/s / 2000 Hz with the 230 Hz filter, magnetometer low-power preset
+/// in forced mode.
+const IMU_CONFIG: Bmx055Config = Bmx055Config {
+    accel: bosch_bmx055::accel::AccelConfig {
+        range: bosch_bmx055::accel::AccelRange::G2,
+        bandwidth: bosch_bmx055::accel::AccelBandwidth::Hz1000,
+        power: bosch_bmx055::accel::AccelPowerMode::Normal,
+    },
+    gyro: bosch_bmx055::gyro::GyroConfig {
+        range: bosch_bmx055::gyro::GyroRange::Dps2000,
+        bandwidth: bosch_bmx055::gyro::GyroBandwidth::Odr2000Bw230,
+        power: bosch_bmx055::gyro::GyroPowerMode::Normal,
+    },
+    mag: bosch_bmx055::mag::MagConfig::forced(bosch_bmx055::mag::MagPreset::LowPower),
+};
+
 fn open(path: &str) -> Result<SpidevDevice, Box<dyn Error>> {
     let mut dev = SpidevDevice::open(path).map_err(|e| format!("{path}: {e}"))?;
     let options = SpidevOptions::new()
@@ -31,7 +47,7 @@ fn main() -> Result<(), Box<dyn Error>> {
     let mut imu = Bmx055::new_spi(open(accel)?, open(gyro)?, open(mag)?);
     let mut delay = Delay;
     let trim = imu
-        .init(&mut delay, &Bmx055Config::DIMA)
+        .init(&mut delay, &IMU_CONFIG)
         .map_err(|e| format!("BMX055 init failed: {e}"))?;
     println!("magnetometer trim: {trim:?}");
     for _ in 0..50 {

@@ -1,26 +1,42 @@
-//! Sketch of the sensor-board sampling task (DESIGN section 3), written against the
+//! Sketch of the sensor-board sampling task (±2 g / 1000 Hz, ±2000 °/s / 0x81, magnetometer low-power preset in forced mode), written against the
 //! embedded-hal traits so it builds anywhere; `main` runs it on mocked buses.
 //!
 //! On the STM32F4 board the three SPI devices come from one SPI1 bus (PA5 SCK, PA6 MISO,
 //! PA7 MOSI, mode 3) shared through `embedded-hal-bus` (`AtomicDevice` or
 //! `CriticalSectionDevice`, since RTIC resources must be `Send`), with chip selects PE7
 //! (accelerometer), PE8 (gyroscope) and PE9 (magnetometer). At boot the firmware calls
-//! `Bmx055::init(&mut delay, &Bmx055Config::DIMA)` and sends the returned trim to the host;
+//! `Bmx055::init(&mut delay, &IMU_CONFIG)` and sends the returned trim to the host;
 //! a timer task then calls [`fill_packet`] into the back buffer of its double buffer.
 
-use bosch_bmx055::packet::{PACKET_LEN, PACKET_OFFSET};
 use bosch_bmx055::{Bmx055, Bmx055Config, Error};
+use bosch_bmx055::{PACKET_LEN, PACKET_OFFSET};
 use embedded_hal::spi::SpiDevice;
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::spi::{Mock, Transaction as T};
 
 type Imu<A, G, M> = Bmx055<
-    bosch_bmx055::interface::SpiInterface<A>,
-    bosch_bmx055::interface::SpiInterface<G>,
-    bosch_bmx055::interface::SpiInterface<M>,
+    bosch_bmx055::SpiInterface<A>,
+    bosch_bmx055::SpiInterface<G>,
+    bosch_bmx055::SpiInterface<M>,
 >;
 
 /// Timer task body: sample the three dies (no waiting) and write packet bytes 2..=21.
+/// ±2 g / 1000 Hz, ±2000 °/s / 2000 Hz with the 230 Hz filter, magnetometer low-power preset
+/// in forced mode.
+const IMU_CONFIG: Bmx055Config = Bmx055Config {
+    accel: bosch_bmx055::accel::AccelConfig {
+        range: bosch_bmx055::accel::AccelRange::G2,
+        bandwidth: bosch_bmx055::accel::AccelBandwidth::Hz1000,
+        power: bosch_bmx055::accel::AccelPowerMode::Normal,
+    },
+    gyro: bosch_bmx055::gyro::GyroConfig {
+        range: bosch_bmx055::gyro::GyroRange::Dps2000,
+        bandwidth: bosch_bmx055::gyro::GyroBandwidth::Odr2000Bw230,
+        power: bosch_bmx055::gyro::GyroPowerMode::Normal,
+    },
+    mag: bosch_bmx055::mag::MagConfig::forced(bosch_bmx055::mag::MagPreset::LowPower),
+};
+
 fn fill_packet<A, G, M, E>(imu: &mut Imu<A, G, M>, packet: &mut [u8; 132]) -> Result<bool, Error<E>>
 where
     A: SpiDevice<Error = E>,
@@ -86,7 +102,7 @@ fn main() {
     .concat();
     let (mut a, mut g, mut m) = (Mock::new(&acc), Mock::new(&gyro), Mock::new(&mag));
     let mut imu = Bmx055::new_spi(a.clone(), g.clone(), m.clone());
-    let trim = imu.init(&mut NoopDelay, &Bmx055Config::DIMA).expect("init");
+    let trim = imu.init(&mut NoopDelay, &IMU_CONFIG).expect("init");
     let mut packet = [0u8; 132];
     let fresh = fill_packet(&mut imu, &mut packet).expect("sample");
     println!(

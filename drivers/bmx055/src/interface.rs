@@ -10,30 +10,30 @@
 
 use embedded_hal::i2c::I2c;
 use embedded_hal::spi::{Operation, SpiDevice};
+#[cfg(feature = "async")]
+use embedded_hal_async::{
+    i2c::I2c as AsyncI2c,
+    spi::{Operation as AsyncOperation, SpiDevice as AsyncSpiDevice},
+};
 
 /// SPI read flag: bit 7 of the address byte.
 pub const SPI_READ: u8 = 0x80;
 
-/// Register access as the drivers need it (blocking).
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        SpiDevice(sync, async = "AsyncSpiDevice"),
+        Operation(sync, async = "AsyncOperation"),
+        I2c(sync, async = "AsyncI2c")
+    )
+)]
+/// Register access as the drivers need it: implemented by [`SpiInterface`] and
+/// [`I2cInterface`] over embedded-hal, and as `AsyncRegisterInterface` over embedded-hal-async
+/// (feature `async`). Implement it for another transport.
+#[allow(async_fn_in_trait)] // as embedded-hal-async: the caller's executor decides on Send
 pub trait RegisterInterface {
-    /// Bus error type.
-    type Error;
-    /// Write one register.
-    fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error>;
-    /// Burst read starting at `register` into `buf`.
-    fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error>;
-    /// Read one register.
-    fn read_register(&mut self, register: u8) -> Result<u8, Self::Error> {
-        let mut b = [0u8];
-        self.read_registers(register, &mut b)?;
-        Ok(b[0])
-    }
-}
-
-/// Register access as the async drivers need it.
-#[cfg(feature = "async")]
-#[allow(async_fn_in_trait)]
-pub trait AsyncRegisterInterface {
     /// Bus error type.
     type Error;
     /// Write one register.
@@ -87,45 +87,42 @@ impl<I2C> I2cInterface<I2C> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        SpiDevice(sync, async = "AsyncSpiDevice"),
+        Operation(sync, async = "AsyncOperation"),
+        I2c(sync, async = "AsyncI2c")
+    )
+)]
 impl<SPI: SpiDevice> RegisterInterface for SpiInterface<SPI> {
-    type Error = SPI::Error;
-    fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error> {
-        self.spi.write(&[register & !SPI_READ, value])
-    }
-    fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error> {
-        self.spi.transaction(&mut [
-            Operation::Write(&[register | SPI_READ]),
-            Operation::Read(buf),
-        ])
-    }
-}
-
-impl<I2C: I2c> RegisterInterface for I2cInterface<I2C> {
-    type Error = I2C::Error;
-    fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error> {
-        self.i2c.write(self.address, &[register, value])
-    }
-    fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error> {
-        self.i2c.write_read(self.address, &[register], buf)
-    }
-}
-
-#[cfg(feature = "async")]
-impl<SPI: embedded_hal_async::spi::SpiDevice> AsyncRegisterInterface for SpiInterface<SPI> {
     type Error = SPI::Error;
     async fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error> {
         self.spi.write(&[register & !SPI_READ, value]).await
     }
     async fn read_registers(&mut self, register: u8, buf: &mut [u8]) -> Result<(), Self::Error> {
-        use embedded_hal_async::spi::Operation as AOp;
         self.spi
-            .transaction(&mut [AOp::Write(&[register | SPI_READ]), AOp::Read(buf)])
+            .transaction(&mut [
+                Operation::Write(&[register | SPI_READ]),
+                Operation::Read(buf),
+            ])
             .await
     }
 }
 
-#[cfg(feature = "async")]
-impl<I2C: embedded_hal_async::i2c::I2c> AsyncRegisterInterface for I2cInterface<I2C> {
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        SpiDevice(sync, async = "AsyncSpiDevice"),
+        Operation(sync, async = "AsyncOperation"),
+        I2c(sync, async = "AsyncI2c")
+    )
+)]
+impl<I2C: I2c> RegisterInterface for I2cInterface<I2C> {
     type Error = I2C::Error;
     async fn write_register(&mut self, register: u8, value: u8) -> Result<(), Self::Error> {
         self.i2c.write(self.address, &[register, value]).await

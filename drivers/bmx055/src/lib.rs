@@ -10,36 +10,36 @@
 //! [`I2c`]: embedded_hal::i2c::I2c
 //!
 //! ## Features
-//! - [`Accelerometer`] (chip id 0xFA): [`init`](Accelerometer::init),
-//!   [`configure`](Accelerometer::configure) range ±2..±16 g, bandwidth 7.81..1000 Hz and
-//!   power mode, [`read_raw`](Accelerometer::read_raw) (packet words with new-data flags),
-//!   [`read_mg`](Accelerometer::read_mg), [`read_m_s2`](Accelerometer::read_m_s2),
-//!   [`temperature_celsius`](Accelerometer::temperature_celsius), data-ready and slope
-//!   interrupts ([`configure_interrupts`](Accelerometer::configure_interrupts)), FIFO
-//!   ([`configure_fifo`](Accelerometer::configure_fifo), [`read_fifo`](Accelerometer::read_fifo)),
-//!   [`self_test`](Accelerometer::self_test),
-//!   [`fast_offset_compensation`](Accelerometer::fast_offset_compensation) and manual offsets.
-//! - [`Gyroscope`] (chip id 0x0F): [`init`](Gyroscope::init), range ±125..±2000 °/s, data
+//! - [`Accelerometer`](accel::Accelerometer) (chip id 0xFA): [`init`](accel::Accelerometer::init),
+//!   [`configure`](accel::Accelerometer::configure) range ±2..±16 g, bandwidth 7.81..1000 Hz and
+//!   power mode, [`read_raw`](accel::Accelerometer::read_raw) (packet words with new-data flags),
+//!   [`read_mg`](accel::Accelerometer::read_mg), [`read_m_s2`](accel::Accelerometer::read_m_s2),
+//!   [`temperature_celsius`](accel::Accelerometer::temperature_celsius), data-ready and slope
+//!   interrupts ([`configure_interrupts`](accel::Accelerometer::configure_interrupts)), FIFO
+//!   ([`configure_fifo`](accel::Accelerometer::configure_fifo), [`read_fifo`](accel::Accelerometer::read_fifo)),
+//!   [`self_test`](accel::Accelerometer::self_test),
+//!   [`fast_offset_compensation`](accel::Accelerometer::fast_offset_compensation) and manual offsets.
+//! - [`Gyroscope`](gyro::Gyroscope) (chip id 0x0F): [`init`](gyro::Gyroscope::init), range ±125..±2000 °/s, data
 //!   rate / filter (including 0x81 = 2000 Hz / 230 Hz), power modes,
-//!   [`read_raw`](Gyroscope::read_raw), [`read_dps`](Gyroscope::read_dps),
-//!   [`read_rad_s`](Gyroscope::read_rad_s), data-ready and FIFO interrupts, FIFO, built-in
-//!   [`self_test`](Gyroscope::self_test).
-//! - [`Magnetometer`] (chip id 0x32): [`power_on`](Magnetometer::power_on) from suspend with
-//!   the start-up wait, [`init`](Magnetometer::init), trim read in three bursts
+//!   [`read_raw`](gyro::Gyroscope::read_raw), [`read_dps`](gyro::Gyroscope::read_dps),
+//!   [`read_rad_s`](gyro::Gyroscope::read_rad_s), data-ready and FIFO interrupts, FIFO, built-in
+//!   [`self_test`](gyro::Gyroscope::self_test).
+//! - [`Magnetometer`](mag::Magnetometer) (chip id 0x32): [`power_on`](mag::Magnetometer::power_on) from suspend with
+//!   the start-up wait, [`init`](mag::Magnetometer::init), trim read in three bursts
 //!   ([`MagTrim`](mag::MagTrim) with Bosch's exact types), the four Bosch presets, normal and
-//!   forced mode, [`read_forced`](Magnetometer::read_forced) which waits (bounded) for data
-//!   ready instead of returning the previous sample, [`poll_data`](Magnetometer::poll_data)
-//!   (`nb`), overflow detection, normal [`self_test`](Magnetometer::self_test).
+//!   forced mode, [`read_forced`](mag::Magnetometer::read_forced) which waits (bounded) for data
+//!   ready instead of returning the previous sample, [`poll_data`](mag::Magnetometer::poll_data)
+//!   (`nb`), overflow detection, normal [`self_test`](mag::Magnetometer::self_test).
 //! - Bosch's compensation as pure functions of raw values
 //!   ([`mag::compensate`] integer µT with -32768 for overflow, [`mag::compensate_f32`]),
 //!   reproducing C's narrowing casts with wrapping arithmetic: no input panics. Golden
 //!   vectors from Bosch's SensorAPI are in the tests.
 //! - The DIMA sensor-packet words ([`ImuPacketWords`]): left-justified, status bits masked,
 //!   in both directions, plus the simulator direction (physical values to raw words,
-//!   including a best-effort inverse of the magnetometer compensation, [`mag::inverse`]).
+//!   including a best-effort inverse of the magnetometer compensation, [`mag::raw_x_for_ut`] and its siblings).
 //! - `async` feature: `AsyncAccelerometer`, `AsyncGyroscope`, `AsyncMagnetometer` and
-//!   `AsyncBmx055` over
-//!   embedded-hal-async, next to the blocking API. `defmt` feature: `defmt::Format` on the
+//!   `AsyncBmx055` over embedded-hal-async, next to the blocking API and generated from the same
+//!   source (`maybe_async_cfg`), so the two cannot drift. `defmt` feature: `defmt::Format` on the
 //!   public types.
 //!
 //! Every wait is bounded (a number of polls with a delay) or left to the caller (`nb`).
@@ -54,11 +54,11 @@
 //! #     rd(0x02, &[0x00, 0x00, 0x00, 0x00, 0x00, 0x40])].concat();
 //! # let spi = Mock::new(&script);
 //! # let mut delay = NoopDelay;
-//! use bosch_bmx055::{accel::AccelConfig, Accelerometer};
+//! use bosch_bmx055::accel::{AccelConfig, Accelerometer};
 //!
 //! // `spi` is the accelerometer's own `SpiDevice` (chip select CSB1).
 //! let mut accel = Accelerometer::new_spi(spi);
-//! accel.init(&mut delay, &AccelConfig::DIMA)?; // ±2 g, 1000 Hz, normal mode
+//! accel.init(&mut delay, &AccelConfig::default())?; // ±2 g, 1000 Hz, normal mode
 //! let raw = accel.read_raw()?;
 //! let mg = raw.mg(accel.range());
 //! assert_eq!(raw.words.z, 0x4000); // the packet word, status bits masked
@@ -80,28 +80,36 @@
 //! assert_eq!((ut.x, ut.y, ut.z), (29, -21, -45));
 //! ```
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
 pub mod accel;
 mod access;
-#[cfg(feature = "async")]
-pub mod asynch;
 mod error;
 mod facade;
 pub mod gyro;
-pub mod interface;
+mod interface;
 pub mod mag;
 mod maths;
-pub mod packet;
+mod packet;
+#[cfg(test)]
+mod register_tests;
 mod types;
 
-pub use accel::Accelerometer;
+pub use error::{DeviceError, Error};
 #[cfg(feature = "async")]
-pub use asynch::{AsyncAccelerometer, AsyncBmx055, AsyncGyroscope, AsyncMagnetometer};
-pub use error::Error;
+pub use facade::AsyncBmx055;
 pub use facade::{Bmx055, Bmx055Config, ImuSample};
-pub use gyro::Gyroscope;
-pub use mag::Magnetometer;
-pub use packet::ImuPacketWords;
+#[cfg(feature = "async")]
+pub use interface::AsyncRegisterInterface;
+pub use interface::{I2cInterface, RegisterInterface, SpiInterface};
+pub use packet::{
+    packet_words_from_physical, ImuPacketWords, ImuPhysical, PACKET_LEN, PACKET_OFFSET,
+};
 pub use types::{FifoData, FifoMode, FifoStatus, InterruptPin, PinConfig, Xyz};
+
+/// The README's code blocks, compiled (and run where they need no hardware) as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

@@ -3,10 +3,10 @@
 
 mod common;
 
-use bosch_bmx055::accel::AccelConfig;
-use bosch_bmx055::gyro::GyroConfig;
-use bosch_bmx055::mag::MagConfig;
-use bosch_bmx055::{AsyncAccelerometer, AsyncGyroscope, AsyncMagnetometer, Xyz};
+use bosch_bmx055::accel::AsyncAccelerometer;
+use bosch_bmx055::gyro::AsyncGyroscope;
+use bosch_bmx055::mag::AsyncMagnetometer;
+use bosch_bmx055::Xyz;
 use common::{
     accel_deflection, accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write,
 };
@@ -51,10 +51,10 @@ fn async_dima_configuration_and_reads() {
     let mut gyro = AsyncGyroscope::new_spi(gyro_spi.clone());
     let mut mag = AsyncMagnetometer::new_spi(mag_spi.clone());
     block_on(async {
-        acc.init(&mut NoopDelay, &AccelConfig::DIMA).await.unwrap();
+        acc.init(&mut NoopDelay, &common::DIMA_ACCEL).await.unwrap();
         assert_eq!(acc.read_raw().await.unwrap().counts().x, 1024);
-        gyro.init(&mut NoopDelay, &GyroConfig::DIMA).await.unwrap();
-        mag.init(&mut NoopDelay, &MagConfig::DIMA).await.unwrap();
+        gyro.init(&mut NoopDelay, &common::DIMA_GYRO).await.unwrap();
+        mag.init(&mut NoopDelay, &common::DIMA_MAG).await.unwrap();
         assert_eq!(
             mag.read_forced_ut(&mut NoopDelay).await.unwrap(),
             Xyz::new(120, -90, -1538)
@@ -93,13 +93,16 @@ fn async_i2c_gyro_and_forced_timeout() {
     let mut i2c = I2cMock::new(&script);
     let mut mag = AsyncMagnetometer::new_i2c(i2c.clone(), MagAddress::Csb3LowSdo3Low);
     let result = block_on(mag.read_forced(&mut NoopDelay));
-    assert_eq!(result.map(|r| r.x), Err(Error::Timeout));
+    assert_eq!(
+        result.map(|r| r.x),
+        Err(Error::Device(bosch_bmx055::DeviceError::Timeout))
+    );
     i2c.done();
 }
 
 #[test]
 fn async_facade_samples_without_waiting() {
-    use bosch_bmx055::{AsyncBmx055, Bmx055Config};
+    use bosch_bmx055::AsyncBmx055;
     let mut acc = SpiMock::new(&script(vec![
         accel_dima_init(),
         read(0x02, &[0x01, 0x40, 0x00, 0x00, 0x00, 0x00]),
@@ -112,7 +115,7 @@ fn async_facade_samples_without_waiting() {
     ]));
     let mut imu = AsyncBmx055::new_spi(acc.clone(), gyro.clone(), mag.clone());
     let sample = block_on(async {
-        imu.init(&mut NoopDelay, &Bmx055Config::DIMA).await.unwrap();
+        imu.init(&mut NoopDelay, &common::DIMA_IMU).await.unwrap();
         imu.sample().await.unwrap()
     });
     assert!(sample.mag_fresh);

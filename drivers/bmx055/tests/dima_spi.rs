@@ -1,13 +1,13 @@
-//! The DIMA sensor-board configuration as exact SPI transactions (DESIGN section 3):
+//! The DIMA sensor-board configuration as exact SPI transactions (±2 g / 1000 Hz, ±2000 °/s / 0x81, magnetometer low-power preset in forced mode):
 //! accel ±2 g / 1000 Hz / normal, gyro ±2000 °/s / 0x81 / normal, magnetometer low-power
 //! preset in forced mode, and a forced magnetometer read that polls data ready.
 
 mod common;
 
-use bosch_bmx055::accel::AccelConfig;
-use bosch_bmx055::gyro::GyroConfig;
-use bosch_bmx055::mag::MagConfig;
-use bosch_bmx055::{Accelerometer, Error, Gyroscope, Magnetometer, Xyz};
+use bosch_bmx055::accel::Accelerometer;
+use bosch_bmx055::gyro::Gyroscope;
+use bosch_bmx055::mag::Magnetometer;
+use bosch_bmx055::{Error, Xyz};
 use common::{
     accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write, TRIM_1, TRIM_2, TRIM_3,
 };
@@ -18,7 +18,7 @@ use embedded_hal_mock::eh1::spi::Mock as SpiMock;
 fn accel_dima_configuration() {
     let mut spi = SpiMock::new(&script(vec![accel_dima_init()]));
     let mut acc = Accelerometer::new_spi(spi.clone());
-    acc.init(&mut NoopDelay, &AccelConfig::DIMA).unwrap();
+    acc.init(&mut NoopDelay, &common::DIMA_ACCEL).unwrap();
     spi.done();
 }
 
@@ -26,7 +26,7 @@ fn accel_dima_configuration() {
 fn gyro_dima_configuration() {
     let mut spi = SpiMock::new(&script(vec![gyro_dima_init()]));
     let mut gyro = Gyroscope::new_spi(spi.clone());
-    gyro.init(&mut NoopDelay, &GyroConfig::DIMA).unwrap();
+    gyro.init(&mut NoopDelay, &common::DIMA_GYRO).unwrap();
     spi.done();
 }
 
@@ -46,7 +46,7 @@ fn mag_dima_configuration_powers_on_before_the_chip_id() {
         write(0x4C, 0x02),
     ]));
     let mut mag = Magnetometer::new_spi(spi.clone());
-    let trim = mag.init(&mut NoopDelay, &MagConfig::DIMA).unwrap();
+    let trim = mag.init(&mut NoopDelay, &common::DIMA_MAG).unwrap();
     assert_eq!(trim.dig_xyz1, 7053);
     spi.done();
 }
@@ -64,7 +64,7 @@ fn forced_read_polls_data_ready_and_compensates() {
     ]);
     let mut spi = SpiMock::new(&script(parts));
     let mut mag = Magnetometer::new_spi(spi.clone());
-    mag.init(&mut NoopDelay, &MagConfig::DIMA).unwrap();
+    mag.init(&mut NoopDelay, &common::DIMA_MAG).unwrap();
     let ut = mag.read_forced_ut(&mut NoopDelay).unwrap();
     assert_eq!(ut, Xyz::new(29, -21, -45));
     spi.done();
@@ -78,7 +78,10 @@ fn forced_read_times_out_instead_of_spinning() {
     }
     let mut spi = SpiMock::new(&script(parts));
     let mut mag = Magnetometer::new_spi(spi.clone());
-    assert_eq!(mag.read_forced(&mut NoopDelay), Err(Error::Timeout));
+    assert_eq!(
+        mag.read_forced(&mut NoopDelay),
+        Err(Error::Device(bosch_bmx055::DeviceError::Timeout))
+    );
     spi.done();
 }
 
@@ -92,8 +95,10 @@ fn wrong_chip_id_is_reported_after_bounded_retries() {
     ]));
     let mut acc = Accelerometer::new_spi(spi.clone());
     assert_eq!(
-        acc.init(&mut NoopDelay, &AccelConfig::DIMA),
-        Err(Error::InvalidChipId { found: 0xFB })
+        acc.init(&mut NoopDelay, &common::DIMA_ACCEL),
+        Err(Error::Device(bosch_bmx055::DeviceError::InvalidChipId {
+            found: 0xFB
+        }))
     );
     spi.done();
 }

@@ -5,8 +5,8 @@ mod common;
 use bosch_bmx055::accel::{accel_word_to_mg, AccelRange};
 use bosch_bmx055::gyro::{gyro_word_to_dps, GyroRange};
 use bosch_bmx055::mag::{compensate_f32, MagTrim};
-use bosch_bmx055::packet::{packet_words_from_physical, ImuPhysical};
-use bosch_bmx055::{Bmx055, Bmx055Config, ImuPacketWords, Xyz};
+use bosch_bmx055::{packet_words_from_physical, ImuPhysical};
+use bosch_bmx055::{Bmx055, ImuPacketWords, Xyz};
 use common::{
     accel_deflection, accel_dima_init, gyro_dima_init, mag_dima_init, read, script, write, TRIM_1,
     TRIM_2, TRIM_3,
@@ -42,7 +42,7 @@ fn dima_init_then_sample_keeps_stale_mag_and_retriggers_on_fresh() {
         write(0x4C, 0x02),
     ]));
     let mut imu = Bmx055::new_spi(acc.clone(), gyro.clone(), mag.clone());
-    let trim = imu.init(&mut NoopDelay, &Bmx055Config::DIMA).unwrap();
+    let trim = imu.init(&mut NoopDelay, &common::DIMA_IMU).unwrap();
     assert_eq!(trim, vector_trim());
 
     let first = imu.sample().unwrap();
@@ -134,8 +134,10 @@ fn self_test_reports_a_failing_die_and_reconfigures() {
     ]));
     let mut imu = Bmx055::new_spi(acc.clone(), gyro.clone(), mag.clone());
     assert_eq!(
-        imu.self_test(&mut NoopDelay, &Bmx055Config::DIMA),
-        Err(bosch_bmx055::Error::SelfTestFailed)
+        imu.self_test(&mut NoopDelay, &common::DIMA_IMU),
+        Err(bosch_bmx055::Error::Device(
+            bosch_bmx055::DeviceError::SelfTestFailed
+        ))
     );
     acc.done();
     gyro.done();

@@ -2,13 +2,14 @@
 
 mod common;
 
+use bosch_bmx055::accel::Accelerometer;
 use bosch_bmx055::accel::{
     AccelFifoConfig, AccelInterruptConfig, AccelRaw, OffsetTarget, SlopeConfig,
 };
+use bosch_bmx055::gyro::Gyroscope;
 use bosch_bmx055::gyro::{GyroFifoConfig, GyroInterruptConfig, GyroRaw};
-use bosch_bmx055::{
-    Accelerometer, Error, FifoData, FifoMode, Gyroscope, InterruptPin, Magnetometer, PinConfig, Xyz,
-};
+use bosch_bmx055::mag::Magnetometer;
+use bosch_bmx055::{Error, FifoData, FifoMode, InterruptPin, PinConfig, Xyz};
 use common::{read, script, write};
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::spi::Mock as SpiMock;
@@ -109,7 +110,7 @@ fn accel_fifo_stream_reads_whole_frames() {
             data: FifoData::Xyz,
             watermark: 32,
         }),
-        Err(Error::InvalidInput)
+        Err(Error::Device(bosch_bmx055::DeviceError::InvalidInput))
     );
     spi.done();
 }

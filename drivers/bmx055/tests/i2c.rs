@@ -1,9 +1,14 @@
 //! The three dies over I2C at their strapped addresses.
 
-use bosch_bmx055::accel::{AccelAddress, AccelConfig};
-use bosch_bmx055::gyro::{GyroAddress, GyroConfig};
-use bosch_bmx055::mag::{MagAddress, MagConfig};
-use bosch_bmx055::{Accelerometer, Gyroscope, Magnetometer, Xyz};
+mod common;
+
+use bosch_bmx055::accel::AccelAddress;
+use bosch_bmx055::accel::Accelerometer;
+use bosch_bmx055::gyro::GyroAddress;
+use bosch_bmx055::gyro::Gyroscope;
+use bosch_bmx055::mag::MagAddress;
+use bosch_bmx055::mag::Magnetometer;
+use bosch_bmx055::Xyz;
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::i2c::{Mock as I2cMock, Transaction as T};
 
@@ -19,7 +24,7 @@ fn accel_at_0x19() {
         T::write_read(a, vec![0x02], vec![0x00, 0x40, 0x00, 0x00, 0x00, 0xC0]),
     ]);
     let mut acc = Accelerometer::new_i2c(i2c.clone(), AccelAddress::Sdo1High);
-    acc.init(&mut NoopDelay, &AccelConfig::DIMA).unwrap();
+    acc.init(&mut NoopDelay, &common::DIMA_ACCEL).unwrap();
     let raw = acc.read_raw().unwrap();
     assert_eq!(raw.counts(), Xyz::new(1024, 0, -1024));
     acc.release().release();
@@ -37,7 +42,7 @@ fn gyro_at_0x68() {
         T::write(a, vec![0x11, 0x00]),
     ]);
     let mut gyro = Gyroscope::new_i2c(i2c.clone(), GyroAddress::Sdo2Low);
-    gyro.init(&mut NoopDelay, &GyroConfig::DIMA).unwrap();
+    gyro.init(&mut NoopDelay, &common::DIMA_GYRO).unwrap();
     i2c.done();
 }
 
@@ -66,7 +71,7 @@ fn mag_at_0x13_reads_trim_and_packet_words() {
         ),
     ]);
     let mut mag = Magnetometer::new_i2c(i2c.clone(), MagAddress::Csb3HighSdo3High);
-    mag.init(&mut NoopDelay, &MagConfig::DIMA).unwrap();
+    mag.init(&mut NoopDelay, &common::DIMA_MAG).unwrap();
     let w = mag.read_packet_words().unwrap();
     assert_eq!(w.xyz, Xyz::new(0x0280, 0xFE20u16 as i16, 0xFEF4u16 as i16));
     assert_eq!(w.rhall, 0x6D60);

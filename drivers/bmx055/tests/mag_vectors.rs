@@ -1,7 +1,7 @@
 //! Golden vectors for the magnetometer trim decode and compensation.
 //!
-//! Source: /work/shared/vectors/README.md, section "BMX055 magnetometer (BMM150 trim
-//! compensation, Bosch SensorAPI integer and float paths)". Values copied verbatim.
+//! Source: Bosch's BMM150 SensorAPI, its integer and float compensation paths run on these trim
+//! registers and raw values. Values copied verbatim.
 
 // The expected values are kept exactly as published, digits and all.
 #![allow(clippy::excessive_precision)]

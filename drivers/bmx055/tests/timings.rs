@@ -4,8 +4,10 @@
 
 mod common;
 
+use bosch_bmx055::accel::Accelerometer;
 use bosch_bmx055::accel::{SELF_TEST_MIN_MG, SELF_TEST_SETTLE_MS};
-use bosch_bmx055::{Accelerometer, Gyroscope, Magnetometer};
+use bosch_bmx055::gyro::Gyroscope;
+use bosch_bmx055::mag::Magnetometer;
 use common::{read, write};
 use embedded_hal::delay::DelayNs;
 use embedded_hal_mock::eh1::spi::Mock as SpiMock;

@@ -21,7 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let channel = Channel::new::<Micro6>(index).map_err(|e| format!("channel {index}: {e}"))?;
     let limits = Limits::new().with(
         channel,
-        ChannelLimits::from_micros(1000, 2000, 1500).ok_or("bad limits")?,
+        ChannelLimits::from_micros(1000, 2000, 1500).map_err(|_| "bad limits")?,
     );
     let serial = Serial::open(path.clone(), 115_200).map_err(|e| format!("{path}: {e}"))?;
     let mut maestro = Maestro::new_serial(serial, Micro6, Framing::COMPACT).with_limits(limits);
@@ -37,7 +37,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!(
             "target {:4} µs, position {:7.2} µs",
             target.as_micros(),
-            f32::from(position) / 4.0
+            f32::from(position.get()) / 4.0
         );
     }
     maestro.set_neutral(channel)?;

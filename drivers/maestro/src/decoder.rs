@@ -3,7 +3,7 @@
 use crate::codec::{join_14, MAX_PACKET_LEN};
 use crate::command::{data_len, opcode, Command, MultiTargets};
 use crate::crc7::crc7;
-use crate::status::DeviceErrors;
+use crate::status::ErrorFlags;
 use crate::types::{
     Acceleration, Channel, DeviceNumber, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros,
     ScriptParameter, Speed, Subroutine, MAX_CHANNELS,
@@ -90,7 +90,7 @@ pub struct CommandDecoder {
     buf: [u8; MAX_PACKET_LEN],
     len: usize,
     stats: DecoderStats,
-    errors: DeviceErrors,
+    errors: ErrorFlags,
 }
 
 impl CommandDecoder {
@@ -108,7 +108,7 @@ impl CommandDecoder {
                 crc_errors: 0,
                 other_device_packets: 0,
             },
-            errors: DeviceErrors::empty(),
+            errors: ErrorFlags::empty(),
         }
     }
 
@@ -122,9 +122,9 @@ impl CommandDecoder {
         self.stats
     }
 
-    /// The serial error bits ([`DeviceErrors::SERIAL_CRC`], [`DeviceErrors::SERIAL_PROTOCOL`])
+    /// The serial error bits ([`ErrorFlags::SERIAL_CRC`], [`ErrorFlags::SERIAL_PROTOCOL`])
     /// raised since the last call, then cleared, like the Maestro's Get Errors.
-    pub fn take_errors(&mut self) -> DeviceErrors {
+    pub fn take_errors(&mut self) -> ErrorFlags {
         core::mem::take(&mut self.errors)
     }
 
@@ -246,7 +246,7 @@ impl CommandDecoder {
             let (packet, crc) = self.buf.split_at(total - 1);
             if crc7(packet) != crc[0] {
                 self.stats.crc_errors = self.stats.crc_errors.saturating_add(1);
-                self.errors |= DeviceErrors::SERIAL_CRC;
+                self.errors |= ErrorFlags::SERIAL_CRC;
                 self.drop_bytes(total);
                 self.reset();
                 return None;
@@ -271,7 +271,7 @@ impl CommandDecoder {
     /// Drop the partial or invalid packet in the buffer as a protocol error.
     fn abandon(&mut self) {
         self.stats.invalid_packets = self.stats.invalid_packets.saturating_add(1);
-        self.errors |= DeviceErrors::SERIAL_PROTOCOL;
+        self.errors |= ErrorFlags::SERIAL_PROTOCOL;
         self.drop_bytes(self.len);
         self.reset();
     }

@@ -7,7 +7,7 @@ use crate::interface::{Deadline, NbSerial, ReadInterface, WriteInterface};
 use crate::limits::Limits;
 use crate::model::{MiniModel, Model};
 use crate::reply;
-use crate::status::DeviceErrors;
+use crate::status::ErrorFlags;
 use crate::targets::TargetEncoder;
 use crate::types::{
     Acceleration, Channel, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros, ScriptParameter,
@@ -130,7 +130,7 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
 
     /// Set the target of `channel` (pulse width in quarter-microseconds).
     ///
-    /// Errors with [`Error::OutOfRange`] if the channel has limits and `target` is outside
+    /// Errors with [`TargetError::OutOfRange`](crate::TargetError::OutOfRange) if the channel has limits and `target` is outside
     /// them (including [`QuarterMicros::OFF`]: use [`stop_pulses`](Self::stop_pulses)).
     pub fn set_target(
         &mut self,
@@ -151,10 +151,13 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         self.iface.write_all(&frame)
     }
 
-    /// Set `channel` to its configured neutral target; [`Error::InvalidInput`] if it has no
+    /// Set `channel` to its configured neutral target; [`TargetError::InvalidInput`](crate::TargetError::InvalidInput) if it has no
     /// limits (and so no neutral).
     pub fn set_neutral(&mut self, channel: Channel) -> Result<(), Error<I::Error>> {
-        let neutral = self.limits().neutral(channel).ok_or(Error::InvalidInput)?;
+        let neutral = self
+            .limits()
+            .neutral(channel)
+            .ok_or(Error::Target(crate::TargetError::InvalidInput))?;
         self.set_target(channel, neutral)
     }
 
@@ -257,7 +260,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
     ///
     /// Bytes waiting before the command is sent are discarded first (counted in
     /// [`stale_bytes`](Self::stale_bytes)), so a late answer to an earlier query is never
-    /// taken for this one; if more than 64 are waiting, [`Error::UnexpectedData`].
+    /// taken for this one; if more than 64 are waiting, [`DeviceError::UnexpectedData`](crate::DeviceError::UnexpectedData).
     fn query(
         &mut self,
         command: &Command,
@@ -275,7 +278,7 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
                     }
                     Err(nb::Error::WouldBlock) => {
                         if deadline.expired() {
-                            return Err(Error::Timeout);
+                            return Err(Error::Device(crate::DeviceError::Timeout));
                         }
                     }
                     Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
@@ -293,27 +296,31 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
                 Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
             }
         }
-        Err(Error::UnexpectedData)
+        Err(Error::Device(crate::DeviceError::UnexpectedData))
     }
 
-    /// Get Position: the pulse width `channel` outputs now, in quarter-microseconds (for an
-    /// input channel, the measured value).
+    /// Get Position: the pulse width `channel` outputs now (for an input channel, the measured
+    /// value). A reply above 16383 quarter-microseconds is [`DeviceError::InvalidReply`] with
+    /// its high byte.
+    ///
+    /// [`DeviceError::InvalidReply`]: crate::DeviceError::InvalidReply
     pub fn get_position(
         &mut self,
         channel: Channel,
         deadline: &mut impl Deadline,
-    ) -> Result<u16, Error<I::Error>> {
+    ) -> Result<QuarterMicros, Error<I::Error>> {
         self.check_channel(channel)?;
         let mut reply = [0u8; 2];
         self.query(&Command::GetPosition { channel }, &mut reply, deadline)?;
-        Ok(reply::decode_position(reply))
+        QuarterMicros::new(reply::decode_position(reply))
+            .map_err(|_| Error::Device(crate::DeviceError::InvalidReply(reply[1])))
     }
 
     /// Get Errors: read and clear the Maestro's error register.
     pub fn get_errors(
         &mut self,
         deadline: &mut impl Deadline,
-    ) -> Result<DeviceErrors, Error<I::Error>> {
+    ) -> Result<ErrorFlags, Error<I::Error>> {
         let mut reply = [0u8; 2];
         self.query(&Command::GetErrors, &mut reply, deadline)?;
         Ok(reply::decode_errors(reply))
@@ -326,7 +333,8 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
     ) -> Result<ScriptStatus, Error<I::Error>> {
         let mut reply = [0u8; 1];
         self.query(&Command::GetScriptStatus, &mut reply, deadline)?;
-        reply::decode_script_status(reply[0]).map_err(Error::InvalidReply)
+        reply::decode_script_status(reply[0])
+            .map_err(|b| Error::Device(crate::DeviceError::InvalidReply(b)))
     }
 }
 
@@ -339,6 +347,7 @@ impl<I: ReadInterface, M: MiniModel> Maestro<I, M> {
     ) -> Result<bool, Error<I::Error>> {
         let mut reply = [0u8; 1];
         self.query(&Command::GetMovingState, &mut reply, deadline)?;
-        reply::decode_moving_state(reply[0]).map_err(Error::InvalidReply)
+        reply::decode_moving_state(reply[0])
+            .map_err(|b| Error::Device(crate::DeviceError::InvalidReply(b)))
     }
 }

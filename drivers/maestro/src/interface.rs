@@ -97,13 +97,13 @@ impl<D: embedded_hal::delay::DelayNs> Deadline for DelayDeadline<'_, D> {
 }
 
 /// Default number of `WouldBlock` polls tolerated per written byte before a write gives up
-/// with [`Error::Timeout`].
+/// with [`DeviceError::Timeout`](crate::DeviceError::Timeout).
 pub const DEFAULT_WRITE_POLLS_PER_BYTE: u32 = 1_000_000;
 
 /// Transport over embedded-hal-nb 1.0 serial.
 ///
 /// A byte the transmitter refuses (`WouldBlock`) `write_polls_per_byte` times in a row ends
-/// the write with [`Error::Timeout`], so a wedged UART cannot hang the caller.
+/// the write with [`DeviceError::Timeout`](crate::DeviceError::Timeout), so a wedged UART cannot hang the caller.
 #[derive(Debug)]
 pub struct NbSerial<S> {
     serial: S,
@@ -148,7 +148,7 @@ impl<S: embedded_hal_nb::serial::Write<u8>> WriteInterface for NbSerial<S> {
                     Err(nb::Error::WouldBlock) => {
                         polls = polls.saturating_sub(1);
                         if polls == 0 {
-                            return Err(Error::Timeout);
+                            return Err(Error::Device(crate::DeviceError::Timeout));
                         }
                     }
                     Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
@@ -166,7 +166,7 @@ impl<S: embedded_hal_nb::serial::Write<u8>> WriteInterface for NbSerial<S> {
                 Err(nb::Error::WouldBlock) => {
                     polls = polls.saturating_sub(1);
                     if polls == 0 {
-                        return Err(Error::Timeout);
+                        return Err(Error::Device(crate::DeviceError::Timeout));
                     }
                 }
                 Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
@@ -192,7 +192,7 @@ mod io {
     /// Transport over embedded-io 0.7 (`Write`, plus `Read + ReadReady` for queries).
     ///
     /// A whole packet goes to `write` in as few calls as the port accepts. `write` returning
-    /// `Ok(0)` is retried within a poll budget and then reported as [`Error::Timeout`]
+    /// `Ok(0)` is retried within a poll budget and then reported as [`DeviceError::Timeout`](crate::DeviceError::Timeout)
     /// (embedded-io's own `write_all` would panic). Reads only happen when `read_ready()` says
     /// a byte is there, so they never block.
     #[derive(Debug)]
@@ -231,7 +231,7 @@ mod io {
                     Ok(0) => {
                         polls = polls.saturating_sub(1);
                         if polls == 0 {
-                            return Err(Error::Timeout);
+                            return Err(Error::Device(crate::DeviceError::Timeout));
                         }
                     }
                     Ok(n) => bytes = bytes.get(n..).unwrap_or(&[]),

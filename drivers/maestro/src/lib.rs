@@ -27,10 +27,10 @@
 //!   counting what it drops) for simulating a Maestro.
 //! - A sans-IO [`TargetEncoder`]: the checked per-cycle target bytes without a driver, for an
 //!   application that writes them itself with its own deadline.
-//! - Per-channel [`Limits`]: an out-of-range target is an error ([`Error::OutOfRange`]) and
+//! - Per-channel [`Limits`]: an out-of-range target is an error ([`TargetError::OutOfRange`]) and
 //!   nothing is sent; clamping is a separate, explicit call ([`Limits::clamp`]).
 //! - Replies are read against a caller-given [`Deadline`] ([`PollBudget`], [`DelayDeadline`] or a
-//!   closure); a missing or short reply is [`Error::Timeout`], never a hang or stale data.
+//!   closure); a missing or short reply is [`DeviceError::Timeout`], never a hang or stale data.
 //!
 //! # Example
 //!
@@ -59,7 +59,7 @@
 //! assert!(maestro.set_target(steering, QuarterMicros::from_micros(2000)?).is_err());
 //!
 //! let position = maestro.get_position(steering, &mut PollBudget(1000))?;
-//! assert_eq!(position, 7360);
+//! assert_eq!(position.get(), 7360); // 1840 µs
 //! # serial.done();
 //! # Ok(())
 //! # }
@@ -75,11 +75,12 @@
 //! maestro.set_pwm(PwmTiming::new(100, 200).unwrap());
 //! ```
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
 mod codec;
-pub mod command;
+mod command;
 mod crc7;
 mod decoder;
 mod device;
@@ -96,11 +97,11 @@ pub use codec::{
     encode, encode_set_target, encode_set_targets, join_14, split_14, Bytes, Framing, Packet,
     Protocol, TargetFrame, MAX_PACKET_LEN, MAX_SET_TARGET_LEN, MAX_TARGET_FRAME_LEN,
 };
-pub use command::{Command, MultiTargets};
+pub use command::{opcode, Command, MultiTargets};
 pub use crc7::{crc7, MAESTRO_CRC7};
 pub use decoder::{CommandDecoder, Decoded, DecoderConfig, DecoderStats};
 pub use device::Maestro;
-pub use error::{Error, InvalidInput};
+pub use error::{DeviceError, Error, InvalidInput};
 #[cfg(feature = "embedded-io")]
 pub use interface::IoSerial;
 pub use interface::{
@@ -109,7 +110,7 @@ pub use interface::{
 };
 pub use limits::{ChannelLimits, LimitViolation, Limits};
 pub use model::{Micro6, Mini12, Mini18, Mini24, MiniModel, Model};
-pub use status::DeviceErrors;
+pub use status::ErrorFlags;
 pub use targets::{TargetEncoder, TargetError};
 pub use types::{
     Acceleration, Channel, DeviceNumber, MiniSscServo, MiniSscValue, PwmTiming, QuarterMicros,
@@ -119,4 +120,4 @@ pub use types::{
 /// The README's examples, compiled as doctests so they keep matching the API.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
-pub struct ReadmeDoctests;
+struct ReadmeDoctests;

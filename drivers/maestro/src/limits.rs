@@ -1,6 +1,7 @@
 //! Per-channel target limits, so the application cannot command a pulse the mechanics or the
 //! ESC must not see.
 
+use crate::error::InvalidInput;
 use crate::types::{Channel, QuarterMicros, MAX_CHANNELS};
 
 /// The allowed range and the neutral target of one channel, in quarter-microseconds.
@@ -13,29 +14,34 @@ pub struct ChannelLimits {
 }
 
 impl ChannelLimits {
-    /// Limits `min..=max` with `neutral` in between; `None` unless `min <= neutral <= max`.
+    /// Limits `min..=max` with `neutral` in between; [`InvalidInput`] unless
+    /// `min <= neutral <= max`.
     pub const fn new(
         min: QuarterMicros,
         max: QuarterMicros,
         neutral: QuarterMicros,
-    ) -> Option<Self> {
+    ) -> Result<Self, InvalidInput> {
         if min.get() <= neutral.get() && neutral.get() <= max.get() {
-            Some(Self { min, max, neutral })
+            Ok(Self { min, max, neutral })
         } else {
-            None
+            Err(InvalidInput)
         }
     }
 
-    /// Limits in whole microseconds (e.g. DIMA steering: 1250, 1840, 1545); `None` if a value
-    /// exceeds 4095 µs or the order is wrong.
-    pub const fn from_micros(min_us: u16, max_us: u16, neutral_us: u16) -> Option<Self> {
+    /// Limits in whole microseconds (e.g. a steering servo: 1250, 1840, 1545); [`InvalidInput`]
+    /// if a value exceeds 4095 µs or the order is wrong.
+    pub const fn from_micros(
+        min_us: u16,
+        max_us: u16,
+        neutral_us: u16,
+    ) -> Result<Self, InvalidInput> {
         match (
             QuarterMicros::from_micros(min_us),
             QuarterMicros::from_micros(max_us),
             QuarterMicros::from_micros(neutral_us),
         ) {
             (Ok(min), Ok(max), Ok(neutral)) => Self::new(min, max, neutral),
-            _ => None,
+            _ => Err(InvalidInput),
         }
     }
 

@@ -4,7 +4,7 @@
 //! low byte first) without framing, and without CRC even in CRC mode (the user's guide: the
 //! Maestro does not append a CRC byte to its responses).
 
-use crate::status::DeviceErrors;
+use crate::status::ErrorFlags;
 use crate::types::ScriptStatus;
 
 /// Decode a Get Position reply (low byte, high byte).
@@ -21,12 +21,12 @@ pub const fn encode_position(position: u16) -> [u8; 2] {
 }
 
 /// Decode a Get Errors reply (bits 0-7, bits 8-15). Undocumented bits are kept.
-pub const fn decode_errors(reply: [u8; 2]) -> DeviceErrors {
-    DeviceErrors::from_bits_retain(u16::from_le_bytes(reply))
+pub const fn decode_errors(reply: [u8; 2]) -> ErrorFlags {
+    ErrorFlags::from_bits_retain(u16::from_le_bytes(reply))
 }
 
 /// Encode a Get Errors reply.
-pub const fn encode_errors(errors: DeviceErrors) -> [u8; 2] {
+pub const fn encode_errors(errors: ErrorFlags) -> [u8; 2] {
     errors.bits().to_le_bytes()
 }
 

@@ -5,7 +5,7 @@ bitflags::bitflags! {
     /// ("Errors"). Any set bit lights the red LED and sends the channels to their home
     /// positions; Get Errors reads and clears the register.
     #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-    pub struct DeviceErrors: u16 {
+    pub struct ErrorFlags: u16 {
         /// Bit 0: a byte's stop bit was not where expected (usually a baud rate mismatch).
         const SERIAL_SIGNAL = 1 << 0;
         /// Bit 1: the UART's hardware buffer overran.
@@ -28,8 +28,8 @@ bitflags::bitflags! {
 }
 
 #[cfg(feature = "defmt")]
-impl defmt::Format for DeviceErrors {
+impl defmt::Format for ErrorFlags {
     fn format(&self, f: defmt::Formatter) {
-        defmt::write!(f, "DeviceErrors({=u16:#06x})", self.bits())
+        defmt::write!(f, "ErrorFlags({=u16:#06x})", self.bits())
     }
 }

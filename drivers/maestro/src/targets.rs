@@ -9,13 +9,13 @@ use core::marker::PhantomData;
 
 use crate::codec::{encode, encode_set_target, encode_set_targets, Framing, Packet, TargetFrame};
 use crate::command::{Command, MultiTargets};
-use crate::error::{Error, InvalidInput};
+use crate::error::InvalidInput;
 use crate::limits::Limits;
 use crate::model::{MiniModel, Model};
 use crate::types::{Channel, QuarterMicros};
 
 /// Why a target was refused. Nothing is encoded when this is returned.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum TargetError {
@@ -47,31 +47,26 @@ impl From<InvalidInput> for TargetError {
     }
 }
 
-impl<E> From<TargetError> for Error<E> {
-    fn from(e: TargetError) -> Self {
-        match e {
-            TargetError::InvalidChannel { channel, channels } => {
-                Error::InvalidChannel { channel, channels }
-            }
+impl fmt::Display for TargetError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TargetError::InvalidChannel { channel, channels } => write!(
+                f,
+                "channel {channel} does not exist on this Maestro (it has {channels} channels)"
+            ),
             TargetError::OutOfRange {
                 channel,
                 target,
                 min,
                 max,
-            } => Error::OutOfRange {
-                channel,
-                target,
-                min,
-                max,
-            },
-            TargetError::InvalidInput => Error::InvalidInput,
+            } => write!(
+                f,
+                "target {target} (quarter-µs) on channel {channel} is outside the configured limits {min}..={max}"
+            ),
+            TargetError::InvalidInput => {
+                f.write_str("value out of the range the Maestro protocol accepts")
+            }
         }
-    }
-}
-
-impl fmt::Display for TargetError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        fmt::Display::fmt(&Error::<core::convert::Infallible>::from(*self), f)
     }
 }
 

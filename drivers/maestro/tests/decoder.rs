@@ -2,7 +2,7 @@
 
 use pololu_maestro::{
     crc7, encode, join_14, split_14, Acceleration, Channel, Command, CommandDecoder, DecoderConfig,
-    DeviceErrors, DeviceNumber, Framing, MiniSscServo, MiniSscValue, MultiTargets, PwmTiming,
+    DeviceNumber, ErrorFlags, Framing, MiniSscServo, MiniSscValue, MultiTargets, PwmTiming,
     QuarterMicros, ScriptParameter, Speed, Subroutine, MAX_14_BIT,
 };
 use proptest::prelude::*;
@@ -112,7 +112,7 @@ proptest! {
         let stats = decoder.stats();
         prop_assert_eq!(stats.dropped_bytes, 0);
         prop_assert_eq!(stats.invalid_packets, 0);
-        prop_assert_eq!(decoder.take_errors(), DeviceErrors::empty());
+        prop_assert_eq!(decoder.take_errors(), ErrorFlags::empty());
     }
 
     /// Data-byte garbage between packets is dropped, counted, and costs no command.
@@ -192,8 +192,8 @@ fn interrupted_packet_is_a_protocol_error() {
     assert_eq!(out, vec![Command::GetErrors]);
     let s = d.stats();
     assert_eq!((s.dropped_bytes, s.invalid_packets), (3, 1));
-    assert_eq!(d.take_errors(), DeviceErrors::SERIAL_PROTOCOL);
-    assert_eq!(d.take_errors(), DeviceErrors::empty());
+    assert_eq!(d.take_errors(), ErrorFlags::SERIAL_PROTOCOL);
+    assert_eq!(d.take_errors(), ErrorFlags::empty());
 }
 
 #[test]
@@ -205,7 +205,7 @@ fn wrong_crc_is_counted() {
     // Pololu guide: CRC-7 of 84 02 70 2E is 18; 19 is wrong.
     assert_eq!(d.decode(&[0x84, 0x02, 0x70, 0x2E, 0x19]).count(), 0);
     assert_eq!(d.stats().crc_errors, 1);
-    assert_eq!(d.take_errors(), DeviceErrors::SERIAL_CRC);
+    assert_eq!(d.take_errors(), ErrorFlags::SERIAL_CRC);
     assert_eq!(
         d.decode(&[0x84, 0x02, 0x70, 0x2E, 0x18])
             .collect::<Vec<_>>(),

@@ -3,7 +3,7 @@
 use embedded_hal_mock::eh1::serial::{Mock, Transaction};
 use embedded_hal_nb::serial::ErrorKind;
 use pololu_maestro::{
-    Channel, ChannelLimits, DeviceErrors, DeviceNumber, Error, Framing, Limits, Maestro, Micro6,
+    Channel, ChannelLimits, DeviceNumber, Error, ErrorFlags, Framing, Limits, Maestro, Micro6,
     Mini12, PollBudget, PwmTiming, QuarterMicros, ScriptParameter, ScriptStatus, Speed, Subroutine,
 };
 
@@ -81,17 +81,20 @@ fn out_of_range_sends_nothing() {
     let mut m = m.with_limits(dima_limits());
     assert_eq!(
         m.set_target(ch6(1), us(1900)),
-        Err(Error::OutOfRange {
+        Err(Error::Target(pololu_maestro::TargetError::OutOfRange {
             channel: 1,
             target: 7600,
             min: 5000,
             max: 7360
-        })
+        }))
     );
     // One bad target in a batch rejects the whole batch.
     assert!(matches!(
         m.set_targets(&[(ch6(0), us(1500)), (ch6(1), us(1000))]),
-        Err(Error::OutOfRange { channel: 1, .. })
+        Err(Error::Target(pololu_maestro::TargetError::OutOfRange {
+            channel: 1,
+            ..
+        }))
     ));
     // Target 0 on a limited channel is refused too; stopping pulses is explicit.
     assert!(m.set_target(ch6(0), QuarterMicros::OFF).is_err());
@@ -108,7 +111,10 @@ fn stop_pulses_and_neutral() {
     let mut m = m.with_limits(dima_limits());
     m.set_neutral(ch6(1)).unwrap(); // 1545 µs = 6180 = 0x24 + (0x30 << 7)
     m.stop_pulses(ch6(1)).unwrap();
-    assert_eq!(m.set_neutral(ch6(4)), Err(Error::InvalidInput));
+    assert_eq!(
+        m.set_neutral(ch6(4)),
+        Err(Error::Target(pololu_maestro::TargetError::InvalidInput))
+    );
     s.done();
 }
 
@@ -118,10 +124,10 @@ fn channel_of_a_bigger_model_is_rejected() {
     let ch = Channel::new::<Mini12>(8).unwrap();
     assert_eq!(
         m.set_target(ch, us(1500)),
-        Err(Error::InvalidChannel {
+        Err(Error::Target(pololu_maestro::TargetError::InvalidChannel {
             channel: 8,
             channels: 6
-        })
+        }))
     );
     assert!(Channel::new::<Micro6>(6).is_err());
     s.done();
@@ -152,7 +158,10 @@ fn get_position_round_trip() {
         Tx::read_error(nb::Error::WouldBlock),
         Tx::read(0x17),
     ]);
-    assert_eq!(m.get_position(ch6(2), &mut PollBudget(5)).unwrap(), 6000);
+    assert_eq!(
+        m.get_position(ch6(2), &mut PollBudget(5)).unwrap().get(),
+        6000
+    );
     s.done();
 }
 
@@ -168,7 +177,7 @@ fn short_reply_is_a_timeout() {
     ]);
     assert_eq!(
         m.get_position(ch6(0), &mut PollBudget(2)),
-        Err(Error::Timeout)
+        Err(Error::Device(pololu_maestro::DeviceError::Timeout))
     );
     s.done();
 }
@@ -186,7 +195,10 @@ fn missing_reply_is_a_timeout_with_a_closure_deadline() {
         polls += 1;
         polls >= 2
     };
-    assert_eq!(m.get_errors(&mut deadline), Err(Error::Timeout));
+    assert_eq!(
+        m.get_errors(&mut deadline),
+        Err(Error::Device(pololu_maestro::DeviceError::Timeout))
+    );
     s.done();
 }
 
@@ -200,7 +212,7 @@ fn stale_bytes_are_discarded_before_a_query() {
     ]);
     assert_eq!(
         m.get_errors(&mut PollBudget(10)).unwrap(),
-        DeviceErrors::SERIAL_CRC
+        ErrorFlags::SERIAL_CRC
     );
     assert_eq!(m.stale_bytes(), 2);
     s.done();
@@ -231,7 +243,10 @@ fn write_budget_bounds_a_busy_transmitter() {
         Micro6,
         Framing::COMPACT,
     );
-    assert_eq!(m.set_target(ch6(0), us(1500)), Err(Error::Timeout));
+    assert_eq!(
+        m.set_target(ch6(0), us(1500)),
+        Err(Error::Device(pololu_maestro::DeviceError::Timeout))
+    );
     let mut serial = serial;
     serial.done();
 }
@@ -263,7 +278,9 @@ fn script_commands_and_status() {
     );
     assert_eq!(
         m.get_script_status(&mut PollBudget(1)),
-        Err(Error::InvalidReply(0x07))
+        Err(Error::Device(pololu_maestro::DeviceError::InvalidReply(
+            0x07
+        )))
     );
     m.go_home().unwrap();
     s.done();
@@ -331,7 +348,10 @@ fn encode_multiple_targets_is_checked_and_sans_io() {
     );
     assert!(matches!(
         m.encode_multiple_targets(ch(0), &[us(1500), us(1900)]),
-        Err(Error::OutOfRange { channel: 1, .. })
+        Err(Error::Target(pololu_maestro::TargetError::OutOfRange {
+            channel: 1,
+            ..
+        }))
     ));
     s.done();
 }
@@ -341,7 +361,7 @@ fn endless_unasked_data_fails_the_query() {
     let (mut m, mut s) = micro(&[Tx::read_many([0x55; 64])]);
     assert_eq!(
         m.get_errors(&mut PollBudget(10)),
-        Err(Error::UnexpectedData)
+        Err(Error::Device(pololu_maestro::DeviceError::UnexpectedData))
     );
     assert_eq!(m.stale_bytes(), 64);
     s.done();

@@ -104,7 +104,10 @@ fn partial_writes_are_continued() {
 #[test]
 fn a_port_that_accepts_nothing_times_out() {
     let mut m = Maestro::new_io(port(0, &[]), Mini12, Framing::COMPACT);
-    assert_eq!(m.go_home(), Err(Error::Timeout));
+    assert_eq!(
+        m.go_home(),
+        Err(Error::Device(pololu_maestro::DeviceError::Timeout))
+    );
 }
 
 #[test]
@@ -115,7 +118,7 @@ fn query_reads_reply_and_times_out_when_short() {
     // The lone 0x70 is stale (it arrived before the query) and is discarded; no reply follows.
     assert_eq!(
         m.get_position(ch(0), &mut PollBudget(3)),
-        Err(Error::Timeout)
+        Err(Error::Device(pololu_maestro::DeviceError::Timeout))
     );
     assert_eq!(m.stale_bytes(), 1);
 }
@@ -126,6 +129,9 @@ fn query_round_trip() {
     let mut p = port(usize::MAX, &[]);
     p.reply = vec![0x70, 0x17];
     let mut m = Maestro::new_io(p, Mini12, Framing::COMPACT);
-    assert_eq!(m.get_position(ch(5), &mut PollBudget(3)).unwrap(), 6000);
+    assert_eq!(
+        m.get_position(ch(5), &mut PollBudget(3)).unwrap().get(),
+        6000
+    );
     assert_eq!(m.release().release().written, [0x90, 0x05]);
 }

@@ -11,7 +11,7 @@ use std::time::{Duration, Instant};
 
 use linux_embedded_hal::Serial;
 use pololu_maestro::{
-    reply, Channel, Command, CommandDecoder, DecoderConfig, DeviceErrors, Error, Framing, Maestro,
+    reply, Channel, Command, CommandDecoder, DecoderConfig, Error, ErrorFlags, Framing, Maestro,
     Micro6, QuarterMicros, ScriptStatus,
 };
 use serialport::{SerialPort, TTYPort};
@@ -80,11 +80,17 @@ fn driver_and_simulated_maestro_over_a_pty() {
         .set_targets(&[(ch(0), us(1500)), (ch(1), us(1840)), (ch(2), us(2000))])
         .unwrap();
     assert_eq!(
-        maestro.get_position(ch(1), &mut deadline(2000)).unwrap(),
+        maestro
+            .get_position(ch(1), &mut deadline(2000))
+            .unwrap()
+            .get(),
         7360
     );
     assert_eq!(
-        maestro.get_position(ch(2), &mut deadline(2000)).unwrap(),
+        maestro
+            .get_position(ch(2), &mut deadline(2000))
+            .unwrap()
+            .get(),
         8000
     );
 
@@ -97,22 +103,25 @@ fn driver_and_simulated_maestro_over_a_pty() {
         .unwrap();
     assert_eq!(
         maestro.get_errors(&mut deadline(2000)).unwrap(),
-        DeviceErrors::SERIAL_PROTOCOL
+        ErrorFlags::SERIAL_PROTOCOL
     );
     assert_eq!(
         maestro.get_errors(&mut deadline(2000)).unwrap(),
-        DeviceErrors::empty()
+        ErrorFlags::empty()
     );
 
     // A reply later than the deadline is a timeout ...
     assert_eq!(
         maestro.get_script_status(&mut deadline(20)),
-        Err(Error::Timeout)
+        Err(Error::Device(pololu_maestro::DeviceError::Timeout))
     );
     // ... and when it finally arrives it is discarded, not taken for the next answer.
     thread::sleep(Duration::from_millis(600));
     assert_eq!(
-        maestro.get_position(ch(0), &mut deadline(2000)).unwrap(),
+        maestro
+            .get_position(ch(0), &mut deadline(2000))
+            .unwrap()
+            .get(),
         6000
     );
     assert_eq!(maestro.stale_bytes(), 1);

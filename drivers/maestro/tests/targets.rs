@@ -65,7 +65,7 @@ fn refusals() {
     assert_eq!(dima().encode_targets(&many), Err(TargetError::InvalidInput));
     // Converts into the driver error.
     let e: Error<()> = TargetError::InvalidInput.into();
-    assert_eq!(e, Error::InvalidInput);
+    assert_eq!(e, Error::Target(pololu_maestro::TargetError::InvalidInput));
 }
 
 #[test]
@@ -117,7 +117,7 @@ mod properties {
             let mut limits = Limits::new();
             for (i, &(a, b)) in bounds.iter().enumerate() {
                 let (lo, hi) = (a.min(b), a.max(b));
-                limits.set(ch(i as u8), ChannelLimits::new(q(lo), q(hi), q(lo)));
+                limits.set(ch(i as u8), ChannelLimits::new(q(lo), q(hi), q(lo)).ok());
             }
             let framing = Framing::COMPACT.with_crc(crc);
             let encoder = TargetEncoder::new(Micro6, framing).with_limits(limits);

@@ -1,8 +1,9 @@
 //! Checked value types and per-channel limits.
 
 use pololu_maestro::{
-    Channel, ChannelLimits, Deadline, DelayDeadline, DeviceNumber, Limits, Micro6, Mini18, Mini24,
-    MiniSscValue, Model, PwmTiming, QuarterMicros, ScriptParameter, Speed, Subroutine,
+    Channel, ChannelLimits, Deadline, DelayDeadline, DeviceNumber, InvalidInput, Limits, Micro6,
+    Mini18, Mini24, MiniSscValue, Model, PwmTiming, QuarterMicros, ScriptParameter, Speed,
+    Subroutine,
 };
 
 #[test]
@@ -76,9 +77,9 @@ fn limits_check_and_clamp() {
     assert_eq!(limits.neutral(steering), Some(us(1545)));
     assert_eq!(limits.neutral(other), None);
 
-    assert!(ChannelLimits::from_micros(1500, 1000, 1200).is_none());
-    assert!(ChannelLimits::from_micros(1000, 2000, 2500).is_none());
-    assert!(ChannelLimits::from_micros(1000, 5000, 1500).is_none());
+    assert!(ChannelLimits::from_micros(1500, 1000, 1200) == Err(InvalidInput));
+    assert!(ChannelLimits::from_micros(1000, 2000, 2500) == Err(InvalidInput));
+    assert!(ChannelLimits::from_micros(1000, 5000, 1500) == Err(InvalidInput));
 
     let mut limits = limits;
     limits.set(steering, None);

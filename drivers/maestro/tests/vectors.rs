@@ -3,7 +3,7 @@
 
 use pololu_maestro::{
     crc7, encode, encode_set_target, encode_set_targets, reply, Acceleration, Channel, Command,
-    DeviceErrors, DeviceNumber, Framing, Mini24, MiniSscServo, MiniSscValue, MultiTargets,
+    DeviceNumber, ErrorFlags, Framing, Mini24, MiniSscServo, MiniSscValue, MultiTargets,
     QuarterMicros, Speed,
 };
 
@@ -114,26 +114,26 @@ fn get_position_reply() {
 // Pololu guide, "Errors": bit numbers of the error register.
 #[test]
 fn error_bits() {
-    assert_eq!(DeviceErrors::SERIAL_SIGNAL.bits(), 1 << 0);
-    assert_eq!(DeviceErrors::SERIAL_OVERRUN.bits(), 1 << 1);
-    assert_eq!(DeviceErrors::SERIAL_BUFFER_FULL.bits(), 1 << 2);
-    assert_eq!(DeviceErrors::SERIAL_CRC.bits(), 1 << 3);
-    assert_eq!(DeviceErrors::SERIAL_PROTOCOL.bits(), 1 << 4);
-    assert_eq!(DeviceErrors::SERIAL_TIMEOUT.bits(), 1 << 5);
-    assert_eq!(DeviceErrors::SCRIPT_STACK.bits(), 1 << 6);
-    assert_eq!(DeviceErrors::SCRIPT_CALL_STACK.bits(), 1 << 7);
-    assert_eq!(DeviceErrors::SCRIPT_PROGRAM_COUNTER.bits(), 1 << 8);
+    assert_eq!(ErrorFlags::SERIAL_SIGNAL.bits(), 1 << 0);
+    assert_eq!(ErrorFlags::SERIAL_OVERRUN.bits(), 1 << 1);
+    assert_eq!(ErrorFlags::SERIAL_BUFFER_FULL.bits(), 1 << 2);
+    assert_eq!(ErrorFlags::SERIAL_CRC.bits(), 1 << 3);
+    assert_eq!(ErrorFlags::SERIAL_PROTOCOL.bits(), 1 << 4);
+    assert_eq!(ErrorFlags::SERIAL_TIMEOUT.bits(), 1 << 5);
+    assert_eq!(ErrorFlags::SCRIPT_STACK.bits(), 1 << 6);
+    assert_eq!(ErrorFlags::SCRIPT_CALL_STACK.bits(), 1 << 7);
+    assert_eq!(ErrorFlags::SCRIPT_PROGRAM_COUNTER.bits(), 1 << 8);
     // Reply: bits 0-7 first, then bits 8-15.
     assert_eq!(
         reply::decode_errors([0x10, 0x01]),
-        DeviceErrors::SERIAL_PROTOCOL | DeviceErrors::SCRIPT_PROGRAM_COUNTER
+        ErrorFlags::SERIAL_PROTOCOL | ErrorFlags::SCRIPT_PROGRAM_COUNTER
     );
 }
 
 // Pololu guide: command bytes of the servo and script commands (compact protocol).
 #[test]
 fn command_bytes() {
-    use pololu_maestro::command::opcode::*;
+    use pololu_maestro::opcode::*;
     assert_eq!(
         [
             SET_TARGET,

@@ -25,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let port = Serial::open_from_builder(
         serialport::new(&path, current).timeout(Duration::from_millis(1)),
     )?;
-    let mut gnss: NeoM8t<Serial> = NeoM8t::new(port);
+    let mut gnss: NeoM8t<Serial> = NeoM8t::with_capacity(port);
 
     let config = Config::default().with_baud_rate(target);
     let version = gnss.configure_blocking(config, current, &mut Delay, |serial, baud| {

@@ -1,7 +1,7 @@
 //! The UBX messages the driver sends, built with the `ublox` crate's builders (pure, no I/O).
 
 use crate::config::{AlignmentToReferenceTime, NavDynamicModel, TimeMode, TimePulse};
-use crate::frame::{encode_frame, Frame};
+use crate::frame::{encode_frame, Frame, HEADER_LEN};
 use ublox::cfg_msg::CfgMsgAllPortsBuilder;
 use ublox::cfg_nav5::{CfgNav5Builder, CfgNav5Params};
 use ublox::cfg_prt::{
@@ -145,16 +145,21 @@ pub fn cfg_rate(period_ms: u16, nav_rate: u16, time_ref: AlignmentToReferenceTim
     )
 }
 
-/// CFG-NAV5 that changes only the dynamic model (mask = dyn).
+/// CFG-NAV5 that changes only the dynamic model: the mask selects `dyn` alone and every field it
+/// does not select is sent as zero (the receiver ignores them; a builder default such as
+/// fixMode = 3 would suggest a setting that is not applied).
 pub fn cfg_nav5(model: NavDynamicModel) -> Command {
-    Command::from_frame_bytes(
-        &CfgNav5Builder {
-            mask: CfgNav5Params::DYN,
-            dyn_model: model,
-            ..CfgNav5Builder::default()
-        }
-        .into_packet_bytes(),
-    )
+    let builder_frame = CfgNav5Builder {
+        mask: CfgNav5Params::DYN,
+        dyn_model: model,
+        ..CfgNav5Builder::default()
+    }
+    .into_packet_bytes();
+    // Payload bytes 0-1: mask, 2: dynModel (as the ublox crate encodes it), 3..36: unselected.
+    let mut payload = [0u8; 36];
+    payload[..3].copy_from_slice(&builder_frame[HEADER_LEN..HEADER_LEN + 3]);
+    Command::new(CLASS_CFG, ID_CFG_NAV5, &payload)
+        .unwrap_or_else(|| Command::from_frame_bytes(&builder_frame))
 }
 
 /// CFG-TP5 for one time pulse output.

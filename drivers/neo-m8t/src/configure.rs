@@ -112,7 +112,7 @@ fn expired(now_ms: u32, deadline_ms: u32) -> bool {
 /// after `settle_ms` (the ACK sent at the old rate is lost). Without one before the timeout
 /// it asks to go back to the old rate and sends CFG-PRT again. An ACK-NAK of CFG-PRT is not
 /// a confirmation: the receiver kept its old rate, [`Configurator::baud_rate`] goes back to
-/// it and the result is [`Error::Nak`].
+/// it and the result is [`DeviceError::Nak`](crate::DeviceError::Nak).
 ///
 /// `N` is the receive buffer; MON-VER needs about 280 bytes on an M8T.
 ///
@@ -126,7 +126,7 @@ fn expired(now_ms: u32, deadline_ms: u32) -> bool {
 /// # transactions.push(Transaction::read_error(nb::Error::WouldBlock));
 /// # let mut serial = Mock::new(&transactions);
 /// // The receiver is at 115200 baud already: no switch needed.
-/// let mut cfg = Configurator::<512>::new(Config::default(), 115_200);
+/// let mut cfg = Configurator::<512>::with_capacity(Config::default(), 115_200);
 /// let mut now_ms = 0u32;
 /// # for _ in 0..1 {
 /// match cfg.poll(&mut serial, now_ms) {
@@ -158,12 +158,21 @@ pub struct Configurator<const N: usize = 512> {
     line_errors: u32,
 }
 
-impl<const N: usize> Configurator<N> {
+impl Configurator {
     /// A configurator for `config`, talking to a receiver whose UART1 is at
-    /// `current_baud_rate` (the host UART must be at that rate too).
+    /// `current_baud_rate` (the host UART must be at that rate too), with the default 512-byte
+    /// reply buffer.
     pub fn new(config: Config, current_baud_rate: u32) -> Self {
+        Self::with_capacity(config, current_baud_rate)
+    }
+}
+
+impl<const N: usize> Configurator<N> {
+    /// As [`Configurator::new`], with an `N`-byte reply buffer
+    /// (`Configurator::<128>::with_capacity(config, baud)`; MON-VER needs up to 512).
+    pub fn with_capacity(config: Config, current_baud_rate: u32) -> Self {
         Self {
-            framer: UbxFramer::new(),
+            framer: UbxFramer::with_capacity(),
             config,
             timeout_ms: DEFAULT_TIMEOUT_MS,
             settle_ms: DEFAULT_SWITCH_SETTLE_MS,
@@ -236,7 +245,7 @@ impl<const N: usize> Configurator<N> {
     /// checks deadlines against `now_ms` (any monotonic millisecond clock; wrapping is fine).
     ///
     /// Every phase has a deadline, including writing (a transmitter that never drains ends
-    /// in [`Error::Timeout`]). After an error, start again with a new `Configurator`.
+    /// in [`DeviceError::Timeout`](crate::DeviceError::Timeout)). After an error, start again with a new `Configurator`.
     pub fn poll<S>(&mut self, serial: &mut S, now_ms: u32) -> Result<Progress, Error<S::Error>>
     where
         S: Read<u8> + Write<u8>,
@@ -318,7 +327,9 @@ impl<const N: usize> Configurator<N> {
                         Outcome::Nak { class, id } if self.phase == Phase::SwitchedAwaiting => {
                             return Err(self.port_change_rejected(class, id))
                         }
-                        Outcome::Nak { class, id } => return Err(Error::Nak { class, id }),
+                        Outcome::Nak { class, id } => {
+                            return Err(Error::Device(crate::error::DeviceError::Nak { class, id }))
+                        }
                         Outcome::None => {}
                     }
                     if !expired(now_ms, self.deadline_ms) {
@@ -328,9 +339,9 @@ impl<const N: usize> Configurator<N> {
                     let switched = self.phase == Phase::SwitchedAwaiting;
                     if self.attempt > self.max_retries {
                         return Err(if switched {
-                            Error::BaudSwitchFailed {
+                            Error::Device(crate::error::DeviceError::BaudSwitchFailed {
                                 baud_rate: self.config.baud_rate,
-                            }
+                            })
                         } else {
                             self.timeout_error()
                         });
@@ -354,7 +365,7 @@ impl<const N: usize> Configurator<N> {
     /// Runs [`poll`](Self::poll) to completion, sleeping 1 ms between polls and counting
     /// those sleeps as the clock. `set_baud_rate` must switch the host UART; if it cannot,
     /// the check at the new rate fails and the switch is retried, then reported as
-    /// [`Error::BaudSwitchFailed`].
+    /// [`DeviceError::BaudSwitchFailed`](crate::DeviceError::BaudSwitchFailed).
     ///
     /// Elapsed time is under-estimated by the time the polls themselves take, so real
     /// timeouts are at least the configured ones; the total is still bounded.
@@ -385,14 +396,14 @@ impl<const N: usize> Configurator<N> {
     /// [`baud_rate`](Self::baud_rate) goes back to it, for the caller to switch the host UART.
     fn port_change_rejected<E>(&mut self, class: u8, id: u8) -> Error<E> {
         self.baud_rate = self.previous_baud_rate;
-        Error::Nak { class, id }
+        Error::Device(crate::error::DeviceError::Nak { class, id })
     }
 
     fn timeout_error<E>(&self) -> Error<E> {
-        Error::Timeout {
+        Error::Device(crate::error::DeviceError::Timeout {
             class: self.tx.class(),
             id: self.tx.id(),
-        }
+        })
     }
 
     fn command(&self) -> Option<Command> {

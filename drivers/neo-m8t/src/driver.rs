@@ -26,15 +26,26 @@ pub struct NeoM8t<S, const N: usize = 512> {
     line_errors: u32,
 }
 
+impl<S> NeoM8t<S>
+where
+    S: Read<u8> + Write<u8>,
+{
+    /// Takes the port, with the default 512-byte frame buffer; nothing is sent.
+    pub fn new(serial: S) -> Self {
+        Self::with_capacity(serial)
+    }
+}
+
 impl<S, const N: usize> NeoM8t<S, N>
 where
     S: Read<u8> + Write<u8>,
 {
-    /// Takes the port; nothing is sent.
-    pub fn new(serial: S) -> Self {
+    /// Takes the port, with an `N`-byte frame buffer (`NeoM8t::with_capacity::<100>(port)`
+    /// is enough once only NAV-PVT and TIM messages arrive); nothing is sent.
+    pub fn with_capacity(serial: S) -> Self {
         Self {
             serial,
-            stream: GnssStream::new(),
+            stream: GnssStream::with_capacity(),
             line_errors: 0,
         }
     }
@@ -114,7 +125,7 @@ where
         delay: &mut D,
         set_baud_rate: impl FnMut(&mut S, u32),
     ) -> Result<ReceiverVersion, Error<S::Error>> {
-        let mut configurator = Configurator::<512>::new(config, current_baud_rate);
+        let mut configurator = Configurator::<512>::with_capacity(config, current_baud_rate);
         configurator.run_blocking(&mut self.serial, delay, set_baud_rate)?;
         self.stream.clear_partial();
         Ok(configurator.version().cloned().unwrap_or_default())

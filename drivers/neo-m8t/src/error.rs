@@ -2,12 +2,10 @@
 
 use core::fmt;
 
-/// Errors of the configuration and reading operations; `E` is the serial port's error.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// What the receiver did wrong, independent of the serial port; [`Error::Device`] carries it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Error<E> {
-    /// The serial port failed.
-    Comm(E),
+pub enum DeviceError {
     /// The receiver rejected a configuration message (ACK-NAK); retrying would not help.
     Nak {
         /// Class of the rejected message.
@@ -29,16 +27,9 @@ pub enum Error<E> {
     },
 }
 
-impl<E> From<E> for Error<E> {
-    fn from(e: E) -> Self {
-        Self::Comm(e)
-    }
-}
-
-impl<E: fmt::Debug> fmt::Display for Error<E> {
+impl fmt::Display for DeviceError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Comm(e) => write!(f, "serial port error: {e:?}"),
             Self::Nak { class, id } => write!(
                 f,
                 "receiver rejected UBX message {class:#04x}/{id:#04x} (ACK-NAK)"
@@ -55,4 +46,39 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
     }
 }
 
-impl<E: fmt::Debug> core::error::Error for Error<E> {}
+impl core::error::Error for DeviceError {}
+
+/// Errors of the configuration and reading operations: the serial port's error `E`, or a
+/// [`DeviceError`] nested whole.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Error<E> {
+    /// The serial port failed.
+    Comm(E),
+    /// The receiver answered wrongly or not at all.
+    Device(DeviceError),
+}
+
+impl<E> From<DeviceError> for Error<E> {
+    fn from(e: DeviceError) -> Self {
+        Self::Device(e)
+    }
+}
+
+impl<E: fmt::Debug> fmt::Display for Error<E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Comm(e) => write!(f, "serial port error: {e:?}"),
+            Self::Device(e) => fmt::Display::fmt(e, f),
+        }
+    }
+}
+
+impl<E: fmt::Debug> core::error::Error for Error<E> {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            Self::Comm(_) => None,
+            Self::Device(e) => Some(e),
+        }
+    }
+}

@@ -143,7 +143,7 @@ enum Step {
 ///
 /// // ACK-ACK for CFG-RATE, split across two chunks with noise in front.
 /// let chunks: [&[u8]; 2] = [&[0x00, 0xB5, 0x62, 0x05, 0x01], &[0x02, 0x00, 0x06, 0x08, 0x16, 0x3F]];
-/// let mut framer = UbxFramer::<512>::new();
+/// let mut framer = UbxFramer::<512>::with_capacity();
 /// let mut found = 0;
 /// for chunk in chunks {
 ///     for &byte in chunk {
@@ -172,15 +172,23 @@ pub struct UbxFramer<const N: usize = 512> {
 
 impl<const N: usize> Default for UbxFramer<N> {
     fn default() -> Self {
-        Self::new()
+        Self::with_capacity()
+    }
+}
+
+impl UbxFramer {
+    /// An empty framer with the default 512-byte buffer and zeroed counters.
+    pub const fn new() -> Self {
+        Self::with_capacity()
     }
 }
 
 impl<const N: usize> UbxFramer<N> {
     const MIN_CAPACITY: () = assert!(N >= FRAME_OVERHEAD, "a UBX framer needs at least 8 bytes");
 
-    /// An empty framer with zeroed counters.
-    pub const fn new() -> Self {
+    /// An empty framer with an `N`-byte buffer (`UbxFramer::<100>::with_capacity()`) and zeroed
+    /// counters.
+    pub const fn with_capacity() -> Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::MIN_CAPACITY;
         Self {

@@ -27,8 +27,6 @@ const PROTO_UBX: u16 = 0x0001;
 const PORT_UART1: u8 = 1;
 /// CFG-NAV5 `mask` bit: apply the dynamic model.
 const NAV5_MASK_DYN: u16 = 0x0001;
-/// CFG-NAV5 `fixMode` the builder writes when the mask leaves it alone: auto 2D/3D.
-const NAV5_FIX_MODE_AUTO: u8 = 3;
 /// CFG-TP5 message version.
 const TP5_VERSION: u8 = 0x01;
 
@@ -126,14 +124,13 @@ pub fn cfg_rate(
         .frame(CLASS_CFG, ID_CFG_RATE)
 }
 
-/// CFG-NAV5 that changes only the dynamic model (mask = dyn); the other fields carry the
-/// values the receiver ignores under that mask.
+/// CFG-NAV5 that changes only the dynamic model (mask = dyn); every field the mask does not
+/// select is zero, as u-blox's tools send it.
 pub fn cfg_nav5(model: NavDynamicModel) -> Option<Command> {
     Payload::<36>::new()
         .u16(NAV5_MASK_DYN)
         .u8(dynamic_model_code(model))
-        .u8(NAV5_FIX_MODE_AUTO)
-        .zeros(36 - 4) // fixedAlt .. reserved2, utcStandard 0 = automatic
+        .zeros(36 - 3) // fixMode .. reserved2: not selected by the mask
         .frame(CLASS_CFG, ID_CFG_NAV5)
 }
 

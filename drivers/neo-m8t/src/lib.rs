@@ -38,7 +38,7 @@
 //! # use neo_m8t::commands;
 //! # fn ack(cmd: &[u8]) -> Vec<u8> {
 //! #     let mut out = vec![0u8; 10];
-//! #     neo_m8t::frame::encode_frame(0x05, 0x01, &cmd[2..4], &mut out).unwrap();
+//! #     neo_m8t::encode_frame(0x05, 0x01, &cmd[2..4], &mut out).unwrap();
 //! #     out
 //! # }
 //! # let mut ver_payload = [0u8; 70];
@@ -46,7 +46,7 @@
 //! # ver_payload[30..38].copy_from_slice(b"00080000");
 //! # ver_payload[40..53].copy_from_slice(b"PROTVER=18.00");
 //! # let mut mon_ver = vec![0u8; 78];
-//! # neo_m8t::frame::encode_frame(0x0A, 0x04, &ver_payload, &mut mon_ver).unwrap();
+//! # neo_m8t::encode_frame(0x0A, 0x04, &ver_payload, &mut mon_ver).unwrap();
 //! # let config = neo_m8t::Config::default();
 //! # let mut script = vec![
 //! #     Transaction::write_many(commands::poll_mon_ver().as_bytes()),
@@ -58,7 +58,7 @@
 //! # for (c, i) in commands::DEFAULT_NMEA { cmds.push(commands::cfg_msg_uart1(c, i, 0)); }
 //! # cmds.push(commands::cfg_msg_uart1(0x0D, 0x01, 0));
 //! # cmds.push(commands::cfg_msg_uart1(0x0D, 0x03, 0));
-//! # cmds.push(commands::cfg_rate(100, 1, neo_m8t::config::AlignmentToReferenceTime::Gps));
+//! # cmds.push(commands::cfg_rate(100, 1, neo_m8t::AlignmentToReferenceTime::Gps));
 //! # cmds.push(commands::cfg_nav5(neo_m8t::NavDynamicModel::Automotive));
 //! # cmds.push(commands::cfg_tp5(&neo_m8t::TimePulse::default()));
 //! # for c in &cmds {
@@ -71,7 +71,7 @@
 //! use neo_m8t::{Config, Configurator, Progress};
 //!
 //! // UART1 of the receiver is at 115200 already; DIMA's defaults: 10 Hz NAV-PVT, UBX only.
-//! let mut cfg = Configurator::<512>::new(Config::default(), 115_200);
+//! let mut cfg = Configurator::<512>::with_capacity(Config::default(), 115_200);
 //! loop {
 //!     match cfg.poll(&mut serial, now_ms())? {
 //!         Progress::Pending => { /* do other work, or sleep a millisecond */ }
@@ -95,7 +95,7 @@
 //! let wire = sent.to_frame();
 //!
 //! // Feed it in two chunks, as a UART DMA would deliver it.
-//! let mut stream = GnssStream::<100>::new();
+//! let mut stream = GnssStream::<100>::with_capacity();
 //! stream.push_slice(&wire.as_bytes()[..64]);
 //! stream.push_slice(&wire.as_bytes()[64..]);
 //!
@@ -114,27 +114,33 @@
 //!   WriteReady` ports.
 //! - `defmt`: `defmt::Format` for the data and error types.
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
 pub mod commands;
-pub mod config;
-pub mod configure;
-pub mod driver;
-pub mod error;
-pub mod frame;
-pub mod int_commands;
-pub mod interface;
+mod config;
+mod configure;
+mod driver;
+mod error;
+mod frame;
+mod int_commands;
+mod interface;
 pub mod nav_pvt;
-pub mod stream;
-pub mod timing;
-pub mod version;
+mod stream;
+mod timing;
+mod version;
 
-pub use config::{Config, NavDynamicModel, TimeMode, TimePulse};
-pub use configure::{Configurator, Progress};
-pub use driver::NeoM8t;
-pub use error::Error;
-pub use frame::{Frame, FramerStats, UbxFramer};
+pub use config::{
+    tp5_flags, AlignmentToReferenceTime, Config, NavDynamicModel, TimeMode, TimePulse,
+};
+pub use configure::{
+    Configurator, Progress, DEFAULT_RETRIES, DEFAULT_SWITCH_SETTLE_MS, DEFAULT_TIMEOUT_MS,
+    MAX_READ_PER_POLL,
+};
+pub use driver::{NeoM8t, MAX_MESSAGES_PER_POLL};
+pub use error::{DeviceError, Error};
+pub use frame::{checksum, encode_frame, Frame, FramerStats, UbxFramer, FRAME_OVERHEAD};
 #[cfg(feature = "embedded-io")]
 pub use interface::{IoError, IoSerial};
 pub use nav_pvt::{FixType, NavPvt, NavPvtFrame};
@@ -147,3 +153,6 @@ pub use version::{ProtocolVersion, ReceiverVersion};
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
+
+/// `nb`, re-exported for `nb::block!` and matching `nb::Error::WouldBlock` on the reading calls.
+pub use nb;

@@ -78,7 +78,7 @@ impl Message {
 /// use neo_m8t::{GnssStream, NavPvt};
 ///
 /// let frame = NavPvt { itow_ms: 1000, ..NavPvt::default() }.to_frame();
-/// let mut stream = GnssStream::<100>::new();
+/// let mut stream = GnssStream::<100>::with_capacity();
 /// // A DMA chunk: noise, then the frame split over two pushes.
 /// stream.push_slice(&[0x24, 0x24, 0xB5]);
 /// let (head, tail) = frame.as_bytes().split_at(40);
@@ -100,15 +100,22 @@ pub struct GnssStream<const N: usize = 512> {
 
 impl<const N: usize> Default for GnssStream<N> {
     fn default() -> Self {
-        Self::new()
+        Self::with_capacity()
+    }
+}
+
+impl GnssStream {
+    /// An empty stream with the default 512-byte frame buffer.
+    pub const fn new() -> Self {
+        Self::with_capacity()
     }
 }
 
 impl<const N: usize> GnssStream<N> {
-    /// An empty stream.
-    pub const fn new() -> Self {
+    /// An empty stream with an `N`-byte frame buffer (`GnssStream::<100>::with_capacity()`).
+    pub const fn with_capacity() -> Self {
         Self {
-            framer: UbxFramer::new(),
+            framer: UbxFramer::with_capacity(),
             nav_pvt: None,
             nav_pvt_fresh: false,
             nav_pvt_count: 0,

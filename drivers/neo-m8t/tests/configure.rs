@@ -5,13 +5,12 @@ use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::serial::{Mock, Transaction};
 use embedded_hal_nb::serial::ErrorKind;
 use neo_m8t::commands::{self, Command};
-use neo_m8t::error::Error;
-use neo_m8t::frame::encode_frame;
-use neo_m8t::version::ProtocolVersion;
+use neo_m8t::encode_frame;
+use neo_m8t::Error;
+use neo_m8t::ProtocolVersion;
 use neo_m8t::{Config, Configurator, Progress};
 
-/// Golden UBX frames from /work/shared/vectors/README.md ("ublox 0.10 builders and pyubx2
-/// agree"), verbatim.
+/// Golden UBX frames on which the ublox 0.10 builders and pyubx2 agree, verbatim.
 const MON_VER_POLL: [u8; 8] = [0xB5, 0x62, 0x0A, 0x04, 0x00, 0x00, 0x0E, 0x34];
 const CFG_PRT_UART1_115200: [u8; 28] = [
     0xB5, 0x62, 0x06, 0x00, 0x14, 0x00, 0x01, 0x00, 0x00, 0x00, 0xC0, 0x08, 0x00, 0x00, 0x00, 0xC2,
@@ -123,9 +122,23 @@ fn command_builders_reproduce_golden_frames() {
         &CFG_MSG_NAV_PVT_UART1
     );
     assert_eq!(
-        commands::cfg_rate(200, 1, neo_m8t::config::AlignmentToReferenceTime::Gps).as_bytes(),
+        commands::cfg_rate(200, 1, neo_m8t::AlignmentToReferenceTime::Gps).as_bytes(),
         &CFG_RATE_200MS
     );
+}
+
+/// CFG-NAV5 with only the dynamic model selected (automotive), as pyubx2 1.4.0 serialises
+/// `UBXMessage("CFG", "CFG-NAV5", SET, dyn=1, dynModel=4)`: every unselected field is zero.
+const CFG_NAV5_AUTOMOTIVE_PYUBX2: [u8; 44] = [
+    0xB5, 0x62, 0x06, 0x24, 0x24, 0x00, 0x01, 0x00, 0x04, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00,
+    0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x53, 0x70,
+];
+
+#[test]
+fn cfg_nav5_sends_only_what_its_mask_selects() {
+    let nav5 = commands::cfg_nav5(neo_m8t::NavDynamicModel::Automotive);
+    assert_eq!(nav5.as_bytes(), &CFG_NAV5_AUTOMOTIVE_PYUBX2);
 }
 
 #[test]
@@ -136,7 +149,7 @@ fn other_commands_follow_the_receiver_description_layout() {
     assert_eq!(&b[..6], &[0xB5, 0x62, 0x06, 0x24, 36, 0]);
     assert_eq!(&b[6..9], &[0x01, 0x00, 4]);
     // CFG-TP5 default: tpIdx 0, version 1, cable delay 50 ns, 1 s periods, 0 / 100 ms pulses.
-    let tp5 = commands::cfg_tp5(&neo_m8t::config::TimePulse::default());
+    let tp5 = commands::cfg_tp5(&neo_m8t::TimePulse::default());
     let b = tp5.as_bytes();
     assert_eq!(&b[..6], &[0xB5, 0x62, 0x06, 0x31, 32, 0]);
     let p = &b[6..38];
@@ -148,7 +161,7 @@ fn other_commands_follow_the_receiver_description_layout() {
     assert_eq!(u32::from_le_bytes(p[20..24].try_into().unwrap()), 100_000);
     assert_eq!(u32::from_le_bytes(p[28..32].try_into().unwrap()), 0xF7);
     // CFG-TMODE2 survey-in: mode 1, min duration 300 s, limit 2000 mm.
-    let tm = commands::cfg_tmode2(&neo_m8t::config::TimeMode::SurveyIn {
+    let tm = commands::cfg_tmode2(&neo_m8t::TimeMode::SurveyIn {
         min_duration_s: 300,
         accuracy_limit_mm: 2_000,
     });
@@ -159,7 +172,7 @@ fn other_commands_follow_the_receiver_description_layout() {
     assert_eq!(u32::from_le_bytes(p[20..24].try_into().unwrap()), 300);
     assert_eq!(u32::from_le_bytes(p[24..28].try_into().unwrap()), 2_000);
     // Fixed ECEF: cm values survive the builder's metre scaling.
-    let tm = commands::cfg_tmode2(&neo_m8t::config::TimeMode::FixedEcef {
+    let tm = commands::cfg_tmode2(&neo_m8t::TimeMode::FixedEcef {
         x_cm: 428_123_456,
         y_cm: -64_012_345,
         z_cm: 467_654_321,
@@ -199,7 +212,7 @@ fn full_sequence_without_baud_change_uses_golden_frames_and_reports_version() {
         script.push(reply(&ack(cmd.as_bytes())));
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 115_200);
+    let mut cfg = Configurator::<512>::with_capacity(config, 115_200);
     assert_eq!(drive(&mut cfg, &mut serial), Ok(vec![]));
     serial.done();
 
@@ -242,13 +255,13 @@ fn nak_is_an_error_naming_the_message() {
     script.push(write(nav5.as_bytes()));
     script.push(reply(&nak(nav5.as_bytes())));
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 115_200);
+    let mut cfg = Configurator::<512>::with_capacity(config, 115_200);
     assert_eq!(
         drive(&mut cfg, &mut serial),
-        Err(Error::Nak {
+        Err(Error::Device(neo_m8t::DeviceError::Nak {
             class: 0x06,
             id: 0x24
-        })
+        }))
     );
     serial.done();
 }
@@ -265,15 +278,15 @@ fn silence_is_retried_then_a_timeout_error() {
         }
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 115_200)
+    let mut cfg = Configurator::<512>::with_capacity(config, 115_200)
         .with_timeout_ms(10)
         .with_retries(2);
     assert_eq!(
         drive(&mut cfg, &mut serial),
-        Err(Error::Timeout {
+        Err(Error::Device(neo_m8t::DeviceError::Timeout {
             class: 0x0A,
             id: 0x04
-        })
+        }))
     );
     assert_eq!(cfg.retries(), 2);
     serial.done();
@@ -302,7 +315,7 @@ fn a_retry_can_succeed_and_unrelated_frames_and_noise_are_ignored() {
         script.push(reply(&ack(cmd.as_bytes())));
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 115_200).with_timeout_ms(10);
+    let mut cfg = Configurator::<512>::with_capacity(config, 115_200).with_timeout_ms(10);
     assert_eq!(drive(&mut cfg, &mut serial), Ok(vec![]));
     assert_eq!(cfg.retries(), 1);
     // The noise `B5 62 24 B5 62 01` announces a 354-byte payload and swallows the NAV-PVT
@@ -338,7 +351,7 @@ fn baud_switch_with_ack_at_the_new_rate() {
         script.push(reply(&ack(cmd.as_bytes())));
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 9_600);
+    let mut cfg = Configurator::<512>::with_capacity(config, 9_600);
     assert_eq!(drive(&mut cfg, &mut serial), Ok(vec![460_800]));
     assert_eq!(cfg.baud_rate(), 460_800);
     serial.done();
@@ -371,7 +384,7 @@ fn baud_switch_when_the_ack_was_lost_is_confirmed_by_the_poll_answer() {
         script.push(reply(&ack(cmd.as_bytes())));
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 9_600).with_switch_settle_ms(3);
+    let mut cfg = Configurator::<512>::with_capacity(config, 9_600).with_switch_settle_ms(3);
     assert_eq!(drive(&mut cfg, &mut serial), Ok(vec![460_800]));
     assert_eq!(cfg.line_errors(), 1);
     serial.done();
@@ -391,7 +404,7 @@ fn nak_of_the_port_change_is_an_error_not_a_confirmed_switch() {
         reply(&nak(prt.as_bytes())),
     ];
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 9_600);
+    let mut cfg = Configurator::<512>::with_capacity(config, 9_600);
     let mut switches = Vec::new();
     let mut result = Ok(());
     for now_ms in 0..100 {
@@ -407,10 +420,10 @@ fn nak_of_the_port_change_is_an_error_not_a_confirmed_switch() {
     }
     assert_eq!(
         result,
-        Err(Error::Nak {
+        Err(Error::Device(neo_m8t::DeviceError::Nak {
             class: 0x06,
             id: 0x00
-        })
+        }))
     );
     assert_eq!(switches, vec![460_800]);
     // The receiver is still at the old rate; the host UART must go back to it.
@@ -435,7 +448,7 @@ fn baud_switch_without_answer_goes_back_and_finally_fails() {
         }
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 9_600)
+    let mut cfg = Configurator::<512>::with_capacity(config, 9_600)
         .with_timeout_ms(5)
         .with_switch_settle_ms(2)
         .with_retries(1);
@@ -452,7 +465,12 @@ fn baud_switch_without_answer_goes_back_and_finally_fails() {
             }
         }
     }
-    assert_eq!(result, Err(Error::BaudSwitchFailed { baud_rate: 460_800 }));
+    assert_eq!(
+        result,
+        Err(Error::Device(neo_m8t::DeviceError::BaudSwitchFailed {
+            baud_rate: 460_800
+        }))
+    );
     assert_eq!(switches, vec![460_800, 9_600, 460_800]);
     serial.done();
 }
@@ -463,7 +481,7 @@ fn port_error_is_reported() {
         write(&MON_VER_POLL),
         T::read_error(nb::Error::Other(ErrorKind::Other)),
     ]);
-    let mut cfg = Configurator::<512>::new(Config::default(), 115_200);
+    let mut cfg = Configurator::<512>::with_capacity(Config::default(), 115_200);
     assert_eq!(cfg.poll(&mut serial, 0), Err(Error::Comm(ErrorKind::Other)));
     serial.done();
 }
@@ -485,7 +503,7 @@ fn run_blocking_applies_the_configuration() {
         script.push(reply(&ack(cmd.as_bytes())));
     }
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(config, 115_200);
+    let mut cfg = Configurator::<512>::with_capacity(config, 115_200);
     let mut bauds = Vec::new();
     cfg.run_blocking(&mut serial, &mut NoopDelay::new(), |_, b| bauds.push(b))
         .unwrap();
@@ -540,7 +558,7 @@ mod chunked {
                 chopped(&answer, &cuts, &mut script);
             }
             let mut serial = Mock::new(&script);
-            let mut cfg = Configurator::<512>::new(config, 115_200);
+            let mut cfg = Configurator::<512>::with_capacity(config, 115_200);
             prop_assert_eq!(drive(&mut cfg, &mut serial), Ok(vec![]));
             prop_assert_eq!(cfg.retries(), 0);
             serial.done();
@@ -555,13 +573,14 @@ fn a_transmitter_that_never_drains_times_out() {
         .map(|_| T::write_error(0xB5, nb::Error::WouldBlock))
         .collect();
     let mut serial = Mock::new(&script);
-    let mut cfg = Configurator::<512>::new(Config::default(), 115_200).with_timeout_ms(10);
+    let mut cfg =
+        Configurator::<512>::with_capacity(Config::default(), 115_200).with_timeout_ms(10);
     assert_eq!(
         drive(&mut cfg, &mut serial),
-        Err(Error::Timeout {
+        Err(Error::Device(neo_m8t::DeviceError::Timeout {
             class: 0x0A,
             id: 0x04
-        })
+        }))
     );
     serial.done();
 }

@@ -30,7 +30,7 @@ fn read_message_returns_frames_and_would_block_when_idle() {
         T::read_many(pvt(200)),
         idle(),
     ]);
-    let mut gnss: NeoM8t<_, 100> = NeoM8t::new(serial.clone());
+    let mut gnss: NeoM8t<_, 100> = NeoM8t::with_capacity(serial.clone());
     match gnss.read_message() {
         Ok(Message::NavPvt(f)) => assert_eq!(f.to_nav_pvt().itow_ms, 200),
         other => panic!("expected NAV-PVT, got {other:?}"),
@@ -51,7 +51,7 @@ fn poll_nav_pvt_returns_the_newest_frame_once() {
         idle(),
         idle(),
     ]);
-    let mut gnss: NeoM8t<_, 100> = NeoM8t::new(serial.clone());
+    let mut gnss: NeoM8t<_, 100> = NeoM8t::with_capacity(serial.clone());
     let frame = gnss.poll_nav_pvt().unwrap().expect("a frame");
     assert_eq!(frame.as_bytes(), &pvt(200));
     assert_eq!(gnss.poll_nav_pvt(), Ok(None));
@@ -63,13 +63,13 @@ fn poll_nav_pvt_returns_the_newest_frame_once() {
 fn poll_nav_pvt_ends_on_a_port_that_never_runs_dry() {
     // More frames than one call may read: the call returns the newest it has read, the
     // next call goes on from there.
-    let total = neo_m8t::driver::MAX_MESSAGES_PER_POLL as u32 + 4;
+    let total = neo_m8t::MAX_MESSAGES_PER_POLL as u32 + 4;
     let mut script: Vec<T> = (1..=total).map(|i| T::read_many(pvt(i * 100))).collect();
     script.push(idle());
     let mut serial = Mock::new(&script);
-    let mut gnss: NeoM8t<_, 100> = NeoM8t::new(serial.clone());
+    let mut gnss: NeoM8t<_, 100> = NeoM8t::with_capacity(serial.clone());
     let first = gnss.poll_nav_pvt().unwrap().expect("a frame");
-    let limit = neo_m8t::driver::MAX_MESSAGES_PER_POLL as u32;
+    let limit = neo_m8t::MAX_MESSAGES_PER_POLL as u32;
     assert_eq!(first.to_nav_pvt().itow_ms, limit * 100);
     let second = gnss.poll_nav_pvt().unwrap().expect("the rest");
     assert_eq!(second.to_nav_pvt().itow_ms, total * 100);
@@ -87,7 +87,7 @@ fn line_error_drops_the_partial_frame_and_reading_goes_on() {
         T::read_many(pvt(200)),
         idle(),
     ]);
-    let mut gnss: NeoM8t<_, 100> = NeoM8t::new(serial.clone());
+    let mut gnss: NeoM8t<_, 100> = NeoM8t::with_capacity(serial.clone());
     let frame = gnss.poll_nav_pvt().unwrap().expect("the second frame");
     assert_eq!(frame.to_nav_pvt().itow_ms, 200);
     assert_eq!(gnss.line_errors(), 1);
@@ -98,10 +98,22 @@ fn line_error_drops_the_partial_frame_and_reading_goes_on() {
 #[test]
 fn port_failure_is_a_comm_error() {
     let mut serial = Mock::new(&[T::read_error(nb::Error::Other(ErrorKind::Other))]);
-    let mut gnss: NeoM8t<_, 100> = NeoM8t::new(serial.clone());
+    let mut gnss: NeoM8t<_, 100> = NeoM8t::with_capacity(serial.clone());
     assert_eq!(
         gnss.read_message(),
         Err(nb::Error::Other(Error::Comm(ErrorKind::Other)))
     );
+    serial.done();
+}
+
+/// The README's most common use compiles without type annotations: `new` picks the default
+/// buffer, and the reading calls infer everything else.
+#[test]
+fn new_infers_the_default_buffer() {
+    let mut serial = Mock::new(&[T::read_many(pvt(300)), idle(), idle()]);
+    let mut gnss = NeoM8t::new(serial.clone());
+    let frame = gnss.poll_nav_pvt().unwrap().expect("a NAV-PVT frame");
+    assert_eq!(frame.to_nav_pvt().itow_ms, 300);
+    assert_eq!(gnss.read_message(), Err(nb::Error::WouldBlock));
     serial.done();
 }

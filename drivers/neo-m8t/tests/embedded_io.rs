@@ -79,6 +79,6 @@ fn driver_reads_nav_pvt_through_the_adapter() {
         tx: Vec::new(),
         tx_room: 0,
     });
-    let mut gnss: NeoM8t<_, 100> = NeoM8t::new(port);
+    let mut gnss: NeoM8t<_, 100> = NeoM8t::with_capacity(port);
     assert_eq!(gnss.poll_nav_pvt(), Ok(Some(frame)));
 }

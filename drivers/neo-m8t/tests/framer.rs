@@ -1,11 +1,10 @@
 //! Resynchronising framer and stream: golden frames, corruption, random chunking and noise.
 
-use neo_m8t::frame::{checksum, encode_frame};
+use neo_m8t::{checksum, encode_frame};
 use neo_m8t::{Frame, GnssStream, Message, NavPvt, UbxFramer};
 use proptest::prelude::*;
 
-/// Golden UBX frames from /work/shared/vectors/README.md ("ublox 0.10 builders and pyubx2
-/// agree"), verbatim.
+/// Golden UBX frames on which the ublox 0.10 builders and pyubx2 agree, verbatim.
 const CFG_RATE_200MS: [u8; 14] = [
     0xB5, 0x62, 0x06, 0x08, 0x06, 0x00, 0xC8, 0x00, 0x01, 0x00, 0x01, 0x00, 0xDE, 0x6A,
 ];
@@ -51,7 +50,7 @@ fn golden_frames_have_valid_checksums_and_are_found() {
         assert_eq!([a, b], g[g.len() - 2..]);
         stream.extend_from_slice(g);
     }
-    let mut framer = UbxFramer::<512>::new();
+    let mut framer = UbxFramer::<512>::with_capacity();
     let found = collect(&mut framer, &stream);
     assert_eq!(found, golden.iter().map(|g| g.to_vec()).collect::<Vec<_>>());
     assert_eq!(framer.stats().frames_ok, 4);
@@ -94,7 +93,7 @@ fn flipped_byte_is_rejected_and_next_frame_found() {
     let b = nav_pvt(1100);
     let mut bad = a;
     bad[50] ^= 0x40;
-    let mut framer = UbxFramer::<512>::new();
+    let mut framer = UbxFramer::<512>::with_capacity();
     let found = collect(&mut framer, &[&bad[..], &b[..]].concat());
     assert_eq!(found, vec![b.to_vec()]);
     let stats = framer.stats();
@@ -110,7 +109,7 @@ fn corrupted_length_that_swallows_the_next_frame_still_finds_it() {
     bad[4] = 0xDC;
     let b = nav_pvt(1100);
     let c = nav_pvt(1200);
-    let mut framer = UbxFramer::<512>::new();
+    let mut framer = UbxFramer::<512>::with_capacity();
     let found = collect(&mut framer, &[&bad[..], &b[..], &c[..]].concat());
     assert_eq!(found, vec![b.to_vec(), c.to_vec()]);
     assert_eq!(framer.stats().bytes_skipped, 100);
@@ -127,12 +126,12 @@ fn shortened_length_and_oversized_length_resynchronise() {
     let mut long = nav_pvt(1000);
     long[5] = 0x01;
     for bad in [short, long] {
-        let mut framer = UbxFramer::<100>::new();
+        let mut framer = UbxFramer::<100>::with_capacity();
         let found = collect(&mut framer, &[&bad[..], &b[..]].concat());
         assert_eq!(found, vec![b.to_vec()]);
         assert_eq!(framer.stats().bytes_skipped, 100);
     }
-    let mut framer = UbxFramer::<100>::new();
+    let mut framer = UbxFramer::<100>::with_capacity();
     collect(&mut framer, &long);
     assert_eq!(framer.stats().oversized, 1);
 }
@@ -144,7 +143,7 @@ fn lost_bytes_drop_only_the_damaged_frame() {
     let c = nav_pvt(1200);
     // Ten bytes of `b` lost in the middle.
     let stream = [&a[..], &b[..40], &b[50..], &c[..]].concat();
-    let mut framer = UbxFramer::<100>::new();
+    let mut framer = UbxFramer::<100>::with_capacity();
     let found = collect(&mut framer, &stream);
     assert_eq!(found, vec![a.to_vec(), c.to_vec()]);
     assert_eq!(framer.stats().bytes_skipped, 90);
@@ -154,7 +153,7 @@ fn lost_bytes_drop_only_the_damaged_frame() {
 fn false_sync_in_noise_is_skipped() {
     let a = nav_pvt(1000);
     let noise = [0xB5, 0x62, 0xB5, 0xB5, 0x62, 0x01, 0x07, 0x5C];
-    let mut framer = UbxFramer::<100>::new();
+    let mut framer = UbxFramer::<100>::with_capacity();
     let found = collect(&mut framer, &[&noise[..], &a[..]].concat());
     assert_eq!(found, vec![a.to_vec()]);
     assert_eq!(framer.stats().bytes_skipped, noise.len() as u32);
@@ -163,7 +162,7 @@ fn false_sync_in_noise_is_skipped() {
 #[test]
 fn clear_drops_a_partial_frame() {
     let a = nav_pvt(1000);
-    let mut framer = UbxFramer::<100>::new();
+    let mut framer = UbxFramer::<100>::with_capacity();
     assert!(collect(&mut framer, &a[..30]).is_empty());
     assert_eq!(framer.buffered(), 30);
     framer.clear();
@@ -174,7 +173,7 @@ fn clear_drops_a_partial_frame() {
 
 #[test]
 fn stream_keeps_latest_nav_pvt_and_copies_it_out() {
-    let mut stream = GnssStream::<100>::new();
+    let mut stream = GnssStream::<100>::with_capacity();
     let mut out = [0u8; 100];
     assert!(!stream.copy_latest_nav_pvt(&mut out));
     assert_eq!(stream.push_slice(&[nav_pvt(1), nav_pvt(2)].concat()), 2);
@@ -203,7 +202,7 @@ fn stream_keeps_timing_messages() {
     payload.extend_from_slice(&[0x03, 0x00]);
     let mut frame = [0u8; 24];
     encode_frame(0x0D, 0x01, &payload, &mut frame).unwrap();
-    let mut stream = GnssStream::<100>::new();
+    let mut stream = GnssStream::<100>::with_capacity();
     stream.push_slice(&frame);
     let tp = stream.latest_tim_tp().expect("TIM-TP");
     assert_eq!(
@@ -225,7 +224,7 @@ fn stream_keeps_tim_tm2() {
     }
     let mut frame = [0u8; 36];
     encode_frame(0x0D, 0x03, &payload, &mut frame).unwrap();
-    let mut stream = GnssStream::<100>::new();
+    let mut stream = GnssStream::<100>::with_capacity();
     stream.push_slice(&frame);
     let tm = stream.latest_tim_tm2().expect("TIM-TM2");
     assert_eq!(
@@ -264,7 +263,7 @@ proptest! {
             wire.extend_from_slice(gap);
             wire.extend_from_slice(frame);
         }
-        let mut stream = GnssStream::<100>::new();
+        let mut stream = GnssStream::<100>::with_capacity();
         let mut got = Vec::new();
         let mut rest = &wire[..];
         let mut cut = cuts.iter().cycle();
@@ -307,7 +306,7 @@ proptest! {
             }
             wire.extend_from_slice(&f);
         }
-        let mut framer = UbxFramer::<100>::new();
+        let mut framer = UbxFramer::<100>::with_capacity();
         let got = collect(&mut framer, &wire);
         let expected: Vec<Vec<u8>> = frames
             .iter()
@@ -325,8 +324,8 @@ proptest! {
         bytes in prop::collection::vec(
             prop_oneof![any::<u8>(), Just(0xB5u8), Just(0x62u8), Just(0x00u8)], 0..2000),
     ) {
-        let mut small = UbxFramer::<16>::new();
-        let mut big = GnssStream::<512>::new();
+        let mut small = UbxFramer::<16>::with_capacity();
+        let mut big = GnssStream::<512>::with_capacity();
         let mut in_frames = 0usize;
         small.push_slice(&bytes, |f| in_frames += f.as_bytes().len());
         big.push_slice(&bytes);
@@ -387,7 +386,7 @@ proptest! {
         // Idle line after the last frame: lets a false candidate that started in the last
         // gap reach its announced end and be rejected.
         wire.extend_from_slice(&[0u8; 128]);
-        let mut framer = UbxFramer::<100>::new();
+        let mut framer = UbxFramer::<100>::with_capacity();
         let mut got = Vec::new();
         let mut rest = &wire[..];
         let mut cut = cuts.iter().cycle();

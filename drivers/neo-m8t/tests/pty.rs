@@ -4,7 +4,7 @@
 
 use linux_embedded_hal::serialport::{SerialPort, TTYPort};
 use linux_embedded_hal::{Delay, Serial};
-use neo_m8t::frame::encode_frame;
+use neo_m8t::encode_frame;
 use neo_m8t::{Config, NavPvt, NeoM8t, UbxFramer};
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -34,7 +34,7 @@ fn mon_ver_payload() -> Vec<u8> {
 /// message it received.
 fn simulated_receiver(mut port: TTYPort, stop: Arc<AtomicBool>) -> Vec<(u8, u8)> {
     port.set_timeout(Duration::from_millis(1)).unwrap();
-    let mut framer = UbxFramer::<512>::new();
+    let mut framer = UbxFramer::<512>::with_capacity();
     let mut seen = Vec::new();
     let mut streaming = false;
     let mut itow_ms = 0u32;
@@ -90,7 +90,7 @@ fn configure_and_stream_over_a_pseudo_terminal() {
         thread::spawn(move || simulated_receiver(master, stop))
     };
 
-    let mut gnss: NeoM8t<Serial> = NeoM8t::new(Serial(slave));
+    let mut gnss: NeoM8t<Serial> = NeoM8t::with_capacity(Serial(slave));
     let mut switches = Vec::new();
     let version = gnss
         .configure_blocking(

@@ -7,8 +7,8 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use dima_sensorboard::crc::{crc32_bitwise, INITIAL};
-use dima_sensorboard::gnss::nav_pvt;
+use dima_sensorboard::nav_pvt;
+use dima_sensorboard::{crc32_bitwise, INITIAL};
 use dima_sensorboard::{Frame, GnssFrame, NavPvt, SensorPacket, StreamDecoder};
 
 const PACKETS: usize = 100;
@@ -69,11 +69,11 @@ fn crc(c: &mut Criterion) {
         b.iter(|| crc32_bitwise(black_box(covered)));
     });
     group.bench_function("slice4", |b| {
-        b.iter(|| dima_sensorboard::crc::update_slice4(INITIAL, black_box(covered)));
+        b.iter(|| dima_sensorboard::update_slice4(INITIAL, black_box(covered)));
     });
     #[cfg(feature = "slice16")]
     group.bench_function("slice16", |b| {
-        b.iter(|| dima_sensorboard::crc::update_slice16(INITIAL, black_box(covered)));
+        b.iter(|| dima_sensorboard::update_slice16(INITIAL, black_box(covered)));
     });
     group.finish();
 }

@@ -168,7 +168,7 @@ static SLICE16: [[u32; 256]; 20] = {
     tables
 };
 
-/// Continues a CRC from `crc` with `bytes`, four bytes per step through [`SLICE4`] (8 KiB of
+/// Continues a CRC from `crc` with `bytes`, four bytes per step through `SLICE4` (8 KiB of
 /// tables: the default, small enough for the firmware).
 #[must_use]
 pub fn update_slice4(mut crc: u32, bytes: &[u8]) -> u32 {

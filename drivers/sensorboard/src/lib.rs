@@ -19,7 +19,7 @@
 //!   latest NAV-PVT frame, and fills the CRC through [`SensorCrc`].
 //! - The info frame ([`InfoFrame`], start token `$I`): firmware version, sensor status, BMP280
 //!   calibration and BMM150 trim registers, uptime and skipped requests; its layout and trigger
-//!   are documented in [`info`].
+//!   are documented on [`InfoFrame`].
 //! - A sans-IO [`StreamDecoder`]: any chunking, no allocation, bounded buffer, resynchronises
 //!   inside rejected bytes, counts what it drops ([`DecoderStats`]); yields [`Frame`]s.
 //! - A host driver [`SensorBoard`], generic over an embedded-hal [`OutputPin`] (request line)
@@ -60,29 +60,46 @@
 //! [`OutputPin`]: embedded_hal::digital::OutputPin
 //! [`Read`]: embedded_hal_nb::serial::Read
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
 mod builder;
-pub mod crc;
+mod crc;
 mod driver;
-pub mod gnss;
-pub mod info;
-pub mod packet;
-pub mod stream;
+mod gnss;
+mod info;
+mod packet;
+mod stream;
 pub mod units;
 
 pub use builder::PacketBuilder;
-pub use crc::{SensorCrc, Stm32Crc};
-pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
-pub use gnss::{FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
-pub use info::{
-    BoardHealth, InfoError, InfoFrame, SensorStatus, INFO_V1_LEN, INFO_V2_LEN, INFO_VERSION,
+#[cfg(feature = "slice16")]
+pub use crc::update_slice16;
+pub use crc::{
+    crc32_bitwise, update_byte, update_slice4, update_word_bitwise, SensorCrc, Stm32Crc, INITIAL,
+    POLYNOMIAL,
 };
-pub use packet::{PacketError, RawPacket, SensorPacket, PACKET_LEN};
+pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
+pub use gnss::{nav_pvt, FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
+pub use info::{
+    info_frame_len, BoardHealth, InfoError, InfoFrame, SensorStatus, INFO_MAX_LEN,
+    INFO_MAX_PAYLOAD_LEN, INFO_START, INFO_V1_LEN, INFO_V1_PAYLOAD_LEN, INFO_V2_LEN,
+    INFO_V2_PAYLOAD_LEN, INFO_VERSION,
+};
+pub use packet::{
+    decode_adc20, encode_adc20, PacketError, RawPacket, SensorPacket, ACCEL_OFFSET, ACCEL_RANGE,
+    ADC20_MAX, CRC_OFFSET, GNSS_OFFSET, GYRO_OFFSET, MAG_OFFSET, MAG_XY_RANGE, MAG_Z_RANGE,
+    PACKET_CRC_COVERED, PACKET_LEN, PACKET_START, PRESSURE_OFFSET, RHALL_MAX, RHALL_OFFSET,
+    TEMPERATURE_OFFSET,
+};
 pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};
 
 /// Compiles and runs the README's examples as doctests, so the quick start stays true.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
+
+/// `nb`, re-exported for `nb::block!` around [`SensorBoard::poll`] and for matching
+/// `nb::Error::WouldBlock`.
+pub use nb;

@@ -2,7 +2,7 @@
 //! packets with and without GNSS, info frames, a torn answer, stray start bytes) decoded in
 //! arbitrary reads, as `examples/decode.rs` does.
 
-use dima_sensorboard::gnss::nav_pvt;
+use dima_sensorboard::nav_pvt;
 use dima_sensorboard::{Frame, GnssFrame, InfoFrame, NavPvt, SensorPacket, StreamDecoder};
 
 /// A small deterministic generator for garbage and read sizes (xorshift32).

@@ -3,8 +3,7 @@
 
 mod common;
 
-use dima_sensorboard::crc::crc32_bitwise;
-use dima_sensorboard::info::{info_frame_len, INFO_MAX_LEN};
+use dima_sensorboard::{crc32_bitwise, info_frame_len, INFO_MAX_LEN};
 use dima_sensorboard::{
     BoardHealth, InfoError, InfoFrame, SensorStatus, Stm32Crc, INFO_V1_LEN, INFO_V2_LEN,
 };

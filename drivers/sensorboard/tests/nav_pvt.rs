@@ -3,9 +3,7 @@
 //! id, length and payload), carried in the packet's GNSS area, read back through the
 //! packet codec and cross-checked with the `ublox` crate's floating-point accessors.
 
-use dima_sensorboard::gnss::nav_pvt::{
-    FLAG_GNSS_FIX_OK, VALID_DATE, VALID_FULLY_RESOLVED, VALID_TIME,
-};
+use dima_sensorboard::nav_pvt::{FLAG_GNSS_FIX_OK, VALID_DATE, VALID_FULLY_RESOLVED, VALID_TIME};
 use dima_sensorboard::{FixType, GnssFrame, NavPvt, PacketBuilder, SensorPacket, Stm32Crc};
 use ublox::proto23::{PacketRef, Proto23};
 use ublox::{FixedBuffer, GnssFixType, Parser, UbxPacket};
@@ -225,12 +223,12 @@ const PYUBX2_NAV_PVT: [u8; 100] = [
 
 #[test]
 fn pyubx2_frame_in_packet_bytes_28_to_127_decodes_to_its_fields() {
-    // An independent serialiser's frame at the packet offsets of DESIGN 2.1, through the
+    // An independent serialiser's frame at the packet offsets of the v1 layout, through the
     // whole packet codec.
     let mut bytes = [0u8; 132];
     bytes[..2].copy_from_slice(b"$$");
     bytes[28..128].copy_from_slice(&PYUBX2_NAV_PVT);
-    let crc = dima_sensorboard::crc::crc32_bitwise(&bytes[..128]);
+    let crc = dima_sensorboard::crc32_bitwise(&bytes[..128]);
     bytes[128..].copy_from_slice(&crc.to_le_bytes());
     let pvt = SensorPacket::decode(&bytes)
         .expect("valid packet")

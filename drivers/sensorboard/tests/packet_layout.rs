@@ -1,8 +1,8 @@
-//! Packet v1 layout, checked against bytes written by hand from the layout table (DESIGN 2.1)
+//! Packet v1 layout, checked against bytes written by hand from the layout table (the v1 layout table in the crate docs)
 //! and against golden vectors from datasheets and the Bosch SensorAPI.
 
-use dima_sensorboard::crc::crc32_bitwise;
-use dima_sensorboard::packet::{decode_adc20, encode_adc20};
+use dima_sensorboard::crc32_bitwise;
+use dima_sensorboard::{decode_adc20, encode_adc20};
 use dima_sensorboard::{
     GnssFrame, PacketBuilder, PacketError, RawPacket, SensorPacket, Stm32Crc, PACKET_LEN,
 };
@@ -130,7 +130,7 @@ fn ascending_bytes_decode_field_by_field() {
 
 #[test]
 fn negative_counts_keep_their_sign() {
-    // The original decoder lost the sign of acc and mag (DESIGN 2.5).
+    // The original decoder lost the sign of acc and mag (a defect this crate does not copy).
     let mut builder = PacketBuilder::new();
     builder
         .accel([-1, -2048, 2047])

@@ -2,7 +2,7 @@
 
 mod common;
 
-use dima_sensorboard::crc::crc32_bitwise;
+use dima_sensorboard::crc32_bitwise;
 use dima_sensorboard::{GnssFrame, RawPacket, SensorPacket, PACKET_LEN};
 use proptest::prelude::*;
 

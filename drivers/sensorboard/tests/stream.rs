@@ -226,7 +226,7 @@ fn info_frame_from_a_future_version() {
     frame.extend_from_slice(&InfoFrame::default().encode()[4..56]);
     frame[4..7].copy_from_slice(&[3, 2, 1]);
     frame.extend_from_slice(&[0x24; 8]);
-    let crc = dima_sensorboard::crc::crc32_bitwise(&frame);
+    let crc = dima_sensorboard::crc32_bitwise(&frame);
     frame.extend_from_slice(&crc.to_le_bytes());
     let mut stream = frame.clone();
     stream.extend_from_slice(&packet(6));

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 
 use embedded_hal_nb::serial::{Read, Write};
 use linux_embedded_hal::{Delay, Serial};
-use xbee_driver::{Address64, ApiMode, AtCommand, BaudRate, Parameter, Role, Transparent};
+use xbee_driver::{Address64, ApiMode, AtCommand, BaudRate, Parameter, Role, XBee};
 
 /// DIMA heartbeat command frame (design document, section 2.2).
 const HEARTBEAT: [u8; 10] = [0x24, 0x00, 0x00, 0x00, 0x00, 0x00, 0xC6, 0x22, 0xF7, 0x1D];
@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
 
     let serial = Serial::open(device.clone(), BaudRate::Bps9600.bps())
         .map_err(|e| format!("cannot open {device}: {e}"))?;
-    let mut radio = Transparent::new(serial);
+    let mut radio = XBee::new(serial);
 
     if let Some(role) = role {
         let key = parse_key(

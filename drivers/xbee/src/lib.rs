@@ -3,7 +3,11 @@
 //!
 //! # Transparent mode (a byte pipe)
 //!
-//! [`Transparent`] wraps the serial port and passes bytes through. It implements
+//! One type, [`XBee`], with the module's mode as a type parameter: `XBee<S, Transparent>`
+//! ([`XBee::new`]) or `XBee<S, Api>` ([`XBee::new_api`]); [`XBee::into_api`] and
+//! [`XBee::into_transparent`] switch between them once the module's `AP` setting was changed.
+//!
+//! `XBee<S, Transparent>` wraps the serial port and passes bytes through. It implements
 //! embedded-hal-nb [`Read<u8>`](embedded_hal_nb::serial::Read) and
 //! [`Write<u8>`](embedded_hal_nb::serial::Write) (and `embedded_io::{Read, Write}` with the
 //! `embedded-io` feature), so a framed protocol runs over the radio exactly as over a cable.
@@ -13,11 +17,11 @@
 //! refused with [`Error::CommandModeActive`] instead of being sent as AT text, and the
 //! command-mode timeout (`CT`) is tracked on both sides. It runs either
 //!
-//! - driven by the caller's clock: [`Transparent::start_command_mode`],
-//!   [`Transparent::start_command`], [`Transparent::start_exit`], then
-//!   [`Transparent::poll`]`(now_ms)` until it stops returning `WouldBlock`; requests come from
-//!   [`settings`] and replies are read with [`Transparent::reply`]; or
-//! - blocking with a `DelayNs`: [`Transparent::command_mode`] returns a [`CommandSession`]
+//! - driven by the caller's clock: [`XBee::start_command_mode`],
+//!   [`XBee::start_command`], [`XBee::start_exit`], then
+//!   [`XBee::poll`]`(now_ms)` until it stops returning `WouldBlock`; requests come from
+//!   [`settings`] and replies are read with [`XBee::reply`]; or
+//! - blocking with a `DelayNs`: [`XBee::command_mode`] returns a [`CommandSession`]
 //!   with helpers for PAN id ([`CommandSession::set_pan_id`]), channel
 //!   ([`CommandSession::set_channel`]), node identifier
 //!   ([`CommandSession::set_node_identifier`]), baud rate ([`CommandSession::set_baud_rate`]),
@@ -26,28 +30,28 @@
 //!   [`CommandSession::set_encryption_key`], write-only), role ([`CommandSession::set_role`]),
 //!   versions ([`CommandSession::firmware_version`]), [`CommandSession::write_settings`]
 //!   (`WR`), [`CommandSession::apply_changes`] (`AC`) and [`CommandSession::exit`] (`CN`);
-//!   [`Transparent::wait_until_transparent`] waits out `CT` after a failed entry.
+//!   [`XBee::wait_until_transparent`] waits out `CT` after a failed entry.
 //!
-//! [`Transparent::mode`] tells where the driver believes the module is;
-//! [`Transparent::release`] gives the port back.
+//! [`XBee::mode`] tells where the driver believes the module is;
+//! [`XBee::release`] gives the port back.
 //!
 //! # API mode (frames)
 //!
-//! [`codec`] has the frame codec without I/O: [`encode`] into a caller buffer (API 1 or API 2
+//! The frame codec without I/O: [`encode`] into a caller buffer (API 1 or API 2
 //! escaping), and [`FrameDecoder`], a push-byte decoder that resynchronises on 0x7E, checks
 //! length and checksum, bounds the frame size and counts what it drops. [`Frame`] types the
 //! frames 0x08, 0x09, 0x10, 0x11, 0x17, 0x88, 0x8A, 0x8B, 0x90, 0x91 and 0x97, with
-//! [`Frame::Unknown`] for the rest. [`XBeeApi`] puts them on a serial port
-//! ([`XBeeApi::send`], [`XBeeApi::send_at_command`], [`XBeeApi::transmit`],
-//! [`XBeeApi::poll_frame`]), with a [`FrameIdAllocator`].
+//! [`Frame::Unknown`] for the rest. [`XBee<S, Api>`](XBee) puts them on a serial port
+//! ([`send`](XBee::send), [`send_at_command`](XBee::send_at_command), [`transmit`](XBee::transmit),
+//! [`poll_frame`](XBee::poll_frame)), with a [`FrameIdAllocator`].
 //!
-//! # Example: the DIMA byte pipe, and a setting changed in between
+//! # Example: the byte pipe, and a setting changed in between
 //!
 //! ```
 //! # use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
 //! # use embedded_hal_mock::eh1::delay::NoopDelay;
 //! use embedded_hal_nb::serial::Write;
-//! use xbee_driver::{PowerLevel, Transparent};
+//! use xbee_driver::{PowerLevel, XBee};
 //!
 //! # let mut expected = vec![Transaction::write(b'$')];
 //! # expected.push(Transaction::flush());
@@ -60,7 +64,7 @@
 //! # expected.push(Transaction::write(b'$'));
 //! # let serial = SerialMock::new(&expected);
 //! # let mut delay = NoopDelay::new();
-//! let mut radio = Transparent::new(serial);
+//! let mut radio = XBee::new(serial);
 //! nb::block!(radio.write(b'$'))?; // data goes straight through
 //!
 //! let mut session = radio.command_mode(&mut delay)?; // GT, +++, GT, OK
@@ -74,34 +78,44 @@
 //!
 //! # Features
 //!
-//! - `embedded-io`: `embedded_io::{Read, Write}` for [`Transparent`].
+//! - `embedded-io`: `embedded_io::{Read, Write}` for `XBee<S, Transparent>`.
 //! - `defmt`: `defmt::Format` for the public types.
 #![no_std]
+#![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
-pub mod api;
-pub mod at;
-pub mod codec;
-pub mod command;
-pub mod escape;
-pub mod frame_id;
-pub mod frames;
-pub mod session;
+mod at;
+mod codec;
+mod escape;
+mod frame_id;
+mod frames;
+mod setting_types;
 pub mod settings;
-pub mod transparent;
-pub mod types;
+mod types;
+mod xbee;
 
-pub use api::XBeeApi;
-pub use at::{AtCommand, AtRequest, Parameter};
-pub use codec::{encode, encoded_len, DecoderStats, FrameDecoder, RawFrame};
-pub use command::CommandOutcome;
+pub use at::{format_line, parse_hex, AtCommand, AtRequest, Parameter, MAX_LINE_LEN};
+pub use codec::{
+    checksum, encode, encode_raw, encoded_len, write_frame, ByteSink, DecoderStats, FrameDecoder,
+    RawFrame, SliceSink, WriteError,
+};
+pub use escape::{escape, needs_escape, unescape, EscapeError};
 pub use frame_id::FrameIdAllocator;
-pub use frames::{CommandStatus, Frame, ModemStatus};
-pub use session::CommandSession;
-pub use settings::{ApiMode, BaudRate, PowerLevel, Role};
-pub use transparent::{CommandTiming, Mode, Transparent};
+pub use frames::{
+    frame_type, AtCommandFrame, AtResponse, CommandStatus, ExplicitAddressing, ExplicitRx, Frame,
+    ModemStatus, ReceivePacket, RemoteAtCommand, RemoteAtResponse, TransmitRequest, TransmitStatus,
+};
+/// `nb`, re-exported for `nb::block!` and matching `nb::Error::WouldBlock`.
+pub use nb;
+pub use setting_types::{
+    ApiMode, BaudRate, PowerLevel, Role, MAX_CHANNEL, MAX_NODE_IDENTIFIER_LEN, MIN_CHANNEL,
+};
 pub use types::{Address16, Address64, ApiEscaping, Error, FrameError};
+pub use xbee::{
+    Api, CommandOutcome, CommandSession, CommandTiming, Mode, Transparent, XBee,
+    DEFAULT_WRITE_POLLS_PER_BYTE, MAX_AT_PARAMETER_LEN, POLL_STEP_US,
+};
 
 /// The README's code blocks, compiled as doctests so they keep matching the API.
 #[cfg(doctest)]

@@ -1,11 +1,11 @@
-//! `XBeeApi` on a mock serial port: frame ids, error reporting, resynchronisation.
+//! `XBee<S, Api>` on a mock serial port: frame ids, error reporting, resynchronisation.
 
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
-use xbee_driver::codec::encode_raw;
-use xbee_driver::frames::{frame_type, ExplicitAddressing, RemoteAtCommand};
+use xbee_driver::encode_raw;
+use xbee_driver::{frame_type, Api, ExplicitAddressing, RemoteAtCommand};
 use xbee_driver::{
     Address16, Address64, ApiEscaping, AtCommand, Error, Frame, FrameError, ModemStatus, Parameter,
-    XBeeApi,
+    XBee,
 };
 
 fn would_block() -> Transaction<u8> {
@@ -27,7 +27,7 @@ fn frame_ids_advance_and_skip_zero() {
         expected.push(Transaction::write_many(raw(&data, ApiEscaping::Escaped)));
         expected.push(Transaction::flush());
     }
-    let mut api: XBeeApi<_> = XBeeApi::new(SerialMock::new(&expected), ApiEscaping::Escaped);
+    let mut api: XBee<_, Api> = XBee::new_api(SerialMock::new(&expected), ApiEscaping::Escaped);
     for id in 1..=3u8 {
         assert_eq!(api.send_at_command(AtCommand::NI, Parameter::None), Ok(id));
     }
@@ -36,7 +36,7 @@ fn frame_ids_advance_and_skip_zero() {
 
 #[test]
 fn at_parameter_longer_than_the_limit_is_refused_before_io() {
-    let mut api: XBeeApi<_> = XBeeApi::new(SerialMock::new(&[]), ApiEscaping::Unescaped);
+    let mut api: XBee<_, Api> = XBee::new_api(SerialMock::new(&[]), ApiEscaping::Unescaped);
     let long = [0u8; 33];
     assert_eq!(
         api.send_at_command(AtCommand::NI, Parameter::Text(&long)),
@@ -51,7 +51,7 @@ fn modem_status_and_garbage() {
     let mut bytes = vec![0x00, 0xFF, 0x13];
     bytes.extend(raw(&[frame_type::MODEM_STATUS, 0x06], ApiEscaping::Escaped));
     let serial = SerialMock::new(&[Transaction::read_many(&bytes), would_block()]);
-    let mut api: XBeeApi<_> = XBeeApi::new(serial, ApiEscaping::Escaped);
+    let mut api: XBee<_, Api> = XBee::new_api(serial, ApiEscaping::Escaped);
     assert_eq!(
         api.poll_frame(),
         Ok(Frame::ModemStatus(ModemStatus::CoordinatorStarted))
@@ -67,7 +67,7 @@ fn known_frame_with_invalid_length_is_reported() {
     // A transmit status must have 7 bytes of frame data; this one has 2.
     let bytes = raw(&[frame_type::TRANSMIT_STATUS, 0x01], ApiEscaping::Unescaped);
     let serial = SerialMock::new(&[Transaction::read_many(&bytes)]);
-    let mut api: XBeeApi<_> = XBeeApi::new(serial, ApiEscaping::Unescaped);
+    let mut api: XBee<_, Api> = XBee::new_api(serial, ApiEscaping::Unescaped);
     assert_eq!(
         api.poll_frame(),
         Err(nb::Error::Other(Error::Frame(FrameError::InvalidLength {
@@ -89,7 +89,7 @@ fn backlog_after_api1_rescan_is_drained_without_new_bytes() {
     bytes.extend(&b);
     bytes.extend([0x00; 2]);
     let serial = SerialMock::new(&[Transaction::read_many(&bytes), would_block()]);
-    let mut api: XBeeApi<_, 64> = XBeeApi::new(serial, ApiEscaping::Unescaped);
+    let mut api: XBee<_, Api<64>> = XBee::api_with_capacity(serial, ApiEscaping::Unescaped);
     assert_eq!(
         api.poll_frame(),
         Ok(Frame::ModemStatus(ModemStatus::Joined))
@@ -140,7 +140,7 @@ fn explicit_and_remote_frames_go_out_as_their_fields() {
         Transaction::write_many(raw(&remote_data, ApiEscaping::Unescaped)),
         Transaction::flush(),
     ]);
-    let mut api: XBeeApi<_> = XBeeApi::new(serial, ApiEscaping::Unescaped);
+    let mut api: XBee<_, Api> = XBee::new_api(serial, ApiEscaping::Unescaped);
     api.send(&explicit).unwrap();
     api.send(&remote).unwrap();
     api.release().done();
@@ -194,8 +194,8 @@ fn a_port_that_never_takes_a_byte_times_out_instead_of_hanging() {
         .map(|_| Transaction::write_error(0x7E, nb::Error::WouldBlock))
         .collect();
     let serial = SerialMock::new(&refused);
-    let mut api: XBeeApi<_> =
-        XBeeApi::new(serial, ApiEscaping::Escaped).with_write_polls_per_byte(3);
+    let mut api: XBee<_, Api> =
+        XBee::new_api(serial, ApiEscaping::Escaped).with_write_polls_per_byte(3);
     assert_eq!(
         api.send_at_command(AtCommand::NI, Parameter::None),
         Err(Error::Timeout)
@@ -208,7 +208,7 @@ fn a_flush_that_never_completes_times_out() {
     let data = [frame_type::AT_COMMAND, 1, b'N', b'I'];
     let mut expected = vec![Transaction::write_many(raw(&data, ApiEscaping::Unescaped))];
     expected.extend((0..2).map(|_| Transaction::flush_error(nb::Error::WouldBlock)));
-    let mut api: XBeeApi<_> = XBeeApi::new(SerialMock::new(&expected), ApiEscaping::Unescaped)
+    let mut api: XBee<_, Api> = XBee::new_api(SerialMock::new(&expected), ApiEscaping::Unescaped)
         .with_write_polls_per_byte(2);
     assert_eq!(
         api.send_at_command(AtCommand::NI, Parameter::None),
@@ -225,8 +225,34 @@ fn a_busy_port_within_the_budget_still_sends_the_frame() {
     expected.push(Transaction::write_many(bytes));
     expected.push(Transaction::flush_error(nb::Error::WouldBlock));
     expected.push(Transaction::flush());
-    let mut api: XBeeApi<_> = XBeeApi::new(SerialMock::new(&expected), ApiEscaping::Unescaped)
+    let mut api: XBee<_, Api> = XBee::new_api(SerialMock::new(&expected), ApiEscaping::Unescaped)
         .with_write_polls_per_byte(2);
     assert_eq!(api.send_at_command(AtCommand::NI, Parameter::None), Ok(1));
     api.release().done();
+}
+
+/// The README's API-mode quick start compiles and runs without type annotations: `new_api`
+/// picks the default buffer, `transmit` and `poll_frame` infer the rest.
+#[test]
+fn readme_api_quick_start_needs_no_annotations() {
+    // Transmit Request 0x10, frame id 1, to the coordinator (0/0), 16-bit address unknown,
+    // radius 0, options 0, then the data (XBee API reference, frame 0x10).
+    let mut request = vec![0x10, 0x01, 0, 0, 0, 0, 0, 0, 0, 0, 0xFF, 0xFE, 0x00, 0x00];
+    request.extend_from_slice(b"hello");
+    // Transmit Status 0x8B for frame id 1: success (delivery 0), no discovery overhead.
+    let status = [0x8B, 0x01, 0xFF, 0xFE, 0x00, 0x00, 0x00];
+    let serial = SerialMock::new(&[
+        Transaction::write_many(raw(&request, ApiEscaping::Escaped)),
+        Transaction::flush(),
+        Transaction::read_many(raw(&status, ApiEscaping::Escaped)),
+        would_block(),
+    ]);
+    let mut xbee = XBee::new_api(serial, ApiEscaping::Escaped);
+    let id = xbee.transmit(Address64::COORDINATOR, b"hello").unwrap();
+    match xbee.poll_frame() {
+        Ok(Frame::TransmitStatus(s)) => assert_eq!((s.frame_id, s.delivery_status), (id, 0)),
+        other => panic!("expected a transmit status, got {other:?}"),
+    }
+    assert_eq!(xbee.poll_frame(), Err(nb::Error::WouldBlock));
+    xbee.release().done();
 }

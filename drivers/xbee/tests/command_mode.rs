@@ -4,13 +4,13 @@
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
 use embedded_hal_nb::serial::{ErrorKind, Read, Write};
-use xbee_driver::at::{AtCommand, AtRequest, Parameter};
 use xbee_driver::{
     settings, ApiMode, BaudRate, CommandOutcome, CommandTiming, Error, Mode, PowerLevel, Role,
     Transparent,
 };
+use xbee_driver::{AtCommand, AtRequest, Parameter, XBee};
 
-type Radio = Transparent<SerialMock<u8>>;
+type Radio = XBee<SerialMock<u8>, Transparent>;
 
 fn would_block() -> Transaction<u8> {
     Transaction::read_error(nb::Error::WouldBlock)
@@ -20,7 +20,7 @@ fn would_block() -> Transaction<u8> {
 /// numbers (`default_timing_keeps_a_guard_margin` covers the margin).
 fn radio(expected: &[Transaction<u8>]) -> Radio {
     let timing = CommandTiming::default().with_guard_margin_ms(0);
-    Transparent::with_timing(SerialMock::new(expected), timing)
+    XBee::with_timing(SerialMock::new(expected), timing)
 }
 
 /// The transactions of a successful entry: flush, `+++`, `OK\r`.
@@ -76,7 +76,7 @@ fn default_timing_keeps_a_guard_margin() {
         ),
         (1000, 50, b'+')
     );
-    let mut r = Transparent::new(SerialMock::new(&enter_ok()));
+    let mut r = XBee::new(SerialMock::new(&enter_ok()));
     r.start_command_mode().unwrap();
     assert_eq!(r.poll(7), Err(nb::Error::WouldBlock));
     assert_eq!(r.poll(1056), Err(nb::Error::WouldBlock));
@@ -439,7 +439,7 @@ fn blocking_session_refuses_commands_after_half_the_ct_window() {
         expected.push(Transaction::write_many(b"ATVR\r"));
         expected.extend(std::iter::repeat_with(would_block).take(41));
     }
-    let mut r = Transparent::with_timing(SerialMock::new(&expected), timing);
+    let mut r = XBee::with_timing(SerialMock::new(&expected), timing);
     let mut delay = NoopDelay::new();
     {
         let mut s = r.command_mode(&mut delay).unwrap();

@@ -2,7 +2,7 @@
 #![cfg(feature = "embedded-io")]
 
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
-use xbee_driver::{Error, Transparent};
+use xbee_driver::{Error, XBee};
 
 #[test]
 fn write_all_and_read_pass_through() {
@@ -15,7 +15,7 @@ fn write_all_and_read_pass_through() {
         Transaction::read_many(&heartbeat[..4]),
         Transaction::read_error(nb::Error::WouldBlock),
     ]);
-    let mut radio = Transparent::new(serial);
+    let mut radio = XBee::new(serial);
     embedded_io::Write::write_all(&mut radio, &heartbeat).unwrap();
     embedded_io::Write::flush(&mut radio).unwrap();
     let mut buf = [0u8; 16];
@@ -32,7 +32,7 @@ fn command_mode_refuses_instead_of_blocking() {
         Transaction::write_many(b"+++"),
         Transaction::read_error(nb::Error::WouldBlock),
     ]);
-    let mut radio = Transparent::new(serial);
+    let mut radio = XBee::new(serial);
     radio.start_command_mode().unwrap();
     assert!(radio.poll(0).is_err());
     assert!(radio.poll(1050).is_err()); // GT + margin: +++ out, waiting for OK

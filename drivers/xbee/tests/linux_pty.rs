@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 use embedded_hal_nb::serial::Write;
 use linux_embedded_hal::serialport::{SerialPort, TTYPort};
 use linux_embedded_hal::{Delay, Serial};
-use xbee_driver::{CommandOutcome, CommandTiming, Error, Transparent};
+use xbee_driver::{CommandOutcome, CommandTiming, Error, Transparent, XBee};
 
 const GT: Duration = Duration::from_millis(100);
 
@@ -112,7 +112,7 @@ fn simulated_module(mut port: TTYPort, stop: Arc<AtomicBool>) -> Seen {
 }
 
 fn start() -> (
-    Transparent<Serial>,
+    XBee<Serial, Transparent>,
     Arc<AtomicBool>,
     thread::JoinHandle<Seen>,
 ) {
@@ -123,11 +123,7 @@ fn start() -> (
         let stop = stop.clone();
         thread::spawn(move || simulated_module(master, stop))
     };
-    (
-        Transparent::with_timing(Serial(slave), timing()),
-        stop,
-        module,
-    )
+    (XBee::with_timing(Serial(slave), timing()), stop, module)
 }
 
 fn finish(stop: Arc<AtomicBool>, module: thread::JoinHandle<Seen>) -> Seen {
@@ -136,7 +132,7 @@ fn finish(stop: Arc<AtomicBool>, module: thread::JoinHandle<Seen>) -> Seen {
     module.join().unwrap()
 }
 
-fn send(radio: &mut Transparent<Serial>, data: &[u8]) {
+fn send(radio: &mut XBee<Serial, Transparent>, data: &[u8]) {
     for &b in data {
         nb::block!(radio.write(b)).unwrap();
     }
@@ -166,7 +162,7 @@ fn caller_clocked_session_keeps_the_radio_stream_clean() {
     let (mut radio, stop, module) = start();
     let t0 = Instant::now();
     let now_ms = || t0.elapsed().as_millis() as u32;
-    let poll_until_done = |radio: &mut Transparent<Serial>| loop {
+    let poll_until_done = |radio: &mut XBee<Serial, Transparent>| loop {
         match radio.poll(now_ms()) {
             Err(nb::Error::WouldBlock) => thread::sleep(Duration::from_micros(200)),
             other => return other,

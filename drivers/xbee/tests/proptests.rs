@@ -1,9 +1,9 @@
 //! Property tests: escaping and frame round trips, and "never panics" on arbitrary input.
 
 use proptest::prelude::*;
-use xbee_driver::at::{format_line, parse_hex, AtCommand, AtRequest, Parameter, MAX_LINE_LEN};
-use xbee_driver::codec::{checksum, encode, FrameDecoder};
-use xbee_driver::escape::{escape, needs_escape, unescape};
+use xbee_driver::{checksum, encode, FrameDecoder};
+use xbee_driver::{escape, needs_escape, unescape};
+use xbee_driver::{format_line, parse_hex, AtCommand, AtRequest, Parameter, MAX_LINE_LEN};
 use xbee_driver::{ApiEscaping, Frame};
 
 fn escaping() -> impl Strategy<Value = ApiEscaping> {

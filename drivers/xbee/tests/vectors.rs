@@ -1,13 +1,11 @@
 //! Golden API frames from Digi's `digi-xbee` library (copied verbatim from the project's
 //! test-vector list), in API 1 and API 2 form, in both directions: typed frame -> bytes, and
-//! bytes -> typed frame (through the decoder and through `XBeeApi` on a mock serial port).
+//! bytes -> typed frame (through the decoder and through `XBee<S, Api>` on a mock serial port).
 
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
-use xbee_driver::codec::{encode, encoded_len, FrameDecoder};
-use xbee_driver::frames::{AtCommandFrame, AtResponse, ReceivePacket, TransmitRequest};
-use xbee_driver::{
-    Address16, Address64, ApiEscaping, AtCommand, CommandStatus, Frame, Parameter, XBeeApi,
-};
+use xbee_driver::{encode, encoded_len, Api, FrameDecoder, XBee};
+use xbee_driver::{Address16, Address64, ApiEscaping, AtCommand, CommandStatus, Frame, Parameter};
+use xbee_driver::{AtCommandFrame, AtResponse, ReceivePacket, TransmitRequest};
 
 // digi-xbee: AT `NI` query, frame id 1 (API 1 and API 2 identical).
 const AT_NI_QUERY: &[u8] = &[0x7E, 0x00, 0x04, 0x08, 0x01, 0x4E, 0x49, 0x5F];
@@ -149,7 +147,7 @@ fn xbee_api_sends_digi_bytes() {
         (ApiEscaping::Escaped, TX_API2),
     ] {
         let serial = SerialMock::new(&[Transaction::write_many(expected), Transaction::flush()]);
-        let mut api: XBeeApi<_> = XBeeApi::new(serial, escaping);
+        let mut api: XBee<_, Api> = XBee::new_api(serial, escaping);
         let id = api
             .transmit(Address64(0x0013_A200_40A1_B2C3), b"Hi")
             .unwrap();
@@ -157,7 +155,7 @@ fn xbee_api_sends_digi_bytes() {
         api.release().done();
     }
     let serial = SerialMock::new(&[Transaction::write_many(AT_NI_QUERY), Transaction::flush()]);
-    let mut api: XBeeApi<_> = XBeeApi::new(serial, ApiEscaping::Escaped);
+    let mut api: XBee<_, Api> = XBee::new_api(serial, ApiEscaping::Escaped);
     assert_eq!(
         api.send_at_command(AtCommand::NI, Parameter::None).unwrap(),
         1
@@ -175,7 +173,7 @@ fn xbee_api_receives_digi_bytes() {
             Transaction::read_many(bytes),
             Transaction::read_error(nb::Error::WouldBlock),
         ]);
-        let mut api: XBeeApi<_> = XBeeApi::new(serial, escaping);
+        let mut api: XBee<_, Api> = XBee::new_api(serial, escaping);
         match api.poll_frame() {
             Ok(Frame::ReceivePacket(rx)) => {
                 assert_eq!(rx.source, Address64(0x0013_A200_4052_2BAA));

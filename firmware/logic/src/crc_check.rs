@@ -9,7 +9,7 @@
 //! [`NibbleCrc`] needs a 64-byte table instead of the 8 KiB of the host's four-byte slicing:
 //! the fallback costs flash only in proportion to how rarely it runs.
 
-use dima_sensorboard::crc::{SensorCrc, INITIAL, POLYNOMIAL};
+use dima_sensorboard::{SensorCrc, INITIAL, POLYNOMIAL};
 
 /// CRC of the reference packet bytes `0x00..=0x7F` (DESIGN 2.1).
 pub const REFERENCE_CRC: u32 = 0x6557_DE1A;
@@ -106,7 +106,7 @@ impl<H: SensorCrc> SensorCrc for CheckedCrc<H> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dima_sensorboard::crc::crc32_bitwise;
+    use dima_sensorboard::crc32_bitwise;
     use dima_sensorboard::Stm32Crc;
 
     /// What QEMU's unmodelled CRC unit does: every read is zero.

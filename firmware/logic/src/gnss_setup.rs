@@ -48,9 +48,10 @@ impl Outcome {
     #[must_use]
     pub fn from_error<E>(error: &neo_m8t::Error<E>) -> Self {
         match error {
-            neo_m8t::Error::Nak { .. } => Self::Nak,
-            neo_m8t::Error::Timeout { .. } => Self::Timeout,
-            neo_m8t::Error::Comm(_) | neo_m8t::Error::BaudSwitchFailed { .. } => Self::Failed,
+            neo_m8t::Error::Device(neo_m8t::DeviceError::Nak { .. }) => Self::Nak,
+            neo_m8t::Error::Device(neo_m8t::DeviceError::Timeout { .. }) => Self::Timeout,
+            neo_m8t::Error::Comm(_)
+            | neo_m8t::Error::Device(neo_m8t::DeviceError::BaudSwitchFailed { .. }) => Self::Failed,
         }
     }
 
@@ -256,10 +257,13 @@ mod tests {
 
     #[test]
     fn error_kinds_map_to_outcomes() {
-        let nak: neo_m8t::Error<()> = neo_m8t::Error::Nak { class: 6, id: 1 };
-        let timeout: neo_m8t::Error<()> = neo_m8t::Error::Timeout { class: 10, id: 4 };
+        let nak: neo_m8t::Error<()> =
+            neo_m8t::Error::Device(neo_m8t::DeviceError::Nak { class: 6, id: 1 });
+        let timeout: neo_m8t::Error<()> =
+            neo_m8t::Error::Device(neo_m8t::DeviceError::Timeout { class: 10, id: 4 });
         let comm: neo_m8t::Error<()> = neo_m8t::Error::Comm(());
-        let baud: neo_m8t::Error<()> = neo_m8t::Error::BaudSwitchFailed { baud_rate: 9600 };
+        let baud: neo_m8t::Error<()> =
+            neo_m8t::Error::Device(neo_m8t::DeviceError::BaudSwitchFailed { baud_rate: 9600 });
         assert_eq!(Outcome::from_error(&nak), Outcome::Nak);
         assert_eq!(Outcome::from_error(&timeout), Outcome::Timeout);
         assert_eq!(Outcome::from_error(&comm), Outcome::Failed);
@@ -288,7 +292,7 @@ mod tests {
         let mut queue: Queue<u8, 512> = Queue::new();
         let (_producer, consumer) = queue.split();
         let mut port = ReplyPort::new(slow_tx(), consumer);
-        let mut cfg = Configurator::<512>::new(Config::default(), 115_200);
+        let mut cfg = Configurator::<512>::with_capacity(Config::default(), 115_200);
         let (outcome, at_ms) = run(&mut port, &mut cfg, 10_000, |_, _| {});
         assert_eq!(outcome, Outcome::Timeout);
         // MON-VER poll sent four times (first try + 3 retries), 500 ms each.
@@ -309,7 +313,7 @@ mod tests {
         let (producer, consumer) = queue.split();
         let mut tap = ReplyTap::new(producer);
         let mut port = ReplyPort::new(slow_tx(), consumer);
-        let mut cfg = Configurator::<512>::new(Config::default(), 115_200);
+        let mut cfg = Configurator::<512>::with_capacity(Config::default(), 115_200);
         let mut answered = false;
         let (outcome, at_ms) = run(&mut port, &mut cfg, 10_000, |_, sent| {
             if !answered && sent.len() == MON_VER_POLL.len() {

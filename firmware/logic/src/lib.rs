@@ -20,6 +20,7 @@
 
 pub mod blink;
 pub mod crc_check;
+pub mod dima;
 pub mod gnss_setup;
 pub mod latest;
 pub mod request;

@@ -6,13 +6,13 @@
 //! Afterwards [`Sensors::tick`] does what the sampling schedule says and writes the register
 //! words into the packet being assembled.
 
+use crate::dima;
 use crate::schedule::{MagAction, Schedule, TickPlan};
-use bosch_bmp280::{Bmp280, Config as BaroConfig, SpiInterface as BaroSpi};
-use bosch_bmx055::accel::{AccelConfig, AccelRaw};
-use bosch_bmx055::gyro::{GyroConfig, GyroRaw};
-use bosch_bmx055::interface::SpiInterface;
-use bosch_bmx055::mag::{MagConfig, MagPacketWords};
-use bosch_bmx055::{Accelerometer, Gyroscope, ImuPacketWords, Magnetometer};
+use bosch_bmp280::{Bmp280, SpiInterface as BaroSpi};
+use bosch_bmx055::accel::{AccelRaw, Accelerometer};
+use bosch_bmx055::gyro::{GyroRaw, Gyroscope};
+use bosch_bmx055::mag::{MagPacketWords, Magnetometer};
+use bosch_bmx055::{ImuPacketWords, SpiInterface};
 use dima_sensorboard::{PacketBuilder, SensorStatus};
 use embedded_hal::delay::DelayNs;
 use embedded_hal::spi::SpiDevice;
@@ -76,15 +76,15 @@ where
         };
 
         let mut accel = Accelerometer::new_spi(accel);
-        if accel.init(delay, &AccelConfig::DIMA).is_ok() {
+        if accel.init(delay, &dima::ACCEL).is_ok() {
             report.status |= SensorStatus::ACCEL_OK;
         }
         let mut gyro = Gyroscope::new_spi(gyro);
-        if gyro.init(delay, &GyroConfig::DIMA).is_ok() {
+        if gyro.init(delay, &dima::GYRO).is_ok() {
             report.status |= SensorStatus::GYRO_OK;
         }
         let mut mag = Magnetometer::new_spi(mag);
-        if let Ok(trim) = mag.init(delay, &MagConfig::DIMA) {
+        if let Ok(trim) = mag.init(delay, &dima::MAG) {
             report.status |= SensorStatus::MAG_OK;
             let (low, mid, high) = trim.to_bursts();
             report.bmm150_trim[..2].copy_from_slice(&low);
@@ -93,7 +93,7 @@ where
         }
         let mut baro = Bmp280::new_spi(baro);
         for _ in 0..BARO_ATTEMPTS {
-            if baro.init(delay).is_ok() && baro.configure(BaroConfig::dima()).is_ok() {
+            if baro.init(delay).is_ok() && baro.configure(dima::BAROMETER).is_ok() {
                 if let Some(calibration) = baro.calibration() {
                     report.bmp280_calibration = calibration.to_bytes();
                     report.status |= SensorStatus::BMP280_OK;

@@ -23,7 +23,7 @@ use std::process::{Child, Command, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-use dima_sensorboard::gnss::{nav_pvt, NavPvt, GNSS_FRAME_LEN};
+use dima_sensorboard::{nav_pvt, NavPvt, GNSS_FRAME_LEN};
 use dima_sensorboard::{Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder};
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).

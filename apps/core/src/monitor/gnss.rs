@@ -76,7 +76,7 @@ impl GnssFreshness {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dima_sensorboard::gnss::nav_pvt::FLAG_GNSS_FIX_OK;
+    use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 
     const MS: Nanos = 1_000_000;
 

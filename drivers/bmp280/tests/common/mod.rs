@@ -5,7 +5,7 @@ use bosch_bmp280::Calibration;
 use embedded_hal_mock::eh1::i2c::Transaction as I2cT;
 use embedded_hal_mock::eh1::spi::Transaction as SpiT;
 
-// Source: BMP280 datasheet calculation example, as listed in shared/vectors/README.md.
+// Source: BMP280 datasheet, compensation calculation example.
 /// Registers 0x88..=0x9F of the datasheet calculation example.
 pub const DATASHEET_CALIB_BYTES: [u8; 24] = [
     0x70, 0x6B, 0x43, 0x67, 0x18, 0xFC, 0x7D, 0x8E, 0x43, 0xD6, 0xD0, 0x0B, 0x27, 0x0B, 0x8C, 0x00,
@@ -37,7 +37,8 @@ pub const DATASHEET_P_PA: u32 = 100653;
 pub const DATASHEET_T_DOUBLE: f64 = 25.0825;
 pub const DATASHEET_P_DOUBLE: f64 = 100653.258;
 
-// Source: calibration parse vector of another real device, shared/vectors/README.md.
+// Source: calibration parse vector of another real device, from an independent implementation's
+// test data.
 pub const OTHER_CALIB_BYTES: [u8; 24] = [
     0xEF, 0x6B, 0xAE, 0x65, 0x18, 0xFC, 0x98, 0x93, 0x15, 0xD6, 0xD0, 0x0B, 0xEA, 0x15, 0x92, 0x00,
     0xF9, 0xFF, 0x8C, 0x3C, 0xF8, 0xC6, 0x70, 0x17,
@@ -105,4 +106,18 @@ pub fn i2c_init(addr: u8) -> Vec<I2cT> {
         i2c_read(addr, 0xF3, &[0x00]),
         i2c_read(addr, 0x88, &DATASHEET_CALIB_BYTES),
     ]
+}
+
+/// Largest 20-bit ADC value.
+pub const ADC_MAX: u32 = bosch_bmp280::RawSample::ADC_MAX;
+
+/// Register bytes 0xF7..=0xFC to `(adc_P, adc_T)` through the public sample type.
+pub fn adc_from_bytes(bytes: &[u8; 6]) -> (u32, u32) {
+    let raw = bosch_bmp280::RawSample::from_register_bytes(bytes);
+    (raw.adc_p, raw.adc_t)
+}
+
+/// `(adc_P, adc_T)` to register bytes 0xF7..=0xFC through the public sample type.
+pub fn bytes_from_adc(adc_p: u32, adc_t: u32) -> [u8; 6] {
+    bosch_bmp280::RawSample { adc_p, adc_t }.to_register_bytes()
 }

@@ -1,7 +1,13 @@
 //! Accelerometer interrupts: data ready, slope (any-motion) and FIFO on INT1/INT2.
 
+#[cfg(feature = "async")]
+use super::AsyncAccelerometer;
 use super::{register as reg, Accelerometer};
+#[cfg(feature = "async")]
+use crate::access::AsyncRegisters;
 use crate::access::Registers;
+#[cfg(feature = "async")]
+use crate::interface::AsyncRegisterInterface;
 use crate::interface::RegisterInterface;
 use crate::types::{InterruptPin, PinConfig, Xyz};
 use crate::Error;
@@ -148,27 +154,45 @@ impl AccelInterruptStatus {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
     /// Route and enable interrupts (nine register writes, see
     /// [`AccelInterruptConfig::register_writes`]).
-    pub fn configure_interrupts(
+    pub async fn configure_interrupts(
         &mut self,
         config: &AccelInterruptConfig,
     ) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_all(config.register_writes())?;
+        self.iface.write_all(config.register_writes()).await?;
         Ok(())
     }
 
     /// Read the interrupt flags.
-    pub fn interrupt_status(&mut self) -> Result<AccelInterruptStatus, Error<IFACE::Error>> {
+    pub async fn interrupt_status(&mut self) -> Result<AccelInterruptStatus, Error<IFACE::Error>> {
         let mut b = [0u8; 2];
-        self.iface.read_into(reg::INT_STATUS_0, &mut b)?;
+        self.iface.read_into(reg::INT_STATUS_0, &mut b).await?;
         Ok(AccelInterruptStatus::from_registers(b[0], b[1]))
     }
 
     /// Clear latched interrupts, keeping the latch mode given by `latched`.
-    pub fn clear_latched_interrupts(&mut self, latched: bool) -> Result<(), Error<IFACE::Error>> {
+    pub async fn clear_latched_interrupts(
+        &mut self,
+        latched: bool,
+    ) -> Result<(), Error<IFACE::Error>> {
         let mode = if latched { 0x0F } else { 0x00 };
-        self.iface.write(reg::INT_RST_LATCH, reg::RESET_INT | mode)
+        self.iface
+            .write(reg::INT_RST_LATCH, reg::RESET_INT | mode)
+            .await
     }
 }

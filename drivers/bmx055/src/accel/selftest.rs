@@ -1,11 +1,19 @@
 //! Accelerometer self-test: electrostatic deflection in both directions per axis.
 
+#[cfg(feature = "async")]
+use super::AsyncAccelerometer;
 use super::{register as reg, AccelRange, AccelRaw, Accelerometer};
+#[cfg(feature = "async")]
+use crate::access::AsyncRegisters;
 use crate::access::Registers;
+#[cfg(feature = "async")]
+use crate::interface::AsyncRegisterInterface;
 use crate::interface::RegisterInterface;
 use crate::types::Xyz;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 
 /// Minimum deflection difference (positive minus negative) for a pass, in mg, at ±4 g with
 /// high amplitude: X and Y 800 mg, Z 400 mg (Bosch BMA2 SensorAPI `bma2_defs.h`,
@@ -41,34 +49,50 @@ fn axis_mg(raw: &AccelRaw, axis: u8, range: AccelRange) -> f32 {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
     /// Run the self-test at ±4 g with high deflection amplitude (`self_test_amp` = 1, as
     /// Bosch's BMA2 SensorAPI does): per axis, excite positive then negative, wait 50 ms each,
     /// and measure the difference. Ends with a soft reset (as the datasheet asks), so call
     /// [`configure`](Self::configure) again afterwards. Returns the measured differences;
     /// check [`AccelSelfTest::passed`] (the call itself only fails on bus errors).
-    pub fn self_test(
+    pub async fn self_test(
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<AccelSelfTest, Error<IFACE::Error>> {
-        self.set_range(AccelRange::G4)?;
+        self.set_range(AccelRange::G4).await?;
         let mut diff = [0f32; 3];
         for axis in 1..=3u8 {
-            self.iface.write(
-                reg::PMU_SELF_TEST,
-                axis | reg::SELF_TEST_SIGN | reg::SELF_TEST_AMP,
-            )?;
-            delay.delay_ms(SELF_TEST_SETTLE_MS);
-            let pos = self.read_raw()?;
             self.iface
-                .write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_AMP)?;
-            delay.delay_ms(SELF_TEST_SETTLE_MS);
-            let neg = self.read_raw()?;
+                .write(
+                    reg::PMU_SELF_TEST,
+                    axis | reg::SELF_TEST_SIGN | reg::SELF_TEST_AMP,
+                )
+                .await?;
+            delay.delay_ms(SELF_TEST_SETTLE_MS).await;
+            let pos = self.read_raw().await?;
+            self.iface
+                .write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_AMP)
+                .await?;
+            delay.delay_ms(SELF_TEST_SETTLE_MS).await;
+            let neg = self.read_raw().await?;
             diff[usize::from(axis - 1)] =
                 axis_mg(&pos, axis, AccelRange::G4) - axis_mg(&neg, axis, AccelRange::G4);
         }
-        self.iface.write(reg::PMU_SELF_TEST, 0)?;
-        self.soft_reset(delay)?;
+        self.iface.write(reg::PMU_SELF_TEST, 0).await?;
+        self.soft_reset(delay).await?;
         Ok(AccelSelfTest {
             difference_mg: Xyz::new(diff[0], diff[1], diff[2]),
         })

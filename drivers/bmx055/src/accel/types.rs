@@ -171,12 +171,6 @@ pub struct AccelConfig {
 }
 
 impl AccelConfig {
-    /// The DIMA sensor-board setting: ±2 g, 1000 Hz bandwidth, normal mode.
-    pub const DIMA: Self = Self {
-        range: AccelRange::G2,
-        bandwidth: AccelBandwidth::Hz1000,
-        power: AccelPowerMode::Normal,
-    };
     /// With another range.
     pub const fn with_range(mut self, range: AccelRange) -> Self {
         self.range = range;

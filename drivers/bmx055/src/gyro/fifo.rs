@@ -1,7 +1,13 @@
 //! Gyroscope FIFO: 100 frames, bypass / FIFO / stream, watermark, frame reads.
 
+#[cfg(feature = "async")]
+use super::AsyncGyroscope;
 use super::{register as reg, GyroRaw, Gyroscope};
+#[cfg(feature = "async")]
+use crate::access::AsyncRegisters;
 use crate::access::{FifoRegisters, Registers};
+#[cfg(feature = "async")]
+use crate::interface::AsyncRegisterInterface;
 use crate::interface::RegisterInterface;
 use crate::types::{fifo_frame_registers, FifoData, FifoMode, FifoStatus};
 use crate::Error;
@@ -49,27 +55,46 @@ pub fn decode_gyro_fifo_frame(data: FifoData, frame: &[u8]) -> GyroRaw {
     GyroRaw::from_registers(&fifo_frame_registers(data, frame))
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
-    /// Configure the FIFO. `Error::InvalidInput` if the watermark is above 99.
-    pub fn configure_fifo(&mut self, config: &GyroFifoConfig) -> Result<(), Error<IFACE::Error>> {
-        let writes = config.register_writes().ok_or(Error::InvalidInput)?;
-        self.iface.write_all(writes)?;
+    /// Configure the FIFO. [`DeviceError::InvalidInput`](crate::DeviceError::InvalidInput) if the watermark is above 99.
+    pub async fn configure_fifo(
+        &mut self,
+        config: &GyroFifoConfig,
+    ) -> Result<(), Error<IFACE::Error>> {
+        let writes = config
+            .register_writes()
+            .ok_or(Error::Device(crate::DeviceError::InvalidInput))?;
+        self.iface.write_all(writes).await?;
         self.fifo_data = config.data;
         Ok(())
     }
 
     /// Frames waiting and the overrun flag.
-    pub fn fifo_status(&mut self) -> Result<FifoStatus, Error<IFACE::Error>> {
+    pub async fn fifo_status(&mut self) -> Result<FifoStatus, Error<IFACE::Error>> {
         Ok(FifoStatus::from_register(
-            self.iface.read(reg::FIFO_STATUS)?,
+            self.iface.read(reg::FIFO_STATUS).await?,
         ))
     }
 
     /// Read up to `out.len()` frames (never more than are waiting), whole frames per burst.
     /// Returns the number of frames written to `out`.
-    pub fn read_fifo(&mut self, out: &mut [GyroRaw]) -> Result<usize, Error<IFACE::Error>> {
+    pub async fn read_fifo(&mut self, out: &mut [GyroRaw]) -> Result<usize, Error<IFACE::Error>> {
         let data = self.fifo_data;
         self.iface
             .read_fifo(GYRO_FIFO_REGISTERS, data, out, decode_gyro_fifo_frame)
+            .await
     }
 }

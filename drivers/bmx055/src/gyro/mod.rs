@@ -2,22 +2,26 @@
 
 mod fifo;
 mod interrupt;
-pub mod register;
+pub(crate) mod register;
 mod selftest;
 mod types;
 
-#[cfg(feature = "async")]
-pub(crate) use fifo::GYRO_FIFO_REGISTERS;
 pub use fifo::{decode_gyro_fifo_frame, GyroFifoConfig, GYRO_FIFO_FRAMES};
 pub use interrupt::{GyroInterruptConfig, GyroInterruptStatus};
 pub use selftest::{GyroSelfTest, BIST_POLL_ATTEMPTS};
 pub use types::*;
 
+#[cfg(feature = "async")]
+use crate::access::AsyncRegisters;
 use crate::access::Registers;
+#[cfg(feature = "async")]
+use crate::interface::AsyncRegisterInterface;
 use crate::interface::{I2cInterface, RegisterInterface, SpiInterface};
 use crate::types::FifoData;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 use register as reg;
 
 /// Wait after a soft reset or power-up before the die answers, in ms (BMX055 datasheet key
@@ -35,6 +39,19 @@ pub enum GyroAddress {
     Sdo2High = 0x69,
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 /// BMX055 gyroscope driver.
 #[derive(Debug)]
 pub struct Gyroscope<IFACE> {
@@ -43,6 +60,19 @@ pub struct Gyroscope<IFACE> {
     pub(crate) fifo_data: FifoData,
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<SPI> Gyroscope<SpiInterface<SPI>> {
     /// Driver over the gyroscope's own SPI device (chip select CSB2).
     pub fn new_spi(spi: SPI) -> Self {
@@ -50,6 +80,19 @@ impl<SPI> Gyroscope<SpiInterface<SPI>> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<I2C> Gyroscope<I2cInterface<I2C>> {
     /// Driver over I2C at the strapped address.
     pub fn new_i2c(i2c: I2C, address: GyroAddress) -> Self {
@@ -57,6 +100,19 @@ impl<I2C> Gyroscope<I2cInterface<I2C>> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE> Gyroscope<IFACE> {
     /// Driver over any register interface; assumes the reset range (±2000 °/s).
     pub fn new(iface: IFACE) -> Self {
@@ -76,26 +132,45 @@ impl<IFACE> Gyroscope<IFACE> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
     /// Read the chip-id register (0x0F on a healthy die).
-    pub fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
-        self.iface.read(reg::CHIP_ID)
+    pub async fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
+        self.iface.read(reg::CHIP_ID).await
     }
 
     /// Read the chip id up to `attempts` times (1 ms apart) until it is 0x0F.
-    pub fn check_chip_id(
+    pub async fn check_chip_id(
         &mut self,
         delay: &mut impl DelayNs,
         attempts: u8,
     ) -> Result<(), Error<IFACE::Error>> {
         self.iface
             .check_chip_id(delay, reg::CHIP_ID, reg::CHIP_ID_VALUE, attempts)
+            .await
     }
 
     /// Soft reset, then wait [`SOFT_RESET_WAIT_MS`].
-    pub fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD)?;
-        delay.delay_ms(SOFT_RESET_WAIT_MS);
+    pub async fn soft_reset(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<(), Error<IFACE::Error>> {
+        self.iface
+            .write(reg::BGW_SOFTRESET, reg::SOFT_RESET_CMD)
+            .await?;
+        delay.delay_ms(SOFT_RESET_WAIT_MS).await;
         self.range = GyroRange::Dps2000;
         self.fifo_data = FifoData::Xyz;
         Ok(())
@@ -103,65 +178,65 @@ impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
 
     /// Soft reset, check the chip id (up to 3 attempts), apply `config`.
     ///
-    /// With [`GyroConfig::DIMA`] the bus sees exactly: write 0x14 = 0xB6, read 0x00,
+    /// With ±2000 °/s, 2000 Hz / 230 Hz and normal mode the bus sees exactly: write 0x14 = 0xB6, read 0x00,
     /// write 0x0F = 0x00, write 0x10 = 0x81, write 0x11 = 0x00.
-    pub fn init(
+    pub async fn init(
         &mut self,
         delay: &mut impl DelayNs,
         config: &GyroConfig,
     ) -> Result<(), Error<IFACE::Error>> {
-        self.soft_reset(delay)?;
-        self.check_chip_id(delay, 3)?;
-        self.configure(config)
+        self.soft_reset(delay).await?;
+        self.check_chip_id(delay, 3).await?;
+        self.configure(config).await
     }
 
     /// Apply range, data rate / filter and power mode (three register writes).
-    pub fn configure(&mut self, config: &GyroConfig) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_all(config.register_writes())?;
+    pub async fn configure(&mut self, config: &GyroConfig) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write_all(config.register_writes()).await?;
         self.range = config.range;
         Ok(())
     }
 
     /// Change the range only.
-    pub fn set_range(&mut self, range: GyroRange) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::RANGE, range.bits())?;
+    pub async fn set_range(&mut self, range: GyroRange) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write(reg::RANGE, range.bits()).await?;
         self.range = range;
         Ok(())
     }
 
     /// Change the data rate / filter only.
-    pub fn set_bandwidth(&mut self, bw: GyroBandwidth) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::BW, bw.bits())
+    pub async fn set_bandwidth(&mut self, bw: GyroBandwidth) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write(reg::BW, bw.bits()).await
     }
 
     /// Change the power mode only.
-    pub fn set_power_mode(&mut self, mode: GyroPowerMode) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::LPM1, mode.bits())
+    pub async fn set_power_mode(&mut self, mode: GyroPowerMode) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write(reg::LPM1, mode.bits()).await
     }
 
     /// Read X, Y, Z in one burst.
-    pub fn read_raw(&mut self) -> Result<GyroRaw, Error<IFACE::Error>> {
+    pub async fn read_raw(&mut self) -> Result<GyroRaw, Error<IFACE::Error>> {
         let mut b = [0u8; 6];
-        self.iface.read_into(reg::RATE_X_LSB, &mut b)?;
+        self.iface.read_into(reg::RATE_X_LSB, &mut b).await?;
         Ok(GyroRaw::from_registers(&b))
     }
 
     /// Read one sample in °/s, scaled with the current range.
-    pub fn read_dps(&mut self) -> Result<crate::Xyz<f32>, Error<IFACE::Error>> {
+    pub async fn read_dps(&mut self) -> Result<crate::Xyz<f32>, Error<IFACE::Error>> {
         let range = self.range;
-        Ok(self.read_raw()?.dps(range))
+        Ok(self.read_raw().await?.dps(range))
     }
 
     /// Read one sample in rad/s, scaled with the current range.
-    pub fn read_rad_s(&mut self) -> Result<crate::Xyz<f32>, Error<IFACE::Error>> {
+    pub async fn read_rad_s(&mut self) -> Result<crate::Xyz<f32>, Error<IFACE::Error>> {
         let range = self.range;
-        Ok(self.read_raw()?.rad_s(range))
+        Ok(self.read_raw().await?.rad_s(range))
     }
 
     /// Die temperature in °C (0.5 K resolution).
-    pub fn temperature_celsius(&mut self) -> Result<f32, Error<IFACE::Error>> {
+    pub async fn temperature_celsius(&mut self) -> Result<f32, Error<IFACE::Error>> {
         Ok(crate::accel::accel_temperature_celsius(
-            self.iface.read(reg::TEMP)?,
+            self.iface.read(reg::TEMP).await?,
         ))
     }
 }

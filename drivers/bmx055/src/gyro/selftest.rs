@@ -1,10 +1,18 @@
 //! Gyroscope built-in self-test (BIST).
 
+#[cfg(feature = "async")]
+use super::AsyncGyroscope;
 use super::{register as reg, Gyroscope};
+#[cfg(feature = "async")]
+use crate::access::AsyncRegisters;
 use crate::access::Registers;
+#[cfg(feature = "async")]
+use crate::interface::AsyncRegisterInterface;
 use crate::interface::RegisterInterface;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 
 /// Polls (1 ms apart) of `bist_rdy` before the self-test gives up with `Timeout`.
 pub const BIST_POLL_ATTEMPTS: u8 = 50;
@@ -26,18 +34,31 @@ impl GyroSelfTest {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
     /// Run the built-in self-test: read `rate_ok`, set `trig_bist`, poll `bist_rdy` (at most
     /// [`BIST_POLL_ATTEMPTS`] ms), read `bist_fail`.
-    pub fn self_test(
+    pub async fn self_test(
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<GyroSelfTest, Error<IFACE::Error>> {
-        let rate_ok = self.iface.read(reg::BIST)? & reg::RATE_OK != 0;
-        self.iface.write(reg::BIST, reg::TRIG_BIST)?;
+        let rate_ok = self.iface.read(reg::BIST).await? & reg::RATE_OK != 0;
+        self.iface.write(reg::BIST, reg::TRIG_BIST).await?;
         for _ in 0..BIST_POLL_ATTEMPTS {
-            delay.delay_ms(1);
-            let bist = self.iface.read(reg::BIST)?;
+            delay.delay_ms(1).await;
+            let bist = self.iface.read(reg::BIST).await?;
             if bist & reg::BIST_RDY != 0 {
                 return Ok(GyroSelfTest {
                     rate_ok,
@@ -45,6 +66,6 @@ impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
                 });
             }
         }
-        Err(Error::Timeout)
+        Err(Error::Device(crate::DeviceError::Timeout))
     }
 }

@@ -117,12 +117,6 @@ pub struct GyroConfig {
 }
 
 impl GyroConfig {
-    /// The DIMA sensor-board setting: ±2000 °/s, 2000 Hz / 230 Hz (0x81), normal mode.
-    pub const DIMA: Self = Self {
-        range: GyroRange::Dps2000,
-        bandwidth: GyroBandwidth::Odr2000Bw230,
-        power: GyroPowerMode::Normal,
-    };
     /// With another range.
     pub const fn with_range(mut self, range: GyroRange) -> Self {
         self.range = range;

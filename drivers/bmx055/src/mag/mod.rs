@@ -5,7 +5,7 @@
 
 pub mod compensation;
 pub mod inverse;
-pub mod register;
+pub(crate) mod register;
 mod trim;
 mod types;
 
@@ -17,11 +17,17 @@ pub use inverse::{raw_x_for_ut, raw_y_for_ut, raw_z_for_ut};
 pub use trim::{MagTrim, TRIM_BURST_1, TRIM_BURST_2, TRIM_BURST_3};
 pub use types::*;
 
+#[cfg(feature = "async")]
+use crate::access::AsyncRegisters;
 use crate::access::Registers;
+#[cfg(feature = "async")]
+use crate::interface::AsyncRegisterInterface;
 use crate::interface::{I2cInterface, RegisterInterface, SpiInterface};
 use crate::types::Xyz;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
+#[cfg(feature = "async")]
+use embedded_hal_async::delay::DelayNs as AsyncDelayNs;
 use register as reg;
 
 /// Wait after leaving suspend before the chip id is readable, in µs (Bosch BMM150 SensorAPI
@@ -65,6 +71,19 @@ pub struct MagStatus {
 /// Per-axis result of the normal self-test (`true` = pass).
 pub type MagSelfTest = Xyz<bool>;
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 /// BMX055 magnetometer driver. Holds the trim read at [`init`](Self::init) so it can return
 /// compensated µT.
 #[derive(Debug)]
@@ -74,6 +93,19 @@ pub struct Magnetometer<IFACE> {
     pub(crate) config: MagConfig,
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<SPI> Magnetometer<SpiInterface<SPI>> {
     /// Driver over the magnetometer's own SPI device (chip select CSB3).
     pub fn new_spi(spi: SPI) -> Self {
@@ -81,6 +113,19 @@ impl<SPI> Magnetometer<SpiInterface<SPI>> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<I2C> Magnetometer<I2cInterface<I2C>> {
     /// Driver over I2C at the strapped address.
     pub fn new_i2c(i2c: I2C, address: MagAddress) -> Self {
@@ -88,6 +133,19 @@ impl<I2C> Magnetometer<I2cInterface<I2C>> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE> Magnetometer<IFACE> {
     /// Driver over any register interface. The trim is all zero (compensation reports
     /// overflow) until [`read_trim`](Self::read_trim) or [`set_trim`](Self::set_trim).
@@ -95,7 +153,7 @@ impl<IFACE> Magnetometer<IFACE> {
         Self {
             iface,
             trim: MagTrim::default(),
-            config: MagConfig::DIMA,
+            config: MagConfig::forced(MagPreset::LowPower),
         }
     }
     /// Give the interface back.
@@ -120,96 +178,115 @@ impl<IFACE> Magnetometer<IFACE> {
     }
 }
 
+#[maybe_async_cfg::maybe(
+    sync(keep_self),
+    async(feature = "async", keep_self),
+    idents(
+        Accelerometer(sync, async = "AsyncAccelerometer"),
+        Gyroscope(sync, async = "AsyncGyroscope"),
+        Magnetometer(sync, async = "AsyncMagnetometer"),
+        Bmx055(sync, async = "AsyncBmx055"),
+        RegisterInterface(sync, async = "AsyncRegisterInterface"),
+        Registers(sync, async = "AsyncRegisters"),
+        DelayNs(sync, async = "AsyncDelayNs")
+    )
+)]
 impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
     /// Leave suspend (set the power-control bit) and wait [`POWER_ON_WAIT_US`]; the die is
     /// then in sleep mode and its registers answer.
-    pub fn power_on(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::POWER_CONTROL, reg::POWER_ON)?;
-        delay.delay_us(POWER_ON_WAIT_US);
+    pub async fn power_on(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write(reg::POWER_CONTROL, reg::POWER_ON).await?;
+        delay.delay_us(POWER_ON_WAIT_US).await;
         Ok(())
     }
 
     /// Back to suspend (lowest current; configuration lost).
-    pub fn suspend(&mut self) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::POWER_CONTROL, 0x00)
+    pub async fn suspend(&mut self) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write(reg::POWER_CONTROL, 0x00).await
     }
 
     /// Soft reset, keeping the die powered (writes 0x83), then wait [`SOFT_RESET_WAIT_US`].
     /// The die comes back in sleep mode with default registers.
-    pub fn soft_reset(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<IFACE::Error>> {
+    pub async fn soft_reset(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<(), Error<IFACE::Error>> {
         self.iface
-            .write(reg::POWER_CONTROL, reg::SOFT_RESET | reg::POWER_ON)?;
-        delay.delay_us(SOFT_RESET_WAIT_US);
+            .write(reg::POWER_CONTROL, reg::SOFT_RESET | reg::POWER_ON)
+            .await?;
+        delay.delay_us(SOFT_RESET_WAIT_US).await;
         Ok(())
     }
 
     /// Read the chip-id register (0x32 once powered on; 0x00 in suspend).
-    pub fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
-        self.iface.read(reg::CHIP_ID)
+    pub async fn chip_id(&mut self) -> Result<u8, Error<IFACE::Error>> {
+        self.iface.read(reg::CHIP_ID).await
     }
 
     /// Read the chip id up to `attempts` times (1 ms apart) until it is 0x32.
-    pub fn check_chip_id(
+    pub async fn check_chip_id(
         &mut self,
         delay: &mut impl DelayNs,
         attempts: u8,
     ) -> Result<(), Error<IFACE::Error>> {
         self.iface
             .check_chip_id(delay, reg::CHIP_ID, reg::CHIP_ID_VALUE, attempts)
+            .await
     }
 
     /// Read the trim registers in three bursts and keep them for compensation.
-    pub fn read_trim(&mut self) -> Result<MagTrim, Error<IFACE::Error>> {
+    pub async fn read_trim(&mut self) -> Result<MagTrim, Error<IFACE::Error>> {
         let mut b1 = [0u8; 2];
         let mut b2 = [0u8; 4];
         let mut b3 = [0u8; 10];
-        self.iface.read_into(TRIM_BURST_1.0, &mut b1)?;
-        self.iface.read_into(TRIM_BURST_2.0, &mut b2)?;
-        self.iface.read_into(TRIM_BURST_3.0, &mut b3)?;
+        self.iface.read_into(TRIM_BURST_1.0, &mut b1).await?;
+        self.iface.read_into(TRIM_BURST_2.0, &mut b2).await?;
+        self.iface.read_into(TRIM_BURST_3.0, &mut b3).await?;
         self.trim = MagTrim::from_bursts(&b1, &b2, &b3);
         Ok(self.trim)
     }
 
     /// Power on, soft reset, check the chip id (up to 3 attempts), read trim, apply `config`.
     ///
-    /// With [`MagConfig::DIMA`] the bus sees exactly: write 0x4B = 0x01, write 0x4B = 0x83,
+    /// With `MagConfig::forced(MagPreset::LowPower)` the bus sees exactly: write 0x4B = 0x01, write 0x4B = 0x83,
     /// read 0x40, read 0x5D (2), read 0x62 (4), read 0x68 (10), write 0x51 = 0x01,
     /// write 0x52 = 0x02, write 0x4C = 0x02 (forced: the first measurement starts).
-    pub fn init(
+    pub async fn init(
         &mut self,
         delay: &mut impl DelayNs,
         config: &MagConfig,
     ) -> Result<MagTrim, Error<IFACE::Error>> {
-        self.power_on(delay)?;
-        self.soft_reset(delay)?;
-        self.check_chip_id(delay, 3)?;
-        let trim = self.read_trim()?;
-        self.configure(config)?;
+        self.power_on(delay).await?;
+        self.soft_reset(delay).await?;
+        self.check_chip_id(delay, 3).await?;
+        let trim = self.read_trim().await?;
+        self.configure(config).await?;
         Ok(trim)
     }
 
     /// Write repetitions and operation mode (three register writes).
-    pub fn configure(&mut self, config: &MagConfig) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_all(config.register_writes())?;
+    pub async fn configure(&mut self, config: &MagConfig) -> Result<(), Error<IFACE::Error>> {
+        self.iface.write_all(config.register_writes()).await?;
         self.config = *config;
         Ok(())
     }
 
     /// Set the operation mode, keeping the configured data rate.
-    pub fn set_op_mode(&mut self, mode: MagOpMode) -> Result<(), Error<IFACE::Error>> {
+    pub async fn set_op_mode(&mut self, mode: MagOpMode) -> Result<(), Error<IFACE::Error>> {
         self.iface
             .write(reg::OP_MODE, op_mode_bits(mode, self.config.data_rate))
+            .await
     }
 
     /// Start one forced measurement; poll with [`poll_data`](Self::poll_data).
-    pub fn start_forced(&mut self) -> Result<(), Error<IFACE::Error>> {
-        self.set_op_mode(MagOpMode::Forced)
+    pub async fn start_forced(&mut self) -> Result<(), Error<IFACE::Error>> {
+        self.set_op_mode(MagOpMode::Forced).await
     }
 
     /// Read the data registers; `WouldBlock` until the data-ready bit (0x48 bit 0) is set,
     /// so a forced read never returns the previous sample. Reading clears the bit.
-    pub fn poll_data(&mut self) -> nb::Result<MagRaw, Error<IFACE::Error>> {
-        let raw = self.read_raw()?;
+    pub async fn poll_data(&mut self) -> nb::Result<MagRaw, Error<IFACE::Error>> {
+        let raw = self.read_raw().await?;
         if raw.data_ready {
             Ok(raw)
         } else {
@@ -219,63 +296,69 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
 
     /// Start a forced measurement, wait the preset's measurement time, then poll data ready
     /// every [`FORCED_POLL_INTERVAL_US`] at most [`FORCED_POLL_ATTEMPTS`] times.
-    pub fn read_forced(&mut self, delay: &mut impl DelayNs) -> Result<MagRaw, Error<IFACE::Error>> {
-        self.start_forced()?;
-        self.wait_data(delay)
+    pub async fn read_forced(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<MagRaw, Error<IFACE::Error>> {
+        self.start_forced().await?;
+        self.wait_data(delay).await
     }
 
     /// Wait (bounded) for a measurement already started (forced mode configured by
     /// [`init`](Self::init), or normal mode).
-    pub fn wait_data(&mut self, delay: &mut impl DelayNs) -> Result<MagRaw, Error<IFACE::Error>> {
-        delay.delay_us(self.measurement_time_us());
+    pub async fn wait_data(
+        &mut self,
+        delay: &mut impl DelayNs,
+    ) -> Result<MagRaw, Error<IFACE::Error>> {
+        delay.delay_us(self.measurement_time_us()).await;
         for attempt in 0..FORCED_POLL_ATTEMPTS {
             if attempt > 0 {
-                delay.delay_us(FORCED_POLL_INTERVAL_US);
+                delay.delay_us(FORCED_POLL_INTERVAL_US).await;
             }
-            match self.poll_data() {
+            match self.poll_data().await {
                 Ok(raw) => return Ok(raw),
                 Err(nb::Error::WouldBlock) => {}
                 Err(nb::Error::Other(e)) => return Err(e),
             }
         }
-        Err(Error::Timeout)
+        Err(Error::Device(crate::DeviceError::Timeout))
     }
 
     /// Read the eight data registers as they are (data-ready flag included).
-    pub fn read_raw(&mut self) -> Result<MagRaw, Error<IFACE::Error>> {
+    pub async fn read_raw(&mut self) -> Result<MagRaw, Error<IFACE::Error>> {
         let mut b = [0u8; 8];
-        self.iface.read_into(reg::DATA_X_LSB, &mut b)?;
+        self.iface.read_into(reg::DATA_X_LSB, &mut b).await?;
         Ok(MagRaw::from_registers(&b))
     }
 
     /// Read the data registers as DIMA packet words (status bits masked).
-    pub fn read_packet_words(&mut self) -> Result<MagPacketWords, Error<IFACE::Error>> {
+    pub async fn read_packet_words(&mut self) -> Result<MagPacketWords, Error<IFACE::Error>> {
         let mut b = [0u8; 8];
-        self.iface.read_into(reg::DATA_X_LSB, &mut b)?;
+        self.iface.read_into(reg::DATA_X_LSB, &mut b).await?;
         Ok(MagPacketWords::from_registers(&b))
     }
 
     /// Forced measurement compensated to µT (integer path; -32768 marks overflow).
-    pub fn read_forced_ut(
+    pub async fn read_forced_ut(
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<Xyz<i16>, Error<IFACE::Error>> {
-        let raw = self.read_forced(delay)?;
+        let raw = self.read_forced(delay).await?;
         Ok(compensate(&raw, &self.trim))
     }
 
     /// Forced measurement compensated to µT (float path; 0.0 marks overflow).
-    pub fn read_forced_ut_f32(
+    pub async fn read_forced_ut_f32(
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<Xyz<f32>, Error<IFACE::Error>> {
-        let raw = self.read_forced(delay)?;
+        let raw = self.read_forced(delay).await?;
         Ok(compensate_f32(&raw, &self.trim))
     }
 
     /// Overflow and overrun flags.
-    pub fn status(&mut self) -> Result<MagStatus, Error<IFACE::Error>> {
-        let s = self.iface.read(reg::INT_STATUS)?;
+    pub async fn status(&mut self) -> Result<MagStatus, Error<IFACE::Error>> {
+        let s = self.iface.read(reg::INT_STATUS).await?;
         Ok(MagStatus {
             overflow: s & reg::STATUS_OVERFLOW != 0,
             overrun: s & reg::STATUS_OVERRUN != 0,
@@ -284,7 +367,7 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
 
     /// Drive the DRDY pin on new data (`active_high` selects its polarity); `false` for
     /// `enable` restores the reset state of `INT_CONTROL`.
-    pub fn set_data_ready_pin(
+    pub async fn set_data_ready_pin(
         &mut self,
         enable: bool,
         active_high: bool,
@@ -296,27 +379,27 @@ impl<IFACE: RegisterInterface> Magnetometer<IFACE> {
         if enable {
             v |= reg::DR_PIN_EN;
         }
-        self.iface.write(reg::INT_CONTROL, v)
+        self.iface.write(reg::INT_CONTROL, v).await
     }
 
     /// Normal self-test: in sleep mode set the self-test bit, poll until the die clears it
     /// (bounded), read the per-axis result bits (bit 0 of the X, Y and Z LSB registers).
     /// Leaves the die in sleep mode.
-    pub fn self_test(
+    pub async fn self_test(
         &mut self,
         delay: &mut impl DelayNs,
     ) -> Result<MagSelfTest, Error<IFACE::Error>> {
         let sleep = op_mode_bits(MagOpMode::Sleep, self.config.data_rate);
-        self.iface.write(reg::OP_MODE, sleep)?;
-        self.iface.write(reg::OP_MODE, sleep | 0x01)?;
+        self.iface.write(reg::OP_MODE, sleep).await?;
+        self.iface.write(reg::OP_MODE, sleep | 0x01).await?;
         for _ in 0..SELF_TEST_POLL_ATTEMPTS {
-            delay.delay_ms(1);
-            if self.iface.read(reg::OP_MODE)? & 0x01 == 0 {
+            delay.delay_ms(1).await;
+            if self.iface.read(reg::OP_MODE).await? & 0x01 == 0 {
                 let mut b = [0u8; 6];
-                self.iface.read_into(reg::DATA_X_LSB, &mut b)?;
+                self.iface.read_into(reg::DATA_X_LSB, &mut b).await?;
                 return Ok(Xyz::new(b[0] & 1 != 0, b[2] & 1 != 0, b[4] & 1 != 0));
             }
         }
-        Err(Error::Timeout)
+        Err(Error::Device(crate::DeviceError::Timeout))
     }
 }

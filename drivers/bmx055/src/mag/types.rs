@@ -197,12 +197,15 @@ pub struct MagConfig {
 }
 
 impl MagConfig {
-    /// The DIMA sensor-board setting: low-power preset, forced mode, 10 Hz rate field.
-    pub const DIMA: Self = Self {
-        preset: MagPreset::LowPower,
-        data_rate: MagDataRate::Hz10,
-        forced: true,
-    };
+    /// A preset in forced mode: each measurement starts on request (`start_forced`); the rate
+    /// field keeps its 10 Hz reset value.
+    pub const fn forced(preset: MagPreset) -> Self {
+        Self {
+            preset,
+            data_rate: MagDataRate::Hz10,
+            forced: true,
+        }
+    }
     /// A preset with its own data rate, in normal mode.
     pub const fn normal(preset: MagPreset) -> Self {
         Self {

@@ -29,7 +29,7 @@ pub fn script(parts: Vec<Vec<T<u8>>>) -> Vec<T<u8>> {
     parts.into_iter().flatten().collect()
 }
 
-/// `Accelerometer::init` with `AccelConfig::DIMA` (DESIGN section 3): soft reset, chip id
+/// `Accelerometer::init` with the DIMA configuration (`DIMA_ACCEL`): soft reset, chip id
 /// 0xFA, range ±2 g, bandwidth 1000 Hz, normal mode.
 pub fn accel_dima_init() -> Vec<T<u8>> {
     script(vec![
@@ -41,7 +41,7 @@ pub fn accel_dima_init() -> Vec<T<u8>> {
     ])
 }
 
-/// `Gyroscope::init` with `GyroConfig::DIMA` (DESIGN section 3): soft reset, chip id 0x0F,
+/// `Gyroscope::init` with the DIMA configuration (`DIMA_GYRO`): soft reset, chip id 0x0F,
 /// range ±2000 °/s, bandwidth 0x81, normal mode.
 pub fn gyro_dima_init() -> Vec<T<u8>> {
     script(vec![
@@ -61,7 +61,7 @@ pub const TRIM_2: [u8; 4] = [0x00, 0x00, 0x1A, 0x1A];
 /// Third trim burst, see [`TRIM_1`].
 pub const TRIM_3: [u8; 10] = [0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD, 0x1D];
 
-/// `Magnetometer::init` with `MagConfig::DIMA` (DESIGN section 3) on a die that answers at
+/// `Magnetometer::init` with the DIMA configuration (`DIMA_MAG`) on a die that answers at
 /// once: power on, soft reset, chip id 0x32, the three trim bursts, low-power preset
 /// (repetitions 0x01 / 0x02), forced mode.
 pub fn mag_dima_init() -> Vec<T<u8>> {
@@ -87,3 +87,25 @@ pub fn accel_deflection(axis: usize, counts: i16) -> [u8; 6] {
     b[2 * axis + 1] = w[1];
     b
 }
+
+/// A worked configuration used across the tests: ±2 g, 1000 Hz, normal mode.
+pub const DIMA_ACCEL: bosch_bmx055::accel::AccelConfig = bosch_bmx055::accel::AccelConfig {
+    range: bosch_bmx055::accel::AccelRange::G2,
+    bandwidth: bosch_bmx055::accel::AccelBandwidth::Hz1000,
+    power: bosch_bmx055::accel::AccelPowerMode::Normal,
+};
+/// ±2000 °/s, 2000 Hz / 230 Hz (0x81), normal mode.
+pub const DIMA_GYRO: bosch_bmx055::gyro::GyroConfig = bosch_bmx055::gyro::GyroConfig {
+    range: bosch_bmx055::gyro::GyroRange::Dps2000,
+    bandwidth: bosch_bmx055::gyro::GyroBandwidth::Odr2000Bw230,
+    power: bosch_bmx055::gyro::GyroPowerMode::Normal,
+};
+/// Low-power preset, forced mode.
+pub const DIMA_MAG: bosch_bmx055::mag::MagConfig =
+    bosch_bmx055::mag::MagConfig::forced(bosch_bmx055::mag::MagPreset::LowPower);
+/// The three together.
+pub const DIMA_IMU: bosch_bmx055::Bmx055Config = bosch_bmx055::Bmx055Config {
+    accel: DIMA_ACCEL,
+    gyro: DIMA_GYRO,
+    mag: DIMA_MAG,
+};

@@ -1,23 +1,25 @@
 //! Blocking command mode with a `DelayNs`: enter, run commands, leave.
 //!
-//! The same state machine as [`Transparent::poll`], polled every 250 µs on a clock counted from
+//! The same state machine as [`XBee::poll`], polled every 250 µs on a clock counted from
 //! the delays. The session leaves command mode when dropped (best effort), so an early `?`
 //! return does not strand the module in command mode.
 
 use embedded_hal::delay::DelayNs;
 use embedded_hal_nb::serial::{Read, Write};
 
+use super::CommandOutcome;
+use super::Transparent;
 use crate::at::{AtCommand, AtRequest, Parameter};
-use crate::command::CommandOutcome;
-use crate::settings::{self, ApiMode, BaudRate, PowerLevel, Role};
-use crate::transparent::Transparent;
+use crate::setting_types::{ApiMode, BaudRate, PowerLevel, Role};
+use crate::settings;
 use crate::types::{Address64, Error};
+use crate::xbee::XBee;
 
 /// Poll period of the blocking API, in µs: under one byte time at 9600 baud (1.04 ms), so a
 /// one-byte receive register does not overrun while a reply comes in.
 pub const POLL_STEP_US: u32 = 250;
 
-impl<S, E> Transparent<S>
+impl<S, E> XBee<S, Transparent>
 where
     S: Read<u8, Error = E> + Write<u8, Error = E>,
 {
@@ -53,7 +55,7 @@ where
     /// default) after the last command-mode input.
     pub fn wait_until_transparent<D: DelayNs>(&mut self, delay: &mut D) -> Result<(), Error<E>> {
         while !self.is_transparent() {
-            let now_ms = (self.clock_us / 1000) as u32;
+            let now_ms = (self.mode.clock_us / 1000) as u32;
             match self.poll_delay_clock(now_ms) {
                 Ok(_) | Err(nb::Error::WouldBlock) => {}
                 Err(nb::Error::Other(e)) => return Err(e),
@@ -67,13 +69,13 @@ where
 
     fn sleep_step<D: DelayNs>(&mut self, delay: &mut D) {
         delay.delay_us(POLL_STEP_US);
-        self.clock_us = self.clock_us.wrapping_add(u64::from(POLL_STEP_US));
+        self.mode.clock_us = self.mode.clock_us.wrapping_add(u64::from(POLL_STEP_US));
     }
 
     /// Polls until the operation in progress ends, on the blocking API's own clock.
     pub(crate) fn run<D: DelayNs>(&mut self, delay: &mut D) -> Result<CommandOutcome, Error<E>> {
         loop {
-            let now_ms = (self.clock_us / 1000) as u32;
+            let now_ms = (self.mode.clock_us / 1000) as u32;
             match self.poll_delay_clock(now_ms) {
                 Ok(outcome) => return Ok(outcome),
                 Err(nb::Error::Other(e)) => return Err(e),
@@ -83,13 +85,13 @@ where
     }
 }
 
-/// An open command-mode session (blocking). Obtained from [`Transparent::command_mode`].
+/// An open command-mode session (blocking). Obtained from [`XBee::command_mode`].
 pub struct CommandSession<'a, S, D>
 where
     S: Read<u8> + Write<u8>,
     D: DelayNs,
 {
-    xbee: &'a mut Transparent<S>,
+    xbee: &'a mut XBee<S, Transparent>,
     delay: &'a mut D,
     open: bool,
 }
@@ -179,7 +181,7 @@ where
         self.query_with(AtCommand::AP, settings::parse_api_mode)
     }
     /// Sets the serial operating mode (`AP`). After leaving, a module set to an API mode speaks
-    /// frames: use [`XBeeApi`](crate::XBeeApi) then.
+    /// frames: use [`XBee<S, Api>`](crate::Api) then.
     pub fn set_api_mode(&mut self, mode: ApiMode) -> Result<(), Error<E>> {
         self.set(&settings::set_api_mode(mode))
     }
@@ -257,7 +259,7 @@ where
     /// Leaves command mode (`ATCN`); data passes again afterwards. If `CT` is too close for
     /// `ATCN`, it waits until the module has surely left instead. On an error the module may
     /// still be in command mode: data stays refused until
-    /// [`Transparent::wait_until_transparent`] returns.
+    /// [`XBee::wait_until_transparent`] returns.
     pub fn exit(mut self) -> Result<(), Error<E>> {
         self.open = false;
         self.leave()

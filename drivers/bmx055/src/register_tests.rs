@@ -3,9 +3,10 @@
 //! Bosch's SensorAPI headers: `bma2_defs.h` (BMA2 SensorAPI, BMA253/BMA255 die, chip id 0xFA),
 //! `bmg160.h` (BMG160_driver) and `bmm150_defs.h` (BMM150 SensorAPI).
 
-use bosch_bmx055::accel::register as a;
-use bosch_bmx055::gyro::register as g;
-use bosch_bmx055::mag::register as m;
+// Unit tests, because the register maps are private: the public API speaks in typed values.
+use crate::accel::register as a;
+use crate::gyro::register as g;
+use crate::mag::register as m;
 
 #[test]
 fn accelerometer_addresses() {
@@ -103,7 +104,7 @@ fn accelerometer_bits() {
 
 #[test]
 fn accelerometer_field_values() {
-    use bosch_bmx055::accel::*;
+    use crate::accel::*;
     assert_eq!(AccelRange::G2.bits(), 0x03);
     assert_eq!(AccelRange::G4.bits(), 0x05);
     assert_eq!(AccelRange::G8.bits(), 0x08);
@@ -164,7 +165,7 @@ fn gyroscope_addresses() {
 
 #[test]
 fn gyroscope_bits_and_fields() {
-    use bosch_bmx055::gyro::*;
+    use crate::gyro::*;
     let pinned = [
         (g::SUSPEND, 0x80),
         (g::DEEP_SUSPEND, 0x20),
@@ -244,7 +245,7 @@ fn magnetometer_addresses() {
 
 #[test]
 fn magnetometer_bits_and_fields() {
-    use bosch_bmx055::mag::*;
+    use crate::mag::*;
     let pinned = [
         (m::POWER_ON, 0x01),
         (m::SOFT_RESET, 0x82),
@@ -288,9 +289,9 @@ fn magnetometer_bits_and_fields() {
 
 #[test]
 fn i2c_strap_addresses() {
-    use bosch_bmx055::accel::AccelAddress;
-    use bosch_bmx055::gyro::GyroAddress;
-    use bosch_bmx055::mag::MagAddress;
+    use crate::accel::AccelAddress;
+    use crate::gyro::GyroAddress;
+    use crate::mag::MagAddress;
     assert_eq!(AccelAddress::Sdo1Low as u8, 0x18);
     assert_eq!(AccelAddress::Sdo1High as u8, 0x19);
     assert_eq!(GyroAddress::Sdo2Low as u8, 0x68);
@@ -299,12 +300,12 @@ fn i2c_strap_addresses() {
     assert_eq!(MagAddress::Csb3LowSdo3High as u8, 0x11);
     assert_eq!(MagAddress::Csb3HighSdo3Low as u8, 0x12);
     assert_eq!(MagAddress::Csb3HighSdo3High as u8, 0x13);
-    assert_eq!(bosch_bmx055::interface::SPI_READ, 0x80);
+    assert_eq!(crate::interface::SPI_READ, 0x80);
 }
 
 #[test]
 fn fifo_fields() {
-    use bosch_bmx055::{FifoData, FifoMode, FifoStatus};
+    use crate::{FifoData, FifoMode, FifoStatus};
     assert_eq!(FifoMode::Bypass as u8, 0);
     assert_eq!(FifoMode::Fifo as u8, 1);
     assert_eq!(FifoMode::Stream as u8, 2);

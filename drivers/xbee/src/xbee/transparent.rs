@@ -7,8 +7,15 @@
 
 use embedded_hal_nb::serial::{ErrorType, Read, Write};
 
+use super::XBee;
 use crate::at::MAX_LINE_LEN;
 use crate::types::Error;
+
+mod command;
+mod session;
+
+pub use command::CommandOutcome;
+pub use session::{CommandSession, POLL_STEP_US};
 
 /// Timing of the module's command mode. Must match the module's `GT`, `CT` and `CC` settings;
 /// the defaults are the factory values.
@@ -113,43 +120,34 @@ pub(crate) enum State {
     Leaving,
 }
 
-/// The module in transparent mode, with guarded AT command mode.
-///
-/// A thin wrapper: the serial port, the command-mode state and one 48-byte line buffer; no
-/// allocation. It implements embedded-hal-nb [`Read<u8>`] and [`Write<u8>`] (and, with the
-/// `embedded-io` feature, `embedded_io::Read`/`Write`), so framed protocols run over it as over
-/// the bare port.
-///
-/// Command mode is a state machine driven by the caller's clock
-/// ([`start_command_mode`](Self::start_command_mode), [`start_command`](Self::start_command),
-/// [`start_exit`](Self::start_exit), then [`poll`](Self::poll) until it is not `WouldBlock`),
-/// or blocking with a `DelayNs` through [`command_mode`](Self::command_mode). Use one of the two
-/// per driver: they count time on different clocks.
+/// Mode state of an [`XBee`] in transparent mode (`AP = 0`): the command-mode machine and its
+/// line buffer. Only this module touches it.
 #[derive(Debug)]
-pub struct Transparent<S> {
-    pub(crate) serial: S,
-    pub(crate) timing: CommandTiming,
-    pub(crate) state: State,
+pub struct Transparent {
+    timing: CommandTiming,
+    state: State,
     /// Clock value at the first poll in the current state.
-    pub(crate) state_since: Option<u32>,
+    state_since: Option<u32>,
     /// When the last command the module accepted was sent (its `CT` timer restarted then).
-    pub(crate) confirmed_ms: Option<u32>,
+    confirmed_ms: Option<u32>,
     /// When the last command-mode input (`+++` or a command line) was completed.
-    pub(crate) input_ms: u32,
+    input_ms: u32,
     /// Outgoing command line, then the reply line.
-    pub(crate) line: [u8; MAX_LINE_LEN],
-    pub(crate) line_len: usize,
-    pub(crate) line_overflow: bool,
+    line: [u8; MAX_LINE_LEN],
+    line_len: usize,
+    line_overflow: bool,
     /// Virtual clock of the blocking API, in µs.
-    pub(crate) clock_us: u64,
-    pub(crate) discarded: u32,
+    clock_us: u64,
+    discarded: u32,
     /// A reply timed out: drain the input before the next command.
-    pub(crate) stale_input: bool,
+    stale_input: bool,
     /// The last poll came from the blocking API (its clock is counted from delays).
-    pub(crate) delay_clock: bool,
+    delay_clock: bool,
 }
 
-impl<S> Transparent<S> {
+/// The module in transparent mode, with guarded AT command mode.
+///
+impl<S> XBee<S, Transparent> {
     /// Wraps a serial port connected to a module in transparent mode (`AP = 0`), with the
     /// factory command-mode timing.
     pub fn new(serial: S) -> Self {
@@ -158,42 +156,33 @@ impl<S> Transparent<S> {
 
     /// Wraps a serial port, with the module's own `GT`, `CT` and `CC`.
     pub fn with_timing(serial: S, timing: CommandTiming) -> Self {
-        Self {
+        XBee::from_parts(
             serial,
-            timing,
-            state: State::Transparent,
-            state_since: None,
-            confirmed_ms: None,
-            input_ms: 0,
-            line: [0; MAX_LINE_LEN],
-            line_len: 0,
-            line_overflow: false,
-            clock_us: 0,
-            discarded: 0,
-            stale_input: false,
-            delay_clock: false,
-        }
-    }
-
-    /// Gives the serial port back.
-    pub fn release(self) -> S {
-        self.serial
-    }
-
-    /// The serial port, for port settings such as its baud rate after a `BD` change. Bytes
-    /// written through it bypass the command-mode guard.
-    pub fn serial_mut(&mut self) -> &mut S {
-        &mut self.serial
+            Transparent {
+                timing,
+                state: State::Transparent,
+                state_since: None,
+                confirmed_ms: None,
+                input_ms: 0,
+                line: [0; MAX_LINE_LEN],
+                line_len: 0,
+                line_overflow: false,
+                clock_us: 0,
+                discarded: 0,
+                stale_input: false,
+                delay_clock: false,
+            },
+        )
     }
 
     /// The command-mode timing in use.
     pub fn timing(&self) -> CommandTiming {
-        self.timing
+        self.mode.timing
     }
 
     /// Where the driver believes the module is.
     pub fn mode(&self) -> Mode {
-        match self.state {
+        match self.mode.state {
             State::Transparent => Mode::Transparent,
             State::EnterWaitExit
             | State::EnterFlush
@@ -208,29 +197,29 @@ impl<S> Transparent<S> {
 
     /// Whether data passes through right now.
     pub fn is_transparent(&self) -> bool {
-        self.state == State::Transparent
+        self.mode.state == State::Transparent
     }
 
     /// Bytes thrown away in command mode: radio data that arrived just before the module
     /// switched (before the `OK` of `+++`), late replies, overlong reply lines.
     pub fn discarded_bytes(&self) -> u32 {
-        self.discarded
+        self.mode.discarded
     }
 
     /// Whether received bytes are still radio data (the module has not seen `+++` yet).
     fn reads_pass_through(&self) -> bool {
         matches!(
-            self.state,
+            self.mode.state,
             State::Transparent | State::EnterFlush | State::EnterGuard
         )
     }
 }
 
-impl<S: ErrorType> ErrorType for Transparent<S> {
+impl<S: ErrorType> ErrorType for XBee<S, Transparent> {
     type Error = Error<S::Error>;
 }
 
-impl<S: Read<u8>> Read<u8> for Transparent<S> {
+impl<S: Read<u8>> Read<u8> for XBee<S, Transparent> {
     /// Reads one received byte; `WouldBlock` while the module is in command mode.
     fn read(&mut self) -> nb::Result<u8, Self::Error> {
         if self.reads_pass_through() {
@@ -241,10 +230,10 @@ impl<S: Read<u8>> Read<u8> for Transparent<S> {
     }
 }
 
-impl<S: Write<u8>> Write<u8> for Transparent<S> {
+impl<S: Write<u8>> Write<u8> for XBee<S, Transparent> {
     /// Sends one byte; [`Error::CommandModeActive`] (not sent) outside transparent mode.
     fn write(&mut self, word: u8) -> nb::Result<(), Self::Error> {
-        if self.state != State::Transparent {
+        if self.mode.state != State::Transparent {
             return Err(nb::Error::Other(Error::CommandModeActive));
         }
         self.serial.write(word).map_err(|e| e.map(Error::Comm))
@@ -261,14 +250,15 @@ mod io {
     //! retrying the serial port's `WouldBlock`, as any embedded-io wrapper of a non-blocking port
     //! must; use the embedded-hal-nb traits for non-blocking use.
 
+    use super::XBee;
     use super::{Read, Transparent, Write};
     use crate::types::Error;
 
-    impl<S: embedded_hal_nb::serial::ErrorType> embedded_io::ErrorType for Transparent<S> {
+    impl<S: embedded_hal_nb::serial::ErrorType> embedded_io::ErrorType for XBee<S, Transparent> {
         type Error = Error<S::Error>;
     }
 
-    impl<S: Read<u8>> embedded_io::Read for Transparent<S> {
+    impl<S: Read<u8>> embedded_io::Read for XBee<S, Transparent> {
         /// Blocks until one byte arrives, then returns it with any that are already waiting.
         /// Outside transparent mode it returns [`Error::CommandModeActive`] instead of blocking.
         fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
@@ -300,7 +290,7 @@ mod io {
         }
     }
 
-    impl<S: Write<u8>> embedded_io::Write for Transparent<S> {
+    impl<S: Write<u8>> embedded_io::Write for XBee<S, Transparent> {
         /// Sends the whole buffer; [`Error::CommandModeActive`] outside transparent mode.
         fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
             for &b in buf {

@@ -9,14 +9,15 @@
 
 use embedded_hal_nb::serial::{Read, Write};
 
+use super::{State, Transparent};
 use crate::at::{format_line, is_error, is_ok, AtCommand, AtRequest};
-use crate::transparent::{State, Transparent};
 use crate::types::Error;
+use crate::xbee::XBee;
 
 /// `None`: the state changed, evaluate the new one in the same poll. `Some`: the poll's result.
 type Step<E> = Option<nb::Result<CommandOutcome, Error<E>>>;
 
-/// What a completed [`Transparent::poll`] reports.
+/// What a completed [`XBee::poll`] reports.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CommandOutcome {
@@ -24,7 +25,7 @@ pub enum CommandOutcome {
     Idle,
     /// The module answered `OK` to `+++`: command mode is open.
     Entered,
-    /// The module answered the command; the line is in [`Transparent::reply`].
+    /// The module answered the command; the line is in [`XBee::reply`].
     Reply,
     /// The module is back in transparent mode after `ATCN` (or after `CT` ran out while
     /// leaving).
@@ -33,7 +34,7 @@ pub enum CommandOutcome {
     AutoExited,
 }
 
-impl<S, E> Transparent<S>
+impl<S, E> XBee<S, Transparent>
 where
     S: Read<u8, Error = E> + Write<u8, Error = E>,
 {
@@ -44,7 +45,7 @@ where
     /// well within `CT`, the next poll reports `Entered` at once; if it may be about to leave,
     /// the driver first waits until it surely has.
     pub fn start_command_mode(&mut self) -> Result<(), Error<E>> {
-        match self.state {
+        match self.mode.state {
             State::Transparent => self.go(State::EnterFlush),
             State::Ready => self.go(State::EnterWaitExit),
             _ => return Err(Error::Busy),
@@ -62,17 +63,17 @@ where
         if *request == AtRequest::query(AtCommand::CN) {
             return self.start_exit();
         }
-        match self.state {
+        match self.mode.state {
             State::Ready => {}
             State::Transparent => return Err(Error::NotInCommandMode),
             _ => return Err(Error::Busy),
         }
         self.clear_line();
-        let Some(n) = format_line(request, &mut self.line) else {
+        let Some(n) = format_line(request, &mut self.mode.line) else {
             self.clear_line();
             return Err(Error::InvalidInput);
         };
-        self.line_len = n;
+        self.mode.line_len = n;
         self.go(State::Sending {
             pos: 0,
             exit: false,
@@ -83,15 +84,15 @@ where
     /// Starts leaving command mode with `ATCN`; then [`poll`](Self::poll) until it returns
     /// [`CommandOutcome::Exited`].
     pub fn start_exit(&mut self) -> Result<(), Error<E>> {
-        match self.state {
+        match self.mode.state {
             State::Ready => {}
             State::Transparent => return Err(Error::NotInCommandMode),
             _ => return Err(Error::Busy),
         }
         self.clear_line();
-        let n = format_line(&AtRequest::query(AtCommand::CN), &mut self.line)
+        let n = format_line(&AtRequest::query(AtCommand::CN), &mut self.mode.line)
             .ok_or(Error::InvalidInput)?;
-        self.line_len = n;
+        self.mode.line_len = n;
         self.go(State::Sending { pos: 0, exit: true });
         Ok(())
     }
@@ -99,9 +100,9 @@ where
     /// The last reply line, without its `\r` (valid after [`CommandOutcome::Reply`] and
     /// [`Error::AtError`]).
     pub fn reply(&self) -> &[u8] {
-        match self.state {
+        match self.mode.state {
             State::Sending { .. } => &[],
-            _ => self.line.get(..self.line_len).unwrap_or_default(),
+            _ => self.mode.line.get(..self.mode.line_len).unwrap_or_default(),
         }
     }
 
@@ -112,21 +113,21 @@ where
     /// milliseconds while an operation is in progress (each call reads what has arrived), and
     /// now and then while in command mode so that a `CT` expiry is noticed.
     pub fn poll(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
-        self.delay_clock = false;
+        self.mode.delay_clock = false;
         self.advance(now_ms)
     }
 
     /// [`poll`](Self::poll) on the blocking API's clock, which is counted from delays.
     pub(crate) fn poll_delay_clock(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
-        self.delay_clock = true;
+        self.mode.delay_clock = true;
         self.advance(now_ms)
     }
 
     fn advance(&mut self, now_ms: u32) -> nb::Result<CommandOutcome, Error<E>> {
         loop {
-            let since = *self.state_since.get_or_insert(now_ms);
+            let since = *self.mode.state_since.get_or_insert(now_ms);
             let elapsed = now_ms.wrapping_sub(since);
-            let step = match self.state {
+            let step = match self.mode.state {
                 State::Transparent => Some(Ok(CommandOutcome::Idle)),
                 State::Ready => Some(self.step_ready(now_ms)),
                 State::Leaving => Some(self.step_leaving(now_ms)),
@@ -181,7 +182,7 @@ where
                 self.go(State::EnterGuard);
                 None
             }
-            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+            Err(nb::Error::WouldBlock) if elapsed < self.mode.timing.reply_timeout_ms => {
                 Some(Err(nb::Error::WouldBlock))
             }
             // Nothing of the command sequence went out: still transparent.
@@ -192,9 +193,10 @@ where
 
     fn step_guard(&mut self, elapsed: u32) -> Step<E> {
         let silence = self
+            .mode
             .timing
             .guard_time_ms
-            .saturating_add(self.timing.guard_margin_ms);
+            .saturating_add(self.mode.timing.guard_margin_ms);
         if elapsed < silence {
             return Some(Err(nb::Error::WouldBlock));
         }
@@ -204,41 +206,41 @@ where
 
     fn step_plus(&mut self, sent: u8, now_ms: u32, elapsed: u32) -> Step<E> {
         if sent >= 3 {
-            self.input_ms = now_ms;
-            self.confirmed_ms = None;
+            self.mode.input_ms = now_ms;
+            self.mode.confirmed_ms = None;
             self.clear_line();
             self.go(State::EnterAwaitOk);
             return None;
         }
-        let error = match self.serial.write(self.timing.command_character) {
+        let error = match self.serial.write(self.mode.timing.command_character) {
             Ok(()) => {
                 // Same state, same deadline: the three characters must go out together.
-                self.state = State::EnterPlus { sent: sent + 1 };
+                self.mode.state = State::EnterPlus { sent: sent + 1 };
                 return None;
             }
-            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+            Err(nb::Error::WouldBlock) if elapsed < self.mode.timing.reply_timeout_ms => {
                 return Some(Err(nb::Error::WouldBlock))
             }
             Err(nb::Error::WouldBlock) => Error::Timeout,
             Err(nb::Error::Other(e)) => Error::Comm(e),
         };
         // Part of `+++` may be out: stay cautious until `CT` has passed.
-        self.input_ms = now_ms;
-        self.confirmed_ms = None;
+        self.mode.input_ms = now_ms;
+        self.mode.confirmed_ms = None;
         Some(self.fail(State::Ready, error))
     }
 
     fn step_await_ok(&mut self, elapsed: u32) -> nb::Result<CommandOutcome, Error<E>> {
         loop {
             match self.read_line() {
-                Ok(Some(())) if is_ok(self.reply()) && !self.line_overflow => {
-                    self.confirmed_ms = Some(self.input_ms);
+                Ok(Some(())) if is_ok(self.reply()) && !self.mode.line_overflow => {
+                    self.mode.confirmed_ms = Some(self.mode.input_ms);
                     self.go(State::Ready);
                     return Ok(CommandOutcome::Entered);
                 }
                 Ok(Some(())) => {
                     // Radio data that arrived before the switch.
-                    self.count_discarded(self.line_len + 1);
+                    self.count_discarded(self.mode.line_len + 1);
                     self.clear_line();
                 }
                 Ok(None) => break,
@@ -246,11 +248,12 @@ where
             }
         }
         let deadline = self
+            .mode
             .timing
             .guard_time_ms
-            .saturating_add(self.timing.reply_timeout_ms);
+            .saturating_add(self.mode.timing.reply_timeout_ms);
         if elapsed >= deadline {
-            self.count_discarded(self.line_len);
+            self.count_discarded(self.mode.line_len);
             self.clear_line();
             // The module may have switched without us hearing the `OK`.
             return self.fail(State::Ready, Error::Timeout);
@@ -268,25 +271,30 @@ where
                 }
                 return Some(self.fail(State::Ready, Error::NotInCommandMode));
             }
-            if self.stale_input {
+            if self.mode.stale_input {
                 if let Err(e) = self.drain() {
                     self.clear_line();
                     return Some(self.fail(State::Ready, Error::Comm(e)));
                 }
             }
         }
-        let Some(&byte) = self.line.get(..self.line_len).and_then(|l| l.get(pos)) else {
-            self.input_ms = now_ms;
+        let Some(&byte) = self
+            .mode
+            .line
+            .get(..self.mode.line_len)
+            .and_then(|l| l.get(pos))
+        else {
+            self.mode.input_ms = now_ms;
             self.clear_line();
             self.go(State::AwaitReply { exit });
             return None;
         };
         let error = match self.serial.write(byte) {
             Ok(()) => {
-                self.state = State::Sending { pos: pos + 1, exit };
+                self.mode.state = State::Sending { pos: pos + 1, exit };
                 return None;
             }
-            Err(nb::Error::WouldBlock) if elapsed < self.timing.reply_timeout_ms => {
+            Err(nb::Error::WouldBlock) if elapsed < self.mode.timing.reply_timeout_ms => {
                 return Some(Err(nb::Error::WouldBlock))
             }
             Err(nb::Error::WouldBlock) => Error::Timeout,
@@ -294,7 +302,7 @@ where
         };
         if pos > 0 {
             // Part of the line is out: the module's `CT` timer may have restarted.
-            self.input_ms = now_ms;
+            self.mode.input_ms = now_ms;
         }
         self.clear_line();
         Some(self.fail(State::Ready, error))
@@ -310,22 +318,22 @@ where
             Ok(None) => {}
             Err(e) => return self.fail(State::Ready, Error::Comm(e)),
         }
-        if elapsed >= self.timing.reply_timeout_ms {
+        if elapsed >= self.mode.timing.reply_timeout_ms {
             // A late answer must not be taken for the next command's reply.
-            self.stale_input = true;
+            self.mode.stale_input = true;
             return self.fail(State::Ready, Error::Timeout);
         }
         Err(nb::Error::WouldBlock)
     }
 
     fn finish_reply(&mut self, exit: bool) -> nb::Result<CommandOutcome, Error<E>> {
-        if self.line_overflow {
+        if self.mode.line_overflow {
             return self.fail(State::Ready, Error::InvalidReply);
         }
         if is_error(self.reply()) {
             return self.fail(State::Ready, Error::AtError);
         }
-        self.confirmed_ms = Some(self.input_ms);
+        self.mode.confirmed_ms = Some(self.mode.input_ms);
         if exit {
             if is_ok(self.reply()) {
                 self.go(State::Transparent);
@@ -339,7 +347,7 @@ where
 
     /// Throws away whatever has arrived (a late reply after a timeout).
     fn drain(&mut self) -> Result<(), E> {
-        self.stale_input = false;
+        self.mode.stale_input = false;
         // Bounded: a late reply is one short line, not a stream.
         for _ in 0..2 * crate::at::MAX_LINE_LEN {
             match self.serial.read() {
@@ -357,13 +365,13 @@ where
             match self.serial.read() {
                 Ok(b'\r') => return Ok(Some(())),
                 Ok(b'\n') => {}
-                Ok(byte) => match self.line.get_mut(self.line_len) {
+                Ok(byte) => match self.mode.line.get_mut(self.mode.line_len) {
                     Some(slot) => {
                         *slot = byte;
-                        self.line_len += 1;
+                        self.mode.line_len += 1;
                     }
                     None => {
-                        self.line_overflow = true;
+                        self.mode.line_overflow = true;
                         self.count_discarded(1);
                     }
                 },
@@ -374,10 +382,10 @@ where
     }
 }
 
-impl<S> Transparent<S> {
+impl<S> XBee<S, Transparent> {
     pub(crate) fn go(&mut self, state: State) {
-        self.state = state;
-        self.state_since = None;
+        self.mode.state = state;
+        self.mode.state_since = None;
     }
 
     fn fail<T, E>(&mut self, state: State, error: Error<E>) -> nb::Result<T, Error<E>> {
@@ -387,14 +395,14 @@ impl<S> Transparent<S> {
 
     /// Zeroes the line buffer, so a key sent with `KY` does not linger in memory.
     pub(crate) fn clear_line(&mut self) {
-        self.line = [0; crate::at::MAX_LINE_LEN];
-        self.line_len = 0;
-        self.line_overflow = false;
+        self.mode.line = [0; crate::at::MAX_LINE_LEN];
+        self.mode.line_len = 0;
+        self.mode.line_overflow = false;
     }
 
     fn count_discarded(&mut self, n: usize) {
         let n = u32::try_from(n).unwrap_or(u32::MAX);
-        self.discarded = self.discarded.saturating_add(n);
+        self.mode.discarded = self.mode.discarded.saturating_add(n);
     }
 
     /// The module accepted a command recently enough that another one arrives before `CT`.
@@ -404,22 +412,25 @@ impl<S> Transparent<S> {
     /// Halving allows the delays to take up to twice their nominal time.
     fn fresh(&self, now_ms: u32) -> bool {
         let mut limit = self
+            .mode
             .timing
             .command_timeout_ms
-            .saturating_sub(self.timing.reply_timeout_ms);
-        if self.delay_clock {
+            .saturating_sub(self.mode.timing.reply_timeout_ms);
+        if self.mode.delay_clock {
             limit /= 2;
         }
-        self.confirmed_ms
+        self.mode
+            .confirmed_ms
             .is_some_and(|t| now_ms.wrapping_sub(t) < limit)
     }
 
     /// `CT` has surely run out since the last command-mode input.
     fn surely_left(&self, now_ms: u32) -> bool {
         let limit = self
+            .mode
             .timing
             .command_timeout_ms
-            .saturating_add(self.timing.reply_timeout_ms);
-        now_ms.wrapping_sub(self.input_ms) >= limit
+            .saturating_add(self.mode.timing.reply_timeout_ms);
+        now_ms.wrapping_sub(self.mode.input_ms) >= limit
     }
 }

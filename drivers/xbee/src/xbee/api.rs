@@ -2,27 +2,28 @@
 
 use embedded_hal_nb::serial::{Read, Write};
 
+use super::transparent::Transparent;
+use super::XBee;
 use crate::at::{AtCommand, Parameter};
 use crate::codec::{write_frame, ByteSink, DecoderStats, FrameDecoder, WriteError};
 use crate::frame_id::FrameIdAllocator;
 use crate::frames::{AtCommandFrame, Frame, TransmitRequest};
 use crate::types::{Address16, Address64, ApiEscaping, Error, FrameError};
 
-/// Longest binary AT parameter [`XBeeApi::send_at_command`] carries (a 16-byte key, a 20-byte
+/// Longest binary AT parameter [`XBee::send_at_command`] carries (a 16-byte key, a 20-byte
 /// node identifier fit).
 pub const MAX_AT_PARAMETER_LEN: usize = 32;
 
 /// Default number of `WouldBlock` answers tolerated per written byte (and for the final
-/// flush) before [`XBeeApi::send`] gives up with [`Error::Timeout`].
+/// flush) before [`XBee::send`] gives up with [`Error::Timeout`].
 pub const DEFAULT_WRITE_POLLS_PER_BYTE: u32 = 1_000_000;
 
-/// A module in API mode: sends typed frames, decodes received ones.
-///
-/// `N` is the receive buffer size: the longest whole frame accepted (see [`FrameDecoder`]).
-/// The default of 256 bytes holds any frame with the largest Zigbee payload.
+/// Mode state of an [`XBee`] in API mode (`AP = 1` or `2`): the frame decoder with its
+/// `N`-byte receive buffer (the longest whole frame accepted; the default of 256 bytes holds any
+/// frame with the largest Zigbee payload), the frame-id allocator and the write budget. Only
+/// this module touches it.
 #[derive(Debug)]
-pub struct XBeeApi<S, const N: usize = 256> {
-    serial: S,
+pub struct Api<const N: usize = 256> {
     decoder: FrameDecoder<N>,
     frame_ids: FrameIdAllocator,
     write_polls_per_byte: u32,
@@ -74,60 +75,65 @@ impl<E> From<SinkError<E>> for Error<E> {
     }
 }
 
-impl<S, const N: usize> XBeeApi<S, N> {
+impl<S> XBee<S, Api> {
     /// Wraps a serial port connected to a module in API mode with the given escaping (its
-    /// `AP` setting).
-    pub fn new(serial: S, escaping: ApiEscaping) -> Self {
-        Self {
+    /// `AP` setting), with the default 256-byte receive buffer.
+    pub fn new_api(serial: S, escaping: ApiEscaping) -> Self {
+        Self::api_with_capacity(serial, escaping)
+    }
+}
+
+impl<S, const N: usize> XBee<S, Api<N>> {
+    /// As [`XBee::new_api`], with an `N`-byte receive buffer
+    /// (`XBee::<_, Api<64>>::api_with_capacity(serial, escaping)`).
+    pub fn api_with_capacity(serial: S, escaping: ApiEscaping) -> Self {
+        XBee::from_parts(
             serial,
-            decoder: FrameDecoder::new(escaping),
-            frame_ids: FrameIdAllocator::new(),
-            write_polls_per_byte: DEFAULT_WRITE_POLLS_PER_BYTE,
-        }
+            Api {
+                decoder: FrameDecoder::new(escaping),
+                frame_ids: FrameIdAllocator::new(),
+                write_polls_per_byte: DEFAULT_WRITE_POLLS_PER_BYTE,
+            },
+        )
+    }
+
+    /// Back to transparent mode with the factory command-mode timing, after the module was
+    /// switched there (an `AP = 0` AT command frame, then `WR`/`AC` as needed). Keeps the port.
+    pub fn into_transparent(self) -> XBee<S, Transparent> {
+        XBee::new(self.serial)
     }
 
     /// Sets how many `WouldBlock` answers a written byte (or the final flush) may get before
-    /// [`send`](XBeeApi::send) gives up with [`Error::Timeout`] (at least 1; default
+    /// [`send`](XBee::send) gives up with [`Error::Timeout`] (at least 1; default
     /// [`DEFAULT_WRITE_POLLS_PER_BYTE`]).
     pub fn with_write_polls_per_byte(mut self, polls: u32) -> Self {
-        self.write_polls_per_byte = polls.max(1);
+        self.mode.write_polls_per_byte = polls.max(1);
         self
-    }
-
-    /// Gives the serial port back.
-    pub fn release(self) -> S {
-        self.serial
-    }
-
-    /// The serial port, for port settings such as its baud rate. Bytes written through it
-    /// bypass the frame encoder.
-    pub fn serial_mut(&mut self) -> &mut S {
-        &mut self.serial
     }
 
     /// The next frame id for a request that wants a response (never 0).
     pub fn next_frame_id(&mut self) -> u8 {
-        self.frame_ids.next_id()
+        self.mode.frame_ids.next_id()
     }
 
     /// Counters of received and dropped frames.
     pub fn stats(&self) -> DecoderStats {
-        self.decoder.stats()
+        self.mode.decoder.stats()
     }
 }
 
-impl<S, E, const N: usize> XBeeApi<S, N>
+impl<S, E, const N: usize> XBee<S, Api<N>>
 where
     S: Read<u8, Error = E> + Write<u8, Error = E>,
 {
     /// Sends one frame and flushes, polling the port while it answers `WouldBlock`.
     ///
     /// Fails with [`Error::Timeout`] if one byte (or the flush) is refused for the whole poll
-    /// budget ([`with_write_polls_per_byte`](XBeeApi::with_write_polls_per_byte)); the frame
+    /// budget ([`with_write_polls_per_byte`](XBee::with_write_polls_per_byte)); the frame
     /// may then be partly sent, which the module drops by its length and checksum.
     pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error<E>> {
-        let escaping = self.decoder.escaping();
-        let polls = self.write_polls_per_byte;
+        let escaping = self.mode.decoder.escaping();
+        let polls = self.mode.write_polls_per_byte;
         let mut sink = SerialSink {
             serial: &mut self.serial,
             polls,
@@ -180,15 +186,15 @@ where
     /// [`stats`](Self::stats). A frame of a known type with an invalid length is returned as
     /// [`Error::Frame`].
     pub fn poll_frame(&mut self) -> nb::Result<Frame<'_>, Error<E>> {
-        if self.decoder.next_buffered().is_none() {
+        if self.mode.decoder.next_buffered().is_none() {
             loop {
                 let byte = self.serial.read().map_err(|e| e.map(Error::Comm))?;
-                if self.decoder.advance(byte) {
+                if self.mode.decoder.advance(byte) {
                     break;
                 }
             }
         }
-        match self.decoder.frame() {
+        match self.mode.decoder.frame() {
             Some(raw) => raw.parse().map_err(|e| nb::Error::Other(Error::Frame(e))),
             None => Err(nb::Error::WouldBlock),
         }
