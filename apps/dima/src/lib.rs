@@ -15,7 +15,7 @@
 //!   writes the typed messages of [`log_messages`];
 //! - [`sim`]: `dima sim`, the application against the simulated devices of `dima-sim`;
 //! - [`logtools`]: `dima log info|export|plot|replay` and `dima inspect`;
-//! - [`bench`]: `dima bench wakeup`, the loop skeleton against cyclictest.
+//! - [`bench`](mod@bench): `dima bench wakeup`, the loop skeleton against cyclictest.
 #![deny(missing_docs)]
 
 pub mod app;
