@@ -195,10 +195,14 @@ mod app {
         let mut rcc = dp.RCC.freeze(clock_config);
         let sysclk_hz = rcc.clocks.sysclk().raw();
         // QEMU's netduinoplus2 clocks the core at a fixed 168 MHz whatever RCC says.
+        let mut core = cx.core;
+        // SysTick (the monotonic's tick) runs below the link tasks, so it can never hold off a
+        // request edge; it stays above sampling so a long tick cannot lose a counter wrap.
+        set_systick_priority(&mut core.SCB, SYSTICK_PRIORITY);
         #[cfg(not(feature = "qemu"))]
-        Mono::start(cx.core.SYST, sysclk_hz);
+        Mono::start(core.SYST, sysclk_hz);
         #[cfg(feature = "qemu")]
-        Mono::start(cx.core.SYST, QEMU_CORE_HZ);
+        Mono::start(core.SYST, QEMU_CORE_HZ);
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
@@ -397,6 +401,23 @@ mod app {
                 host_rx,
             },
         )
+    }
+
+    /// RTIC priority of the SysTick exception: below `request` and `link_done` (3), equal to
+    /// the GNSS tasks (2), above sampling (1).
+    const SYSTICK_PRIORITY: u8 = 2;
+
+    /// Sets SysTick's exception priority to the RTIC (logical) priority `logical`.
+    fn set_systick_priority(scb: &mut cortex_m::peripheral::SCB, logical: u8) {
+        use cortex_m::peripheral::scb::SystemHandler;
+        // RTIC's mapping: logical 1 is the lowest hardware level, higher numbers preempt.
+        let hardware = ((1u8 << pac::NVIC_PRIO_BITS) - logical) << (8 - pac::NVIC_PRIO_BITS);
+        // SAFETY: called from `init` with interrupts disabled; no RTIC lock depends on
+        // SysTick's priority (its handler only runs the monotonic's timer queue).
+        #[allow(unsafe_code)]
+        unsafe {
+            scb.set_priority(SystemHandler::SysTick, hardware)
+        };
     }
 
     /// One SPI device on the shared bus; the chip select starts high (deselected).
