@@ -38,6 +38,7 @@ mod app {
     use crate::delay::CycleDelay;
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
+    use dima_firmware_logic::reset_record::BootFault;
     use dima_firmware_logic::{
         blink as led_pattern, AfterTransfer, Answer, CheckedCrc, GnssSetupOutcome, LatestPacket,
         ReplyPort, ReplyTap, RequestHandler, SetupStatus,
@@ -85,6 +86,12 @@ mod app {
     /// GNSS bytes outside valid UBX frames, and frames with a bad checksum (GNSS task's count).
     static GNSS_BYTES_DROPPED: AtomicU32 = AtomicU32::new(0);
     static GNSS_FRAME_ERRORS: AtomicU32 = AtomicU32::new(0);
+    /// The fault that made the previous boot reset the board (a `BootFault` code: 1 link
+    /// USART3, 2 GNSS USART1, 3 sampling timer; 0 none). It also counts as a watchdog reset
+    /// (status bit 5, `watchdog_resets`), since the watchdog performs it; this static, for a
+    /// debugger, says which step failed.
+    #[used]
+    static BOOT_FAULT: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(0);
     /// Received bytes the configurator's reply queue had no room for.
     static GNSS_REPLY_DROPPED: AtomicU32 = AtomicU32::new(0);
 
@@ -183,8 +190,11 @@ mod app {
         // Why did we reset? Read the flags before anything else, then clear them.
         let csr = dp.RCC.csr().read();
         let watchdog_reset = csr.wdgrstf().bit_is_set();
-        let watchdog_resets =
-            crate::reset_record::count_watchdog_resets(csr.porrstf().bit_is_set(), watchdog_reset);
+        let reset_report =
+            crate::reset_record::after_reset(csr.porrstf().bit_is_set(), watchdog_reset);
+        if let Some(cause) = reset_report.boot_fault {
+            BOOT_FAULT.store(cause as u8, Ordering::Relaxed);
+        }
         dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
 
         // QEMU models no RCC: HSE and PLL would never report ready there.
@@ -246,7 +256,7 @@ mod app {
                     link_config.dma(serial::config::DmaConfig::Tx),
                     &mut rcc,
                 )
-                .unwrap_or_else(|_| fault());
+                .unwrap_or_else(|_| fault(BootFault::LinkSerial));
             let streams = StreamsTuple::new(dp.DMA1, &mut rcc);
             let info_buffer: &'static mut [u8] = cx.local.info_buffer;
             let transfer = Transfer::init_memory_to_peripheral(
@@ -268,7 +278,7 @@ mod app {
             let serial = dp
                 .USART3
                 .serial((gpiod.pd8, gpiod.pd9), link_config, &mut rcc)
-                .unwrap_or_else(|_| fault());
+                .unwrap_or_else(|_| fault(BootFault::LinkSerial));
             let (tx, mut rx) = serial.split();
             rx.listen();
             (link::Link::new(tx), rx)
@@ -286,7 +296,7 @@ mod app {
                     gnss_config.dma(serial::config::DmaConfig::Rx),
                     &mut rcc,
                 )
-                .unwrap_or_else(|_| fault())
+                .unwrap_or_else(|_| fault(BootFault::GnssSerial))
                 .split();
             rx.listen_idle();
             let streams = StreamsTuple::new(dp.DMA2, &mut rcc);
@@ -308,7 +318,7 @@ mod app {
             let (gnss_tx, mut rx) = dp
                 .USART1
                 .serial((gpiob.pb6, gpiob.pb7), gnss_config, &mut rcc)
-                .unwrap_or_else(|_| fault())
+                .unwrap_or_else(|_| fault(BootFault::GnssSerial))
                 .split();
             rx.listen();
             (gnss::GnssRx::new(rx), gnss_tx)
@@ -333,7 +343,7 @@ mod app {
             (u64::from(SAMPLE_RATE_HZ) * u64::from(HSI_HZ) / u64::from(QEMU_TIMER_HZ)) as u32;
         timer
             .start(tick_request_hz.Hz())
-            .unwrap_or_else(|_| fault());
+            .unwrap_or_else(|_| fault(BootFault::SampleTimer));
         timer.listen(Event::Update);
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.start(WATCHDOG_MS.millis());
@@ -354,7 +364,7 @@ mod app {
             uptime_ms: 0,
             requests_skipped: 0,
             health: BoardHealth {
-                watchdog_resets,
+                watchdog_resets: reset_report.watchdog_resets,
                 ..BoardHealth::default()
             },
         };
@@ -432,9 +442,26 @@ mod app {
         }
     }
 
-    /// A configuration the hardware rejected at boot: stop here and let the watchdog (if
-    /// started) or the user reset the board.
-    fn fault() -> ! {
+    /// A configuration the hardware rejected at boot: record the cause for the next boot and
+    /// let the watchdog reset the board.
+    ///
+    /// Starting the IWDG with its reset values (prescaler /4, reload 0xFFF) gives a reset
+    /// after 4096 × 4 LSI periods: 512 ms at the nominal 32 kHz, 350-960 ms over the LSI's
+    /// 17-47 kHz range. If `init` already started it, the start key changes nothing. The next
+    /// boot sees a watchdog reset (status bit 5, `watchdog_resets`) and the cause in the
+    /// reset record (`BOOT_FAULT`). QEMU models no IWDG: there this waits for ever.
+    fn fault(cause: BootFault) -> ! {
+        /// The IWDG key register's start key (RM0090 19.4.1).
+        const KEY_START: u16 = 0xCCCC;
+        crate::reset_record::record_fault(cause);
+        // SAFETY: the key register is write-only and nothing else writes it during `init`
+        // (the `IndependentWatchdog` is created after every call of `fault`); the start key
+        // only starts the counter (a running watchdog stays as it is). `fault` never
+        // returns, so nothing relies on the watchdog being stopped afterwards.
+        #[allow(unsafe_code)]
+        unsafe {
+            (*pac::IWDG::ptr()).kr().write(|w| w.key().bits(KEY_START))
+        };
         loop {
             cortex_m::asm::wfi();
         }

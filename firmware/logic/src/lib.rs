@@ -10,6 +10,8 @@
 //!   every tick, magnetometer in forced mode with data-ready polling, BMP280 in normal mode);
 //! - [`latest`]: the front half of the packet double buffer, the latest complete packet;
 //! - [`crc_check`]: the CRC unit's boot-time self-check and the software fallback;
+//! - [`reset_record`]: what the board remembers across resets (watchdog resets, the fault
+//!   that made `init` reset the board);
 //! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
@@ -24,6 +26,7 @@ pub mod dima;
 pub mod gnss_setup;
 pub mod latest;
 pub mod request;
+pub mod reset_record;
 pub mod schedule;
 pub mod sensors;
 
