@@ -5,7 +5,8 @@
 //!   with the latest complete packet, plus an info frame when due; never tear a transfer.
 //! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
 //! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
-//!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog.
+//!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog when the
+//!   supervisor (`dima_firmware_logic::Supervisor`) finds the link alive.
 //! - `gnss_setup` (software task, once at boot): configures the NEO-M8T through USART1 TX
 //!   (PB6) with `neo_m8t::Configurator`, polled every millisecond; its replies come from
 //!   `gnss_bytes` through a byte queue. Never blocks; ends configured, NAK'd or timed out.
@@ -41,7 +42,8 @@ mod app {
     use dima_firmware_logic::reset_record::BootFault;
     use dima_firmware_logic::{
         blink as led_pattern, AfterTransfer, Answer, CheckedCrc, GnssSetupOutcome, LatestPacket,
-        ReplyPort, ReplyTap, RequestHandler, SetupStatus,
+        LinkProgress, ReplyPort, ReplyTap, RequestHandler, SetupStatus, Supervisor,
+        SupervisorConfig,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::{
@@ -81,6 +83,12 @@ mod app {
     static REQUESTS_SKIPPED: AtomicU32 = AtomicU32::new(0);
     /// Requests before the first packet existed (request task's count).
     static REQUESTS_EARLY: AtomicU32 = AtomicU32::new(0);
+    /// A transfer is running on the link (link tasks' state, for the supervisor).
+    static LINK_BUSY: AtomicBool = AtomicBool::new(false);
+    /// Transfers completed on the link since boot (link tasks' count, for the supervisor).
+    static LINK_COMPLETED: AtomicU32 = AtomicU32::new(0);
+    /// GNSS bytes received since boot (GNSS task's count, for the supervisor).
+    static GNSS_BYTES: AtomicU32 = AtomicU32::new(0);
     /// DMA transfer errors on the link (link tasks' count).
     static DMA_ERRORS: AtomicU32 = AtomicU32::new(0);
     /// GNSS bytes outside valid UBX frames, and frames with a bad checksum (GNSS task's count).
@@ -125,7 +133,22 @@ mod app {
         /// [`INFO_REFRESH_TICKS`].
         info: InfoFrame,
         ticks: u32,
+        /// Decides whether this tick feeds the watchdog; notices a silent receiver.
+        supervisor: Supervisor,
+        /// The supervisor's latest word on the receiver (info frame status bit 7).
+        gnss_silent: bool,
     }
+
+    /// The supervisor's thresholds at `SAMPLE_RATE_HZ`: the link is stuck after 20 ms of
+    /// sending without a completion, the receiver silent after 1 s without a byte.
+    const SUPERVISOR: SupervisorConfig = SupervisorConfig {
+        link_stuck_ticks: 20 * SAMPLE_RATE_HZ / 1_000,
+        gnss_silent_ticks: SAMPLE_RATE_HZ,
+    };
+
+    /// Info frame status bit 7: no byte from the GNSS receiver for 1 s (`SUPERVISOR`). `dima-sensorboard` has no name
+    /// for it yet; its decoder keeps the bit (`from_bits_retain`).
+    const GNSS_SILENT: SensorStatus = SensorStatus::from_bits_retain(1 << 7);
 
     /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects. With
     /// `gnss-setup` it takes the configurator's 512 so both share one framer in flash (372
@@ -401,6 +424,8 @@ mod app {
                     sensors,
                     info,
                     ticks: 0,
+                    supervisor: Supervisor::new(SUPERVISOR),
+                    gnss_silent: false,
                 },
                 gnss_rx,
                 reader: GnssReader::with_capacity(),
@@ -486,6 +511,7 @@ mod app {
                 }
             }
         });
+        LINK_BUSY.store(handler.is_busy(), Ordering::Relaxed);
         REQUESTS_SKIPPED.store(handler.skipped(), Ordering::Relaxed);
         REQUESTS_EARLY.store(handler.not_ready(), Ordering::Relaxed);
         DMA_ERRORS.store(link.dma_errors(), Ordering::Relaxed);
@@ -498,9 +524,13 @@ mod app {
         if !cx.shared.link.take_completion() {
             return;
         }
+        // Only the two priority-3 link tasks write it: a plain load and store suffice.
+        let completed = LINK_COMPLETED.load(Ordering::Relaxed).wrapping_add(1);
+        LINK_COMPLETED.store(completed, Ordering::Relaxed);
         if cx.shared.handler.on_transfer_complete() == AfterTransfer::SendInfo {
             cx.shared.link.send_info();
         }
+        LINK_BUSY.store(cx.shared.handler.is_busy(), Ordering::Relaxed);
     }
 
     /// Under QEMU: a byte from the host on USART3 is a request.
@@ -519,6 +549,11 @@ mod app {
         let reader = cx.local.reader;
         let tap = cx.local.reply_tap;
         cx.local.gnss_rx.drain(|bytes| {
+            // The only writer: a plain load and store suffice.
+            let received = GNSS_BYTES
+                .load(Ordering::Relaxed)
+                .wrapping_add(bytes.len() as u32);
+            GNSS_BYTES.store(received, Ordering::Relaxed);
             reader.push_slice(bytes);
             if GNSS_SETUP.is_pending() {
                 tap.push_slice(bytes);
@@ -549,7 +584,19 @@ mod app {
     fn sample(mut cx: sample::Context) {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
-        sampler.watchdog.feed();
+        // Fed only while this tick runs, the link is not stuck sending and (reported, not
+        // a reset) the receiver talks.
+        let verdict = sampler.supervisor.on_tick(
+            LinkProgress {
+                busy: LINK_BUSY.load(Ordering::Relaxed),
+                completed: LINK_COMPLETED.load(Ordering::Relaxed),
+            },
+            GNSS_BYTES.load(Ordering::Relaxed),
+        );
+        if verdict.feed_watchdog {
+            sampler.watchdog.feed();
+        }
+        sampler.gnss_silent = verdict.gnss_silent;
         let plan = sampler.schedule.next_tick();
         sampler
             .sensors
@@ -568,6 +615,7 @@ mod app {
             info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
             info.status
                 .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
+            info.status.set(GNSS_SILENT, sampler.gnss_silent);
             let [accel_errors, gyro_errors, mag_errors, bmp280_errors] = sampler.sensors.errors();
             let [accel_age_ms, gyro_age_ms, mag_age_ms, bmp280_age_ms] =
                 sampler.sensors.ages_ms(sampler.schedule.config().period_us);

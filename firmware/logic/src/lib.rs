@@ -13,6 +13,8 @@
 //! - [`reset_record`]: what the board remembers across resets (watchdog resets, the fault
 //!   that made `init` reset the board);
 //! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
+//! - [`supervisor`]: whether the sampling tick may feed the watchdog (the link is not stuck
+//!   sending) and whether the GNSS receiver has gone silent;
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
 //!   register file).
@@ -29,6 +31,7 @@ pub mod request;
 pub mod reset_record;
 pub mod schedule;
 pub mod sensors;
+pub mod supervisor;
 
 pub use crc_check::{CheckedCrc, NibbleCrc};
 pub use gnss_setup::{Outcome as GnssSetupOutcome, ReplyPort, ReplyTap, SetupStatus};
@@ -36,3 +39,4 @@ pub use latest::LatestPacket;
 pub use request::{AfterTransfer, Answer, RequestHandler, INFO_GAP_MS};
 pub use schedule::{MagAction, Schedule, ScheduleConfig, TickPlan};
 pub use sensors::{BootReport, Sensors};
+pub use supervisor::{LinkProgress, Supervisor, SupervisorConfig, Verdict};
