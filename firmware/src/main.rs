@@ -396,6 +396,16 @@ mod app {
         status_led::spawn(status.bits()).ok();
         gnss_setup::spawn().ok();
 
+        // The exception priorities as the core holds them (QEMU models SCB and NVIC), for the
+        // smoke test: SysTick must be below the request interrupt (a larger value).
+        #[cfg(feature = "qemu")]
+        cortex_m_semihosting::hprintln!(
+            "priorities: systick {:#04x}, request {:#04x}",
+            cortex_m::peripheral::SCB::get_priority(
+                cortex_m::peripheral::scb::SystemHandler::SysTick
+            ),
+            cortex_m::peripheral::NVIC::get_priority(pac::Interrupt::EXTI15_10)
+        );
         #[cfg(feature = "qemu")]
         cortex_m_semihosting::hprintln!("ready");
 

@@ -188,10 +188,15 @@ fn main() {
     link_stream.set_nodelay(true).expect("nodelay");
 
     // The firmware prints "ready" (semihosting) once its receivers are enabled.
+    // Before it, the exception priorities: "priorities: systick 0x.., request 0x..".
     let (ready_tx, ready_rx) = mpsc::channel();
+    let (priorities_tx, priorities_rx) = mpsc::channel();
     std::thread::spawn(move || {
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
             println!("firmware: {line}");
+            if let Some(rest) = line.trim().strip_prefix("priorities: ") {
+                let _ = priorities_tx.send(rest.to_owned());
+            }
             if line.trim() == "ready" {
                 let _ = ready_tx.send(());
             }
@@ -202,6 +207,7 @@ fn main() {
         .recv_timeout(Duration::from_secs(20))
         .expect("firmware did not print `ready` within 20 s");
     println!("firmware ready after {:?}", started.elapsed());
+    let priorities = priorities_rx.try_recv().unwrap_or_default();
 
     let mut link = HostLink {
         stream: link_stream,
@@ -209,6 +215,14 @@ fn main() {
         requests: 0,
     };
     let mut checks = Checks::default();
+
+    // 0. SysTick below the request interrupt. RTIC maps its priority p to the hardware value
+    // (16 - p) << 4 on the STM32F4's 4 priority bits: request (3) 0xd0, SysTick (2) 0xe0; a
+    // larger value is a lower priority.
+    checks.check(
+        priorities == "systick 0xe0, request 0xd0",
+        &format!("SysTick below the request interrupt (got \"{priorities}\")"),
+    );
 
     // 1. Silence until requested.
     let unrequested = link.collect_for(Duration::from_millis(300));
