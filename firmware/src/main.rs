@@ -5,7 +5,8 @@
 //!   with the latest complete packet, plus an info frame when due; never tear a transfer.
 //! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
 //! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
-//!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog.
+//!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog when the
+//!   supervisor (`dima_firmware_logic::Supervisor`) finds the link alive.
 //! - `gnss_setup` (software task, once at boot): configures the NEO-M8T through USART1 TX
 //!   (PB6) with `neo_m8t::Configurator`, polled every millisecond; its replies come from
 //!   `gnss_bytes` through a byte queue. Never blocks; ends configured, NAK'd or timed out.
@@ -38,9 +39,11 @@ mod app {
     use crate::delay::CycleDelay;
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
+    use dima_firmware_logic::reset_record::BootFault;
     use dima_firmware_logic::{
         blink as led_pattern, AfterTransfer, Answer, CheckedCrc, GnssSetupOutcome, LatestPacket,
-        ReplyPort, ReplyTap, RequestHandler, SetupStatus,
+        LinkProgress, ReplyPort, ReplyTap, RequestHandler, SetupStatus, Supervisor,
+        SupervisorConfig,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::{
@@ -80,11 +83,23 @@ mod app {
     static REQUESTS_SKIPPED: AtomicU32 = AtomicU32::new(0);
     /// Requests before the first packet existed (request task's count).
     static REQUESTS_EARLY: AtomicU32 = AtomicU32::new(0);
+    /// A transfer is running on the link (link tasks' state, for the supervisor).
+    static LINK_BUSY: AtomicBool = AtomicBool::new(false);
+    /// Transfers completed on the link since boot (link tasks' count, for the supervisor).
+    static LINK_COMPLETED: AtomicU32 = AtomicU32::new(0);
+    /// GNSS bytes received since boot (GNSS task's count, for the supervisor).
+    static GNSS_BYTES: AtomicU32 = AtomicU32::new(0);
     /// DMA transfer errors on the link (link tasks' count).
     static DMA_ERRORS: AtomicU32 = AtomicU32::new(0);
     /// GNSS bytes outside valid UBX frames, and frames with a bad checksum (GNSS task's count).
     static GNSS_BYTES_DROPPED: AtomicU32 = AtomicU32::new(0);
     static GNSS_FRAME_ERRORS: AtomicU32 = AtomicU32::new(0);
+    /// The fault that made the previous boot reset the board (a `BootFault` code: 1 link
+    /// USART3, 2 GNSS USART1, 3 sampling timer; 0 none). It also counts as a watchdog reset
+    /// (status bit 5, `watchdog_resets`), since the watchdog performs it; this static, for a
+    /// debugger, says which step failed.
+    #[used]
+    static BOOT_FAULT: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(0);
     /// Received bytes the configurator's reply queue had no room for.
     static GNSS_REPLY_DROPPED: AtomicU32 = AtomicU32::new(0);
 
@@ -118,7 +133,22 @@ mod app {
         /// [`INFO_REFRESH_TICKS`].
         info: InfoFrame,
         ticks: u32,
+        /// Decides whether this tick feeds the watchdog; notices a silent receiver.
+        supervisor: Supervisor,
+        /// The supervisor's latest word on the receiver (info frame status bit 7).
+        gnss_silent: bool,
     }
+
+    /// The supervisor's thresholds at `SAMPLE_RATE_HZ`: the link is stuck after 20 ms of
+    /// sending without a completion, the receiver silent after 1 s without a byte.
+    const SUPERVISOR: SupervisorConfig = SupervisorConfig {
+        link_stuck_ticks: 20 * SAMPLE_RATE_HZ / 1_000,
+        gnss_silent_ticks: SAMPLE_RATE_HZ,
+    };
+
+    /// Info frame status bit 7: no byte from the GNSS receiver for 1 s (`SUPERVISOR`). `dima-sensorboard` has no name
+    /// for it yet; its decoder keeps the bit (`from_bits_retain`).
+    const GNSS_SILENT: SensorStatus = SensorStatus::from_bits_retain(1 << 7);
 
     /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects. With
     /// `gnss-setup` it takes the configurator's 512 so both share one framer in flash (372
@@ -183,8 +213,11 @@ mod app {
         // Why did we reset? Read the flags before anything else, then clear them.
         let csr = dp.RCC.csr().read();
         let watchdog_reset = csr.wdgrstf().bit_is_set();
-        let watchdog_resets =
-            crate::reset_record::count_watchdog_resets(csr.porrstf().bit_is_set(), watchdog_reset);
+        let reset_report =
+            crate::reset_record::after_reset(csr.porrstf().bit_is_set(), watchdog_reset);
+        if let Some(cause) = reset_report.boot_fault {
+            BOOT_FAULT.store(cause as u8, Ordering::Relaxed);
+        }
         dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
 
         // QEMU models no RCC: HSE and PLL would never report ready there.
@@ -195,10 +228,14 @@ mod app {
         let mut rcc = dp.RCC.freeze(clock_config);
         let sysclk_hz = rcc.clocks.sysclk().raw();
         // QEMU's netduinoplus2 clocks the core at a fixed 168 MHz whatever RCC says.
+        let mut core = cx.core;
+        // SysTick (the monotonic's tick) runs below the link tasks, so it can never hold off a
+        // request edge; it stays above sampling so a long tick cannot lose a counter wrap.
+        set_systick_priority(&mut core.SCB, SYSTICK_PRIORITY);
         #[cfg(not(feature = "qemu"))]
-        Mono::start(cx.core.SYST, sysclk_hz);
+        Mono::start(core.SYST, sysclk_hz);
         #[cfg(feature = "qemu")]
-        Mono::start(cx.core.SYST, QEMU_CORE_HZ);
+        Mono::start(core.SYST, QEMU_CORE_HZ);
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
@@ -242,7 +279,7 @@ mod app {
                     link_config.dma(serial::config::DmaConfig::Tx),
                     &mut rcc,
                 )
-                .unwrap_or_else(|_| fault());
+                .unwrap_or_else(|_| fault(BootFault::LinkSerial));
             let streams = StreamsTuple::new(dp.DMA1, &mut rcc);
             let info_buffer: &'static mut [u8] = cx.local.info_buffer;
             let transfer = Transfer::init_memory_to_peripheral(
@@ -264,7 +301,7 @@ mod app {
             let serial = dp
                 .USART3
                 .serial((gpiod.pd8, gpiod.pd9), link_config, &mut rcc)
-                .unwrap_or_else(|_| fault());
+                .unwrap_or_else(|_| fault(BootFault::LinkSerial));
             let (tx, mut rx) = serial.split();
             rx.listen();
             (link::Link::new(tx), rx)
@@ -282,7 +319,7 @@ mod app {
                     gnss_config.dma(serial::config::DmaConfig::Rx),
                     &mut rcc,
                 )
-                .unwrap_or_else(|_| fault())
+                .unwrap_or_else(|_| fault(BootFault::GnssSerial))
                 .split();
             rx.listen_idle();
             let streams = StreamsTuple::new(dp.DMA2, &mut rcc);
@@ -304,7 +341,7 @@ mod app {
             let (gnss_tx, mut rx) = dp
                 .USART1
                 .serial((gpiob.pb6, gpiob.pb7), gnss_config, &mut rcc)
-                .unwrap_or_else(|_| fault())
+                .unwrap_or_else(|_| fault(BootFault::GnssSerial))
                 .split();
             rx.listen();
             (gnss::GnssRx::new(rx), gnss_tx)
@@ -329,7 +366,7 @@ mod app {
             (u64::from(SAMPLE_RATE_HZ) * u64::from(HSI_HZ) / u64::from(QEMU_TIMER_HZ)) as u32;
         timer
             .start(tick_request_hz.Hz())
-            .unwrap_or_else(|_| fault());
+            .unwrap_or_else(|_| fault(BootFault::SampleTimer));
         timer.listen(Event::Update);
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.start(WATCHDOG_MS.millis());
@@ -350,7 +387,7 @@ mod app {
             uptime_ms: 0,
             requests_skipped: 0,
             health: BoardHealth {
-                watchdog_resets,
+                watchdog_resets: reset_report.watchdog_resets,
                 ..BoardHealth::default()
             },
         };
@@ -359,6 +396,16 @@ mod app {
         status_led::spawn(status.bits()).ok();
         gnss_setup::spawn().ok();
 
+        // The exception priorities as the core holds them (QEMU models SCB and NVIC), for the
+        // smoke test: SysTick must be below the request interrupt (a larger value).
+        #[cfg(feature = "qemu")]
+        cortex_m_semihosting::hprintln!(
+            "priorities: systick {:#04x}, request {:#04x}",
+            cortex_m::peripheral::SCB::get_priority(
+                cortex_m::peripheral::scb::SystemHandler::SysTick
+            ),
+            cortex_m::peripheral::NVIC::get_priority(pac::Interrupt::EXTI15_10)
+        );
         #[cfg(feature = "qemu")]
         cortex_m_semihosting::hprintln!("ready");
 
@@ -387,6 +434,8 @@ mod app {
                     sensors,
                     info,
                     ticks: 0,
+                    supervisor: Supervisor::new(SUPERVISOR),
+                    gnss_silent: false,
                 },
                 gnss_rx,
                 reader: GnssReader::with_capacity(),
@@ -397,6 +446,23 @@ mod app {
                 host_rx,
             },
         )
+    }
+
+    /// RTIC priority of the SysTick exception: below `request` and `link_done` (3), equal to
+    /// the GNSS tasks (2), above sampling (1).
+    const SYSTICK_PRIORITY: u8 = 2;
+
+    /// Sets SysTick's exception priority to the RTIC (logical) priority `logical`.
+    fn set_systick_priority(scb: &mut cortex_m::peripheral::SCB, logical: u8) {
+        use cortex_m::peripheral::scb::SystemHandler;
+        // RTIC's mapping: logical 1 is the lowest hardware level, higher numbers preempt.
+        let hardware = ((1u8 << pac::NVIC_PRIO_BITS) - logical) << (8 - pac::NVIC_PRIO_BITS);
+        // SAFETY: called from `init` with interrupts disabled; no RTIC lock depends on
+        // SysTick's priority (its handler only runs the monotonic's timer queue).
+        #[allow(unsafe_code)]
+        unsafe {
+            scb.set_priority(SystemHandler::SysTick, hardware)
+        };
     }
 
     /// One SPI device on the shared bus; the chip select starts high (deselected).
@@ -411,9 +477,26 @@ mod app {
         }
     }
 
-    /// A configuration the hardware rejected at boot: stop here and let the watchdog (if
-    /// started) or the user reset the board.
-    fn fault() -> ! {
+    /// A configuration the hardware rejected at boot: record the cause for the next boot and
+    /// let the watchdog reset the board.
+    ///
+    /// Starting the IWDG with its reset values (prescaler /4, reload 0xFFF) gives a reset
+    /// after 4096 × 4 LSI periods: 512 ms at the nominal 32 kHz, 350-960 ms over the LSI's
+    /// 17-47 kHz range. If `init` already started it, the start key changes nothing. The next
+    /// boot sees a watchdog reset (status bit 5, `watchdog_resets`) and the cause in the
+    /// reset record (`BOOT_FAULT`). QEMU models no IWDG: there this waits for ever.
+    fn fault(cause: BootFault) -> ! {
+        /// The IWDG key register's start key (RM0090 19.4.1).
+        const KEY_START: u16 = 0xCCCC;
+        crate::reset_record::record_fault(cause);
+        // SAFETY: the key register is write-only and nothing else writes it during `init`
+        // (the `IndependentWatchdog` is created after every call of `fault`); the start key
+        // only starts the counter (a running watchdog stays as it is). `fault` never
+        // returns, so nothing relies on the watchdog being stopped afterwards.
+        #[allow(unsafe_code)]
+        unsafe {
+            (*pac::IWDG::ptr()).kr().write(|w| w.key().bits(KEY_START))
+        };
         loop {
             cortex_m::asm::wfi();
         }
@@ -438,6 +521,7 @@ mod app {
                 }
             }
         });
+        LINK_BUSY.store(handler.is_busy(), Ordering::Relaxed);
         REQUESTS_SKIPPED.store(handler.skipped(), Ordering::Relaxed);
         REQUESTS_EARLY.store(handler.not_ready(), Ordering::Relaxed);
         DMA_ERRORS.store(link.dma_errors(), Ordering::Relaxed);
@@ -450,9 +534,13 @@ mod app {
         if !cx.shared.link.take_completion() {
             return;
         }
+        // Only the two priority-3 link tasks write it: a plain load and store suffice.
+        let completed = LINK_COMPLETED.load(Ordering::Relaxed).wrapping_add(1);
+        LINK_COMPLETED.store(completed, Ordering::Relaxed);
         if cx.shared.handler.on_transfer_complete() == AfterTransfer::SendInfo {
             cx.shared.link.send_info();
         }
+        LINK_BUSY.store(cx.shared.handler.is_busy(), Ordering::Relaxed);
     }
 
     /// Under QEMU: a byte from the host on USART3 is a request.
@@ -471,6 +559,11 @@ mod app {
         let reader = cx.local.reader;
         let tap = cx.local.reply_tap;
         cx.local.gnss_rx.drain(|bytes| {
+            // The only writer: a plain load and store suffice.
+            let received = GNSS_BYTES
+                .load(Ordering::Relaxed)
+                .wrapping_add(bytes.len() as u32);
+            GNSS_BYTES.store(received, Ordering::Relaxed);
             reader.push_slice(bytes);
             if GNSS_SETUP.is_pending() {
                 tap.push_slice(bytes);
@@ -501,7 +594,19 @@ mod app {
     fn sample(mut cx: sample::Context) {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
-        sampler.watchdog.feed();
+        // Fed only while this tick runs, the link is not stuck sending and (reported, not
+        // a reset) the receiver talks.
+        let verdict = sampler.supervisor.on_tick(
+            LinkProgress {
+                busy: LINK_BUSY.load(Ordering::Relaxed),
+                completed: LINK_COMPLETED.load(Ordering::Relaxed),
+            },
+            GNSS_BYTES.load(Ordering::Relaxed),
+        );
+        if verdict.feed_watchdog {
+            sampler.watchdog.feed();
+        }
+        sampler.gnss_silent = verdict.gnss_silent;
         let plan = sampler.schedule.next_tick();
         sampler
             .sensors
@@ -520,6 +625,7 @@ mod app {
             info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
             info.status
                 .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
+            info.status.set(GNSS_SILENT, sampler.gnss_silent);
             let [accel_errors, gyro_errors, mag_errors, bmp280_errors] = sampler.sensors.errors();
             let [accel_age_ms, gyro_age_ms, mag_age_ms, bmp280_age_ms] =
                 sampler.sensors.ages_ms(sampler.schedule.config().period_us);

@@ -10,7 +10,11 @@
 //!   every tick, magnetometer in forced mode with data-ready polling, BMP280 in normal mode);
 //! - [`latest`]: the front half of the packet double buffer, the latest complete packet;
 //! - [`crc_check`]: the CRC unit's boot-time self-check and the software fallback;
+//! - [`reset_record`]: what the board remembers across resets (watchdog resets, the fault
+//!   that made `init` reset the board);
 //! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
+//! - [`supervisor`]: whether the sampling tick may feed the watchdog (the link is not stuck
+//!   sending) and whether the GNSS receiver has gone silent;
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
 //!   register file).
@@ -24,8 +28,10 @@ pub mod dima;
 pub mod gnss_setup;
 pub mod latest;
 pub mod request;
+pub mod reset_record;
 pub mod schedule;
 pub mod sensors;
+pub mod supervisor;
 
 pub use crc_check::{CheckedCrc, NibbleCrc};
 pub use gnss_setup::{Outcome as GnssSetupOutcome, ReplyPort, ReplyTap, SetupStatus};
@@ -33,3 +39,4 @@ pub use latest::LatestPacket;
 pub use request::{AfterTransfer, Answer, RequestHandler, INFO_GAP_MS};
 pub use schedule::{MagAction, Schedule, ScheduleConfig, TickPlan};
 pub use sensors::{BootReport, Sensors};
+pub use supervisor::{LinkProgress, Supervisor, SupervisorConfig, Verdict};

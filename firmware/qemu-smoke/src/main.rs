@@ -28,6 +28,8 @@ use dima_sensorboard::{Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder}
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
 const PAUSE: Duration = Duration::from_secs(2);
+/// Info frame status bit 7: no GNSS byte for 1 s (the firmware's `GNSS_SILENT`).
+const GNSS_SILENT: u8 = 1 << 7;
 
 /// How long to wait for an answer to one request.
 const ANSWER_TIMEOUT: Duration = Duration::from_millis(1500);
@@ -186,10 +188,15 @@ fn main() {
     link_stream.set_nodelay(true).expect("nodelay");
 
     // The firmware prints "ready" (semihosting) once its receivers are enabled.
+    // Before it, the exception priorities: "priorities: systick 0x.., request 0x..".
     let (ready_tx, ready_rx) = mpsc::channel();
+    let (priorities_tx, priorities_rx) = mpsc::channel();
     std::thread::spawn(move || {
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
             println!("firmware: {line}");
+            if let Some(rest) = line.trim().strip_prefix("priorities: ") {
+                let _ = priorities_tx.send(rest.to_owned());
+            }
             if line.trim() == "ready" {
                 let _ = ready_tx.send(());
             }
@@ -200,6 +207,7 @@ fn main() {
         .recv_timeout(Duration::from_secs(20))
         .expect("firmware did not print `ready` within 20 s");
     println!("firmware ready after {:?}", started.elapsed());
+    let priorities = priorities_rx.try_recv().unwrap_or_default();
 
     let mut link = HostLink {
         stream: link_stream,
@@ -207,6 +215,14 @@ fn main() {
         requests: 0,
     };
     let mut checks = Checks::default();
+
+    // 0. SysTick below the request interrupt. RTIC maps its priority p to the hardware value
+    // (16 - p) << 4 on the STM32F4's 4 priority bits: request (3) 0xd0, SysTick (2) 0xe0; a
+    // larger value is a lower priority.
+    checks.check(
+        priorities == "systick 0xe0, request 0xd0",
+        &format!("SysTick below the request interrupt (got \"{priorities}\")"),
+    );
 
     // 1. Silence until requested.
     let unrequested = link.collect_for(Duration::from_millis(300));
@@ -251,6 +267,18 @@ fn main() {
                 info.status.bits()
             ),
         );
+        // No GNSS byte yet, but the receiver counts as silent only after 1 s of the board's
+        // clock.
+        if info.uptime_ms < 1_000 {
+            checks.check(
+                info.status.bits() & GNSS_SILENT == 0,
+                &format!(
+                    "GNSS not silent before 1 s of uptime (status {:#04x}, {} ms)",
+                    info.status.bits(),
+                    info.uptime_ms
+                ),
+            );
+        }
         println!(
             "info: status {:#04x}, uptime {} ms, skipped {}",
             info.status.bits(),
@@ -354,6 +382,37 @@ fn main() {
         );
     }
 
+    // 5. No GNSS byte since the NAV-PVT frame: once the board's clock has seen 1 s more, the
+    // info frame has status bit 7 (GNSS silent). The board's clock may run slow under a busy
+    // host: the wait doubles, at most three tries, each one answered with an info frame.
+    let mut wait = Duration::from_millis(1_500);
+    let mut info_frames = 2;
+    let mut silent = None;
+    for _ in 0..3 {
+        std::thread::sleep(wait);
+        let frames = link.request(2);
+        let (_, infos) = split(&frames);
+        info_frames += infos.len();
+        if let Some(info) = infos.first() {
+            if info.status.bits() & GNSS_SILENT != 0 {
+                silent = Some(*info);
+                break;
+            }
+            println!(
+                "no GNSS-silent bit after {wait:?} (status {:#04x}): the board's clock runs slow",
+                info.status.bits()
+            );
+        }
+        wait *= 2;
+    }
+    checks.check(
+        silent.is_some_and(|info| info.status.contains(SensorStatus::GNSS_SEEN)),
+        &format!(
+            "a receiver silent for 1 s is reported in status bit 7, GNSS_SEEN kept (status {:#04x})",
+            silent.map_or(0, |info| info.status.bits())
+        ),
+    );
+
     let stats = link.decoder.stats();
     println!(
         "decoder: {} packets, {} info frames, {} CRC errors, {} bytes skipped",
@@ -364,10 +423,10 @@ fn main() {
         "no CRC error, no byte outside a frame",
     );
     checks.check(
-        stats.packets == u64::from(link.requests) && stats.info_frames == 2,
+        stats.packets == u64::from(link.requests) && stats.info_frames == info_frames as u64,
         &format!(
-            "{} packets and 2 info frames for {} requests",
-            stats.packets, link.requests
+            "{} packets and {} info frames (expected {info_frames}) for {} requests",
+            stats.packets, stats.info_frames, link.requests
         ),
     );
 
