@@ -146,10 +146,6 @@ mod app {
         gnss_silent_ticks: SAMPLE_RATE_HZ,
     };
 
-    /// Info frame status bit 7: no byte from the GNSS receiver for 1 s (`SUPERVISOR`). `dima-sensorboard` has no name
-    /// for it yet; its decoder keeps the bit (`from_bits_retain`).
-    const GNSS_SILENT: SensorStatus = SensorStatus::from_bits_retain(1 << 7);
-
     /// Resynchronising UBX reader; 256 bytes hold the largest message the board expects. With
     /// `gnss-setup` it takes the configurator's 512 so both share one framer in flash (372
     /// bytes of code for 256 of RAM).
@@ -625,7 +621,8 @@ mod app {
             info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
             info.status
                 .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
-            info.status.set(GNSS_SILENT, sampler.gnss_silent);
+            info.status
+                .set(SensorStatus::GNSS_SILENT, sampler.gnss_silent);
             let [accel_errors, gyro_errors, mag_errors, bmp280_errors] = sampler.sensors.errors();
             let [accel_age_ms, gyro_age_ms, mag_age_ms, bmp280_age_ms] =
                 sampler.sensors.ages_ms(sampler.schedule.config().period_us);

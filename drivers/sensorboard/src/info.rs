@@ -88,6 +88,9 @@ bitflags! {
         /// The STM32 CRC unit failed its boot-time self-check (the reference vector
         /// `0x6557DE1A`): the board computes CRCs in software instead.
         const CRC_UNIT_FAILED = 1 << 6;
+        /// No byte from the GNSS receiver for a second (a silent receiver is reported, not a
+        /// reason to reset the board).
+        const GNSS_SILENT = 1 << 7;
     }
 }
 

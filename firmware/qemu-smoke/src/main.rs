@@ -28,8 +28,6 @@ use dima_sensorboard::{Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder}
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
 const PAUSE: Duration = Duration::from_secs(2);
-/// Info frame status bit 7: no GNSS byte for 1 s (the firmware's `GNSS_SILENT`).
-const GNSS_SILENT: u8 = 1 << 7;
 
 /// How long to wait for an answer to one request.
 const ANSWER_TIMEOUT: Duration = Duration::from_millis(1500);
@@ -271,7 +269,7 @@ fn main() {
         // clock.
         if info.uptime_ms < 1_000 {
             checks.check(
-                info.status.bits() & GNSS_SILENT == 0,
+                !info.status.contains(SensorStatus::GNSS_SILENT),
                 &format!(
                     "GNSS not silent before 1 s of uptime (status {:#04x}, {} ms)",
                     info.status.bits(),
@@ -394,7 +392,7 @@ fn main() {
         let (_, infos) = split(&frames);
         info_frames += infos.len();
         if let Some(info) = infos.first() {
-            if info.status.bits() & GNSS_SILENT != 0 {
+            if info.status.contains(SensorStatus::GNSS_SILENT) {
                 silent = Some(*info);
                 break;
             }
