@@ -41,98 +41,76 @@ pub(crate) fn decode_frames<T>(
     }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-/// Driver-level register access on top of any [`RegisterInterface`].
-pub(crate) trait Registers: RegisterInterface {
-    /// Write one register.
-    async fn write(&mut self, r: u8, v: u8) -> Result<(), Error<Self::Error>> {
-        self.write_register(r, v).await.map_err(Error::Comm)
-    }
-    /// Read one register.
-    async fn read(&mut self, r: u8) -> Result<u8, Error<Self::Error>> {
-        self.read_register(r).await.map_err(Error::Comm)
-    }
-    /// Burst read starting at `r`.
-    async fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<Self::Error>> {
-        self.read_registers(r, buf).await.map_err(Error::Comm)
-    }
-    /// Write `(register, value)` pairs in order, stopping at the first bus error.
-    async fn write_all(
-        &mut self,
-        writes: impl IntoIterator<Item = (u8, u8)>,
-    ) -> Result<(), Error<Self::Error>> {
-        for (r, v) in writes {
-            self.write(r, v).await?;
+crate::blocking_and_async! {
+    /// Driver-level register access on top of any [`RegisterInterface`].
+    pub(crate) trait Registers: RegisterInterface {
+        /// Write one register.
+        async fn write(&mut self, r: u8, v: u8) -> Result<(), Error<Self::Error>> {
+            self.write_register(r, v).await.map_err(Error::Comm)
         }
-        Ok(())
-    }
-    /// Read the chip id at `register` up to `attempts` times (at least once, 1 ms apart)
-    /// until it is `expected`; a die that is still starting up answers late.
-    async fn check_chip_id(
-        &mut self,
-        delay: &mut impl DelayNs,
-        register: u8,
-        expected: u8,
-        attempts: u8,
-    ) -> Result<(), Error<Self::Error>> {
-        let mut found = 0;
-        for i in 0..attempts.max(1) {
-            if i > 0 {
-                delay.delay_ms(1).await;
+        /// Read one register.
+        async fn read(&mut self, r: u8) -> Result<u8, Error<Self::Error>> {
+            self.read_register(r).await.map_err(Error::Comm)
+        }
+        /// Burst read starting at `r`.
+        async fn read_into(&mut self, r: u8, buf: &mut [u8]) -> Result<(), Error<Self::Error>> {
+            self.read_registers(r, buf).await.map_err(Error::Comm)
+        }
+        /// Write `(register, value)` pairs in order, stopping at the first bus error.
+        async fn write_all(
+            &mut self,
+            writes: impl IntoIterator<Item = (u8, u8)>,
+        ) -> Result<(), Error<Self::Error>> {
+            for (r, v) in writes {
+                self.write(r, v).await?;
             }
-            found = self.read(register).await?;
-            if found == expected {
-                return Ok(());
+            Ok(())
+        }
+        /// Read the chip id at `register` up to `attempts` times (at least once, 1 ms apart)
+        /// until it is `expected`; a die that is still starting up answers late.
+        async fn check_chip_id(
+            &mut self,
+            delay: &mut impl DelayNs,
+            register: u8,
+            expected: u8,
+            attempts: u8,
+        ) -> Result<(), Error<Self::Error>> {
+            let mut found = 0;
+            for i in 0..attempts.max(1) {
+                if i > 0 {
+                    delay.delay_ms(1).await;
+                }
+                found = self.read(register).await?;
+                if found == expected {
+                    return Ok(());
+                }
             }
+            Err(Error::Device(crate::DeviceError::InvalidChipId { found }))
         }
-        Err(Error::Device(crate::DeviceError::InvalidChipId { found }))
-    }
-    /// Read up to `out.len()` frames (never more than the status register says are
-    /// waiting), whole frames per burst, decoding each with `decode`. Returns the number of
-    /// frames written to `out`.
-    async fn read_fifo<T>(
-        &mut self,
-        fifo: FifoRegisters,
-        data: FifoData,
-        out: &mut [T],
-        decode: fn(FifoData, &[u8]) -> T,
-    ) -> Result<usize, Error<Self::Error>> {
-        let waiting = FifoStatus::from_register(self.read(fifo.status).await?).frames;
-        let out = fifo_destination(out, waiting);
-        let len = data.frame_len();
-        let mut buf = [0u8; FIFO_BURST_BYTES];
-        for slots in out.chunks_mut(FIFO_BURST_BYTES / len) {
-            let bytes = &mut buf[..slots.len() * len];
-            self.read_into(fifo.data, bytes).await?;
-            decode_frames(slots, bytes, data, decode);
+        /// Read up to `out.len()` frames (never more than the status register says are
+        /// waiting), whole frames per burst, decoding each with `decode`. Returns the number of
+        /// frames written to `out`.
+        async fn read_fifo<T>(
+            &mut self,
+            fifo: FifoRegisters,
+            data: FifoData,
+            out: &mut [T],
+            decode: fn(FifoData, &[u8]) -> T,
+        ) -> Result<usize, Error<Self::Error>> {
+            let waiting = FifoStatus::from_register(self.read(fifo.status).await?).frames;
+            let out = fifo_destination(out, waiting);
+            let len = data.frame_len();
+            let mut buf = [0u8; FIFO_BURST_BYTES];
+            for slots in out.chunks_mut(FIFO_BURST_BYTES / len) {
+                let bytes = &mut buf[..slots.len() * len];
+                self.read_into(fifo.data, bytes).await?;
+                decode_frames(slots, bytes, data, decode);
+            }
+            Ok(out.len())
         }
-        Ok(out.len())
     }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<I: RegisterInterface> Registers for I {}
+crate::blocking_and_async! {
+    impl<I: RegisterInterface> Registers for I {}
+}

@@ -78,161 +78,117 @@ impl ImuSample {
     }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-/// The BMX055 as one device: owns the three drivers.
-///
-/// The three error types must agree, which they do when the dies share one bus through
-/// `embedded-hal-bus` (the usual wiring). Use the drivers directly otherwise.
-#[derive(Debug)]
-pub struct Bmx055<AI, GI, MI> {
-    /// Accelerometer driver.
-    pub accel: Accelerometer<AI>,
-    /// Gyroscope driver.
-    pub gyro: Gyroscope<GI>,
-    /// Magnetometer driver.
-    pub mag: Magnetometer<MI>,
-    last_mag: MagPacketWords,
-}
-
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<ASPI, GSPI, MSPI> Bmx055<SpiInterface<ASPI>, SpiInterface<GSPI>, SpiInterface<MSPI>> {
-    /// The three dies over their own SPI devices (CSB1 accel, CSB2 gyro, CSB3 mag).
-    pub fn new_spi(accel: ASPI, gyro: GSPI, mag: MSPI) -> Self {
-        Self::new(
-            Accelerometer::new_spi(accel),
-            Gyroscope::new_spi(gyro),
-            Magnetometer::new_spi(mag),
-        )
+crate::blocking_and_async! {
+    /// The BMX055 as one device: owns the three drivers.
+    ///
+    /// The three error types must agree, which they do when the dies share one bus through
+    /// `embedded-hal-bus` (the usual wiring). Use the drivers directly otherwise.
+    #[derive(Debug)]
+    pub struct Bmx055<AI, GI, MI> {
+        /// Accelerometer driver.
+        pub accel: Accelerometer<AI>,
+        /// Gyroscope driver.
+        pub gyro: Gyroscope<GI>,
+        /// Magnetometer driver.
+        pub mag: Magnetometer<MI>,
+        last_mag: MagPacketWords,
     }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<AI, GI, MI> Bmx055<AI, GI, MI> {
-    /// Combine three drivers.
-    pub fn new(accel: Accelerometer<AI>, gyro: Gyroscope<GI>, mag: Magnetometer<MI>) -> Self {
-        Self {
-            accel,
-            gyro,
-            mag,
-            last_mag: MagPacketWords::default(),
+crate::blocking_and_async! {
+    impl<ASPI, GSPI, MSPI> Bmx055<SpiInterface<ASPI>, SpiInterface<GSPI>, SpiInterface<MSPI>> {
+        /// The three dies over their own SPI devices (CSB1 accel, CSB2 gyro, CSB3 mag).
+        pub fn new_spi(accel: ASPI, gyro: GSPI, mag: MSPI) -> Self {
+            Self::new(
+                Accelerometer::new_spi(accel),
+                Gyroscope::new_spi(gyro),
+                Magnetometer::new_spi(mag),
+            )
         }
     }
-
-    /// Give the three drivers back.
-    pub fn release(self) -> (Accelerometer<AI>, Gyroscope<GI>, Magnetometer<MI>) {
-        (self.accel, self.gyro, self.mag)
-    }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<E, AI, GI, MI> Bmx055<AI, GI, MI>
-where
-    AI: RegisterInterface<Error = E>,
-    GI: RegisterInterface<Error = E>,
-    MI: RegisterInterface<Error = E>,
-{
-    /// Initialise the three dies (accel, gyro, then magnetometer; each soft-reset, chip id
-    /// checked with bounded retries, configured). Returns the magnetometer trim, which the
-    /// host needs to compensate packet data.
-    pub async fn init(
-        &mut self,
-        delay: &mut impl DelayNs,
-        config: &Bmx055Config,
-    ) -> Result<MagTrim, Error<E>> {
-        self.accel.init(delay, &config.accel).await?;
-        self.gyro.init(delay, &config.gyro).await?;
-        self.mag.init(delay, &config.mag).await
-    }
-
-    /// Read all three dies without waiting: accel and gyro registers, and the magnetometer
-    /// registers. If the magnetometer has a new measurement (data ready) it is returned and,
-    /// in forced mode, the next one is started; otherwise the previous one is repeated with
-    /// `mag_fresh = false`. Call it from a periodic task: no sleeps, four to five transfers.
-    pub async fn sample(&mut self) -> Result<ImuSample, Error<E>> {
-        let accel = self.accel.read_raw().await?;
-        let gyro = self.gyro.read_raw().await?;
-        let mag = self.mag.read_raw().await?;
-        let mag_fresh = mag.data_ready;
-        if mag_fresh {
-            self.last_mag = mag.packet_words();
-            if self.mag.config().forced {
-                self.mag.set_op_mode(MagOpMode::Forced).await?;
+crate::blocking_and_async! {
+    impl<AI, GI, MI> Bmx055<AI, GI, MI> {
+        /// Combine three drivers.
+        pub fn new(accel: Accelerometer<AI>, gyro: Gyroscope<GI>, mag: Magnetometer<MI>) -> Self {
+            Self {
+                accel,
+                gyro,
+                mag,
+                last_mag: MagPacketWords::default(),
             }
         }
-        Ok(ImuSample {
-            accel,
-            gyro,
-            mag: self.last_mag,
-            mag_fresh,
-        })
-    }
 
-    /// Run the three self-tests (accel deflection, gyro BIST, magnetometer normal
-    /// self-test), then re-apply `config` (the accelerometer test ends with a soft reset and
-    /// the magnetometer test leaves sleep mode). [`DeviceError::SelfTestFailed`](crate::DeviceError::SelfTestFailed) if any die failed;
-    /// the dies are reconfigured either way.
-    pub async fn self_test(
-        &mut self,
-        delay: &mut impl DelayNs,
-        config: &Bmx055Config,
-    ) -> Result<(), Error<E>> {
-        let accel_ok = self.accel.self_test(delay).await?.passed();
-        self.accel.configure(&config.accel).await?;
-        let gyro_ok = self.gyro.self_test(delay).await?.passed();
-        let mag = self.mag.self_test(delay).await?;
-        self.mag.configure(&config.mag).await?;
-        if accel_ok && gyro_ok && mag.x && mag.y && mag.z {
-            Ok(())
-        } else {
-            Err(Error::Device(crate::DeviceError::SelfTestFailed))
+        /// Give the three drivers back.
+        pub fn release(self) -> (Accelerometer<AI>, Gyroscope<GI>, Magnetometer<MI>) {
+            (self.accel, self.gyro, self.mag)
+        }
+    }
+}
+
+crate::blocking_and_async! {
+    impl<E, AI, GI, MI> Bmx055<AI, GI, MI>
+    where
+        AI: RegisterInterface<Error = E>,
+        GI: RegisterInterface<Error = E>,
+        MI: RegisterInterface<Error = E>,
+    {
+        /// Initialise the three dies (accel, gyro, then magnetometer; each soft-reset, chip id
+        /// checked with bounded retries, configured). Returns the magnetometer trim, which the
+        /// host needs to compensate packet data.
+        pub async fn init(
+            &mut self,
+            delay: &mut impl DelayNs,
+            config: &Bmx055Config,
+        ) -> Result<MagTrim, Error<E>> {
+            self.accel.init(delay, &config.accel).await?;
+            self.gyro.init(delay, &config.gyro).await?;
+            self.mag.init(delay, &config.mag).await
+        }
+
+        /// Read all three dies without waiting: accel and gyro registers, and the magnetometer
+        /// registers. If the magnetometer has a new measurement (data ready) it is returned and,
+        /// in forced mode, the next one is started; otherwise the previous one is repeated with
+        /// `mag_fresh = false`. Call it from a periodic task: no sleeps, four to five transfers.
+        pub async fn sample(&mut self) -> Result<ImuSample, Error<E>> {
+            let accel = self.accel.read_raw().await?;
+            let gyro = self.gyro.read_raw().await?;
+            let mag = self.mag.read_raw().await?;
+            let mag_fresh = mag.data_ready;
+            if mag_fresh {
+                self.last_mag = mag.packet_words();
+                if self.mag.config().forced {
+                    self.mag.set_op_mode(MagOpMode::Forced).await?;
+                }
+            }
+            Ok(ImuSample {
+                accel,
+                gyro,
+                mag: self.last_mag,
+                mag_fresh,
+            })
+        }
+
+        /// Run the three self-tests (accel deflection, gyro BIST, magnetometer normal
+        /// self-test), then re-apply `config` (the accelerometer test ends with a soft reset and
+        /// the magnetometer test leaves sleep mode). [`DeviceError::SelfTestFailed`](crate::DeviceError::SelfTestFailed) if any die failed;
+        /// the dies are reconfigured either way.
+        pub async fn self_test(
+            &mut self,
+            delay: &mut impl DelayNs,
+            config: &Bmx055Config,
+        ) -> Result<(), Error<E>> {
+            let accel_ok = self.accel.self_test(delay).await?.passed();
+            self.accel.configure(&config.accel).await?;
+            let gyro_ok = self.gyro.self_test(delay).await?.passed();
+            let mag = self.mag.self_test(delay).await?;
+            self.mag.configure(&config.mag).await?;
+            if accel_ok && gyro_ok && mag.x && mag.y && mag.z {
+                Ok(())
+            } else {
+                Err(Error::Device(crate::DeviceError::SelfTestFailed))
+            }
         }
     }
 }

@@ -84,6 +84,31 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+/// Writes each item once for the blocking drivers and, with the `async` feature, once more for
+/// the async ones (`Accelerometer` -> `AsyncAccelerometer`, `.await` on the bus calls), through
+/// `maybe-async-cfg`.
+macro_rules! blocking_and_async {
+    ($($item:item)*) => {
+        $(
+            #[maybe_async_cfg::maybe(
+                sync(keep_self),
+                async(feature = "async", keep_self),
+                idents(
+                    Accelerometer(sync, async = "AsyncAccelerometer"),
+                    Gyroscope(sync, async = "AsyncGyroscope"),
+                    Magnetometer(sync, async = "AsyncMagnetometer"),
+                    Bmx055(sync, async = "AsyncBmx055"),
+                    RegisterInterface(sync, async = "AsyncRegisterInterface"),
+                    Registers(sync, async = "AsyncRegisters"),
+                    DelayNs(sync, async = "AsyncDelayNs")
+                )
+            )]
+            $item
+        )*
+    };
+}
+pub(crate) use blocking_and_async;
+
 pub mod accel;
 mod access;
 mod error;

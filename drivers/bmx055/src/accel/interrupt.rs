@@ -154,45 +154,34 @@ impl AccelInterruptStatus {
     }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
-    /// Route and enable interrupts (nine register writes, see
-    /// [`AccelInterruptConfig::register_writes`]).
-    pub async fn configure_interrupts(
-        &mut self,
-        config: &AccelInterruptConfig,
-    ) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write_all(config.register_writes()).await?;
-        Ok(())
-    }
+crate::blocking_and_async! {
+    impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
+        /// Route and enable interrupts (nine register writes, see
+        /// [`AccelInterruptConfig::register_writes`]).
+        pub async fn configure_interrupts(
+            &mut self,
+            config: &AccelInterruptConfig,
+        ) -> Result<(), Error<IFACE::Error>> {
+            self.iface.write_all(config.register_writes()).await?;
+            Ok(())
+        }
 
-    /// Read the interrupt flags.
-    pub async fn interrupt_status(&mut self) -> Result<AccelInterruptStatus, Error<IFACE::Error>> {
-        let mut b = [0u8; 2];
-        self.iface.read_into(reg::INT_STATUS_0, &mut b).await?;
-        Ok(AccelInterruptStatus::from_registers(b[0], b[1]))
-    }
+        /// Read the interrupt flags.
+        pub async fn interrupt_status(&mut self) -> Result<AccelInterruptStatus, Error<IFACE::Error>> {
+            let mut b = [0u8; 2];
+            self.iface.read_into(reg::INT_STATUS_0, &mut b).await?;
+            Ok(AccelInterruptStatus::from_registers(b[0], b[1]))
+        }
 
-    /// Clear latched interrupts, keeping the latch mode given by `latched`.
-    pub async fn clear_latched_interrupts(
-        &mut self,
-        latched: bool,
-    ) -> Result<(), Error<IFACE::Error>> {
-        let mode = if latched { 0x0F } else { 0x00 };
-        self.iface
-            .write(reg::INT_RST_LATCH, reg::RESET_INT | mode)
-            .await
+        /// Clear latched interrupts, keeping the latch mode given by `latched`.
+        pub async fn clear_latched_interrupts(
+            &mut self,
+            latched: bool,
+        ) -> Result<(), Error<IFACE::Error>> {
+            let mode = if latched { 0x0F } else { 0x00 };
+            self.iface
+                .write(reg::INT_RST_LATCH, reg::RESET_INT | mode)
+                .await
+        }
     }
 }

@@ -39,66 +39,55 @@ pub const fn offset_setting(targets: Xyz<OffsetTarget>) -> u8 {
     ((targets.x as u8) << 1) | ((targets.y as u8) << 3) | ((targets.z as u8) << 5)
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
-    /// Fast offset compensation with the device at rest: the die averages samples per axis and
-    /// writes the offset registers so each axis reads its target. Runs X, Y then Z, polling
-    /// `cal_rdy` at most [`FOC_POLL_ATTEMPTS`] times per axis. Needs normal power mode.
-    pub async fn fast_offset_compensation(
-        &mut self,
-        delay: &mut impl DelayNs,
-        targets: Xyz<OffsetTarget>,
-    ) -> Result<(), Error<IFACE::Error>> {
-        self.iface
-            .write(reg::OFC_SETTING, offset_setting(targets))
-            .await?;
-        for axis in 1..=3u8 {
+crate::blocking_and_async! {
+    impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
+        /// Fast offset compensation with the device at rest: the die averages samples per axis and
+        /// writes the offset registers so each axis reads its target. Runs X, Y then Z, polling
+        /// `cal_rdy` at most [`FOC_POLL_ATTEMPTS`] times per axis. Needs normal power mode.
+        pub async fn fast_offset_compensation(
+            &mut self,
+            delay: &mut impl DelayNs,
+            targets: Xyz<OffsetTarget>,
+        ) -> Result<(), Error<IFACE::Error>> {
             self.iface
-                .write(reg::OFC_CTRL, axis << reg::CAL_TRIGGER_SHIFT)
+                .write(reg::OFC_SETTING, offset_setting(targets))
                 .await?;
-            let mut ready = false;
-            for _ in 0..FOC_POLL_ATTEMPTS {
-                delay.delay_ms(1).await;
-                if self.iface.read(reg::OFC_CTRL).await? & reg::CAL_RDY != 0 {
-                    ready = true;
-                    break;
+            for axis in 1..=3u8 {
+                self.iface
+                    .write(reg::OFC_CTRL, axis << reg::CAL_TRIGGER_SHIFT)
+                    .await?;
+                let mut ready = false;
+                for _ in 0..FOC_POLL_ATTEMPTS {
+                    delay.delay_ms(1).await;
+                    if self.iface.read(reg::OFC_CTRL).await? & reg::CAL_RDY != 0 {
+                        ready = true;
+                        break;
+                    }
+                }
+                if !ready {
+                    return Err(Error::Device(crate::DeviceError::Timeout));
                 }
             }
-            if !ready {
-                return Err(Error::Device(crate::DeviceError::Timeout));
-            }
+            Ok(())
         }
-        Ok(())
-    }
 
-    /// Current offsets (7.8125 mg/LSB).
-    pub async fn offsets(&mut self) -> Result<Xyz<i8>, Error<IFACE::Error>> {
-        let mut b = [0u8; 3];
-        self.iface.read_into(reg::OFC_OFFSET_X, &mut b).await?;
-        Ok(Xyz::new(b[0] as i8, b[1] as i8, b[2] as i8))
-    }
+        /// Current offsets (7.8125 mg/LSB).
+        pub async fn offsets(&mut self) -> Result<Xyz<i8>, Error<IFACE::Error>> {
+            let mut b = [0u8; 3];
+            self.iface.read_into(reg::OFC_OFFSET_X, &mut b).await?;
+            Ok(Xyz::new(b[0] as i8, b[1] as i8, b[2] as i8))
+        }
 
-    /// Write offsets (7.8125 mg/LSB), e.g. values saved from an earlier calibration.
-    pub async fn set_offsets(&mut self, offsets: Xyz<i8>) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::OFC_OFFSET_X, offsets.x as u8).await?;
-        self.iface.write(reg::OFC_OFFSET_Y, offsets.y as u8).await?;
-        self.iface.write(reg::OFC_OFFSET_Z, offsets.z as u8).await
-    }
+        /// Write offsets (7.8125 mg/LSB), e.g. values saved from an earlier calibration.
+        pub async fn set_offsets(&mut self, offsets: Xyz<i8>) -> Result<(), Error<IFACE::Error>> {
+            self.iface.write(reg::OFC_OFFSET_X, offsets.x as u8).await?;
+            self.iface.write(reg::OFC_OFFSET_Y, offsets.y as u8).await?;
+            self.iface.write(reg::OFC_OFFSET_Z, offsets.z as u8).await
+        }
 
-    /// Set all offsets to zero.
-    pub async fn reset_offsets(&mut self) -> Result<(), Error<IFACE::Error>> {
-        self.iface.write(reg::OFC_CTRL, reg::OFFSET_RESET).await
+        /// Set all offsets to zero.
+        pub async fn reset_offsets(&mut self) -> Result<(), Error<IFACE::Error>> {
+            self.iface.write(reg::OFC_CTRL, reg::OFFSET_RESET).await
+        }
     }
 }

@@ -49,52 +49,41 @@ fn axis_mg(raw: &AccelRaw, axis: u8, range: AccelRange) -> f32 {
     }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
-    /// Run the self-test at ±4 g with high deflection amplitude (`self_test_amp` = 1, as
-    /// Bosch's BMA2 SensorAPI does): per axis, excite positive then negative, wait 50 ms each,
-    /// and measure the difference. Ends with a soft reset (as the datasheet asks), so call
-    /// [`configure`](Self::configure) again afterwards. Returns the measured differences;
-    /// check [`AccelSelfTest::passed`] (the call itself only fails on bus errors).
-    pub async fn self_test(
-        &mut self,
-        delay: &mut impl DelayNs,
-    ) -> Result<AccelSelfTest, Error<IFACE::Error>> {
-        self.set_range(AccelRange::G4).await?;
-        let mut diff = [0f32; 3];
-        for axis in 1..=3u8 {
-            self.iface
-                .write(
-                    reg::PMU_SELF_TEST,
-                    axis | reg::SELF_TEST_SIGN | reg::SELF_TEST_AMP,
-                )
-                .await?;
-            delay.delay_ms(SELF_TEST_SETTLE_MS).await;
-            let pos = self.read_raw().await?;
-            self.iface
-                .write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_AMP)
-                .await?;
-            delay.delay_ms(SELF_TEST_SETTLE_MS).await;
-            let neg = self.read_raw().await?;
-            diff[usize::from(axis - 1)] =
-                axis_mg(&pos, axis, AccelRange::G4) - axis_mg(&neg, axis, AccelRange::G4);
+crate::blocking_and_async! {
+    impl<IFACE: RegisterInterface> Accelerometer<IFACE> {
+        /// Run the self-test at ±4 g with high deflection amplitude (`self_test_amp` = 1, as
+        /// Bosch's BMA2 SensorAPI does): per axis, excite positive then negative, wait 50 ms each,
+        /// and measure the difference. Ends with a soft reset (as the datasheet asks), so call
+        /// [`configure`](Self::configure) again afterwards. Returns the measured differences;
+        /// check [`AccelSelfTest::passed`] (the call itself only fails on bus errors).
+        pub async fn self_test(
+            &mut self,
+            delay: &mut impl DelayNs,
+        ) -> Result<AccelSelfTest, Error<IFACE::Error>> {
+            self.set_range(AccelRange::G4).await?;
+            let mut diff = [0f32; 3];
+            for axis in 1..=3u8 {
+                self.iface
+                    .write(
+                        reg::PMU_SELF_TEST,
+                        axis | reg::SELF_TEST_SIGN | reg::SELF_TEST_AMP,
+                    )
+                    .await?;
+                delay.delay_ms(SELF_TEST_SETTLE_MS).await;
+                let pos = self.read_raw().await?;
+                self.iface
+                    .write(reg::PMU_SELF_TEST, axis | reg::SELF_TEST_AMP)
+                    .await?;
+                delay.delay_ms(SELF_TEST_SETTLE_MS).await;
+                let neg = self.read_raw().await?;
+                diff[usize::from(axis - 1)] =
+                    axis_mg(&pos, axis, AccelRange::G4) - axis_mg(&neg, axis, AccelRange::G4);
+            }
+            self.iface.write(reg::PMU_SELF_TEST, 0).await?;
+            self.soft_reset(delay).await?;
+            Ok(AccelSelfTest {
+                difference_mg: Xyz::new(diff[0], diff[1], diff[2]),
+            })
         }
-        self.iface.write(reg::PMU_SELF_TEST, 0).await?;
-        self.soft_reset(delay).await?;
-        Ok(AccelSelfTest {
-            difference_mg: Xyz::new(diff[0], diff[1], diff[2]),
-        })
     }
 }

@@ -55,46 +55,35 @@ pub fn decode_gyro_fifo_frame(data: FifoData, frame: &[u8]) -> GyroRaw {
     GyroRaw::from_registers(&fifo_frame_registers(data, frame))
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
-    /// Configure the FIFO. [`DeviceError::InvalidInput`](crate::DeviceError::InvalidInput) if the watermark is above 99.
-    pub async fn configure_fifo(
-        &mut self,
-        config: &GyroFifoConfig,
-    ) -> Result<(), Error<IFACE::Error>> {
-        let writes = config
-            .register_writes()
-            .ok_or(Error::Device(crate::DeviceError::InvalidInput))?;
-        self.iface.write_all(writes).await?;
-        self.fifo_data = config.data;
-        Ok(())
-    }
+crate::blocking_and_async! {
+    impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
+        /// Configure the FIFO. [`DeviceError::InvalidInput`](crate::DeviceError::InvalidInput) if the watermark is above 99.
+        pub async fn configure_fifo(
+            &mut self,
+            config: &GyroFifoConfig,
+        ) -> Result<(), Error<IFACE::Error>> {
+            let writes = config
+                .register_writes()
+                .ok_or(Error::Device(crate::DeviceError::InvalidInput))?;
+            self.iface.write_all(writes).await?;
+            self.fifo_data = config.data;
+            Ok(())
+        }
 
-    /// Frames waiting and the overrun flag.
-    pub async fn fifo_status(&mut self) -> Result<FifoStatus, Error<IFACE::Error>> {
-        Ok(FifoStatus::from_register(
-            self.iface.read(reg::FIFO_STATUS).await?,
-        ))
-    }
+        /// Frames waiting and the overrun flag.
+        pub async fn fifo_status(&mut self) -> Result<FifoStatus, Error<IFACE::Error>> {
+            Ok(FifoStatus::from_register(
+                self.iface.read(reg::FIFO_STATUS).await?,
+            ))
+        }
 
-    /// Read up to `out.len()` frames (never more than are waiting), whole frames per burst.
-    /// Returns the number of frames written to `out`.
-    pub async fn read_fifo(&mut self, out: &mut [GyroRaw]) -> Result<usize, Error<IFACE::Error>> {
-        let data = self.fifo_data;
-        self.iface
-            .read_fifo(GYRO_FIFO_REGISTERS, data, out, decode_gyro_fifo_frame)
-            .await
+        /// Read up to `out.len()` frames (never more than are waiting), whole frames per burst.
+        /// Returns the number of frames written to `out`.
+        pub async fn read_fifo(&mut self, out: &mut [GyroRaw]) -> Result<usize, Error<IFACE::Error>> {
+            let data = self.fifo_data;
+            self.iface
+                .read_fifo(GYRO_FIFO_REGISTERS, data, out, decode_gyro_fifo_frame)
+                .await
+        }
     }
 }

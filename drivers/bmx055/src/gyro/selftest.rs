@@ -34,38 +34,27 @@ impl GyroSelfTest {
     }
 }
 
-#[maybe_async_cfg::maybe(
-    sync(keep_self),
-    async(feature = "async", keep_self),
-    idents(
-        Accelerometer(sync, async = "AsyncAccelerometer"),
-        Gyroscope(sync, async = "AsyncGyroscope"),
-        Magnetometer(sync, async = "AsyncMagnetometer"),
-        Bmx055(sync, async = "AsyncBmx055"),
-        RegisterInterface(sync, async = "AsyncRegisterInterface"),
-        Registers(sync, async = "AsyncRegisters"),
-        DelayNs(sync, async = "AsyncDelayNs")
-    )
-)]
-impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
-    /// Run the built-in self-test: read `rate_ok`, set `trig_bist`, poll `bist_rdy` (at most
-    /// [`BIST_POLL_ATTEMPTS`] ms), read `bist_fail`.
-    pub async fn self_test(
-        &mut self,
-        delay: &mut impl DelayNs,
-    ) -> Result<GyroSelfTest, Error<IFACE::Error>> {
-        let rate_ok = self.iface.read(reg::BIST).await? & reg::RATE_OK != 0;
-        self.iface.write(reg::BIST, reg::TRIG_BIST).await?;
-        for _ in 0..BIST_POLL_ATTEMPTS {
-            delay.delay_ms(1).await;
-            let bist = self.iface.read(reg::BIST).await?;
-            if bist & reg::BIST_RDY != 0 {
-                return Ok(GyroSelfTest {
-                    rate_ok,
-                    bist_ok: bist & reg::BIST_FAIL == 0,
-                });
+crate::blocking_and_async! {
+    impl<IFACE: RegisterInterface> Gyroscope<IFACE> {
+        /// Run the built-in self-test: read `rate_ok`, set `trig_bist`, poll `bist_rdy` (at most
+        /// [`BIST_POLL_ATTEMPTS`] ms), read `bist_fail`.
+        pub async fn self_test(
+            &mut self,
+            delay: &mut impl DelayNs,
+        ) -> Result<GyroSelfTest, Error<IFACE::Error>> {
+            let rate_ok = self.iface.read(reg::BIST).await? & reg::RATE_OK != 0;
+            self.iface.write(reg::BIST, reg::TRIG_BIST).await?;
+            for _ in 0..BIST_POLL_ATTEMPTS {
+                delay.delay_ms(1).await;
+                let bist = self.iface.read(reg::BIST).await?;
+                if bist & reg::BIST_RDY != 0 {
+                    return Ok(GyroSelfTest {
+                        rate_ok,
+                        bist_ok: bist & reg::BIST_FAIL == 0,
+                    });
+                }
             }
+            Err(Error::Device(crate::DeviceError::Timeout))
         }
-        Err(Error::Device(crate::DeviceError::Timeout))
     }
 }
