@@ -67,6 +67,26 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+/// Writes each driver item once for the blocking `Bmp280` and, with the `async` feature, once
+/// more for `Bmp280Async` (`.await` on the bus and delay calls), through `maybe-async-cfg`.
+macro_rules! blocking_and_async {
+    ($($item:item)*) => {
+        $(
+            #[maybe_async_cfg::maybe(
+                sync(),
+                async(feature = "async"),
+                idents(
+                    Bmp280(sync, async = "Bmp280Async"),
+                    Interface(sync, async = "AsyncInterface"),
+                    DelayNs(sync, async = "AsyncDelayNs")
+                )
+            )]
+            $item
+        )*
+    };
+}
+pub(crate) use blocking_and_async;
+
 mod calibration;
 pub mod compensation;
 mod config;
