@@ -926,9 +926,14 @@ impl Config {
         Ok(())
     }
 
+    /// The channels' controllers, built from `[control.*]`; the error names the key at fault.
+    pub fn controllers(&self) -> Result<ControllerSet, ConfigError> {
+        ControllerSet::new(&self.control).map_err(|(channel, e)| controller_error(channel, e))
+    }
+
     fn validate_control(&self) -> Result<(), ConfigError> {
         let c = &self.control;
-        ControllerSet::new(c).map_err(|(channel, e)| controller_error(channel, e))?;
+        self.controllers()?;
         within("control.max_speed_mm_s", c.max_speed_mm_s, 1..=50_000)?;
         within(
             "control.max_speed_accuracy_mm_s",

@@ -145,12 +145,7 @@ impl Core {
     /// From a configuration; fails only as [`Config::validate`] would.
     pub fn new(config: &Config) -> Result<Core, ConfigError> {
         config.validate()?;
-        let controllers =
-            ControllerSet::new(&config.control).map_err(|(channel, e)| ConfigError::Invalid {
-                key: format!("control.{}", channel.name()),
-                value: config.control.channel(channel).kind.clone(),
-                allowed: e.to_string(),
-            })?;
+        let controllers = config.controllers()?;
         let us = |v: u32| u64::from(v) * 1_000;
         Ok(Core {
             limits: SafetyLimits::new(&config.safety, &config.control),
