@@ -101,7 +101,10 @@ impl Pca9685Output<I2cdev> {
 
 impl<I2C: I2c> ServoOutput for Pca9685Output<I2C> {
     /// One register write per channel; between writes, a passed deadline stops the rest (they
-    /// go out with the next write).
+    /// go out with the next write). A single write cannot be given a deadline: Linux I2C
+    /// transfers block until they end or the bus adapter's own timeout (on the Nano's Tegra
+    /// adapter, about a second) fails them, so a hung bus stalls the loop that long, and the
+    /// overrun failsafe then trips.
     fn write_targets(
         &mut self,
         channels: &[u8; 3],
