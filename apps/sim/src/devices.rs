@@ -102,6 +102,8 @@ pub struct BoardStats {
     pub faults: Mutex<FaultStats>,
     /// Times the pty was (re)opened.
     pub opens: AtomicU64,
+    /// Count only: keep no fingerprints (a long run's memory stays flat).
+    pub counts_only: bool,
 }
 
 /// An answer written this long after its request edge misses the application's default packet
@@ -198,10 +200,14 @@ pub fn spawn_board(
                 let intact = out.windows(answer.packet.len()).any(|w| w == answer.packet);
                 if intact {
                     stats.packets_intact.fetch_add(1, Ordering::Relaxed);
-                    lock(&stats.intact).insert(fingerprint(&answer.packet));
+                    if !stats.counts_only {
+                        lock(&stats.intact).insert(fingerprint(&answer.packet));
+                    }
                 } else {
                     stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
-                    lock(&stats.damaged).insert(fingerprint(&out));
+                    if !stats.counts_only {
+                        lock(&stats.damaged).insert(fingerprint(&out));
+                    }
                 }
                 if let Some(info) = answer.info {
                     injector.mangle(&info, &mut out);
@@ -429,6 +435,8 @@ pub struct GroundStats {
     pub last_display: Mutex<Option<(f64, DisplayFrame)>>,
     /// Samples of the model: time and state, once per 100 ms.
     pub truth: Mutex<Vec<VehicleState>>,
+    /// Count only: keep no model samples (a long run's memory stays flat).
+    pub counts_only: bool,
 }
 
 /// The frame period of the ground station (DESIGN 2.2: one frame every 100 ms).
@@ -489,7 +497,9 @@ pub fn spawn_ground(
                 if next_slot < t {
                     next_slot = t + GROUND_PERIOD_S;
                 }
-                lock(&stats.truth).push(world.state());
+                if !stats.counts_only {
+                    lock(&stats.truth).push(world.state());
+                }
                 // Everything due now, in script order.
                 let mut frames: Vec<(Option<Command>, [u8; 10])> = Vec::new();
                 while let Some(s) = script.get(step).filter(|s| s.at_s <= t) {

@@ -25,7 +25,7 @@ use crate::devices::{
     lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardSetup, BoardStats,
     GroundStats, LinkPort, MaestroStats,
 };
-use crate::faults::{Faults, LoopBusy};
+use crate::faults::{FaultWindow, Faults, LoopBusy};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
 use crate::pty::{LinePace, SimPty};
@@ -47,6 +47,8 @@ pub struct AppStatus {
     pub crc_errors: AtomicU64,
     /// Cycles without a valid packet.
     pub packets_missing: AtomicU64,
+    /// Revives seen: changes from KILLED or FAILSAFE to MANUAL.
+    pub revives: AtomicU64,
 }
 
 impl AppStatus {
@@ -132,6 +134,12 @@ pub struct SimOptions {
     pub app_config: Option<PathBuf>,
     /// Keep the configuration's realtime settings.
     pub realtime: bool,
+    /// The random fault windows of a soak (already in `faults`), to report.
+    pub random_faults: Vec<FaultWindow>,
+    /// Keep counts only, not every packet's fingerprint or the model's track: memory stays
+    /// flat however long the run (a soak); the check of logged packets against the board's
+    /// intact ones is skipped.
+    pub bounded_evidence: bool,
 }
 
 impl SimOptions {
@@ -152,6 +160,8 @@ impl SimOptions {
             status: StatusMode::Auto,
             app_config: None,
             realtime: false,
+            random_faults: Vec::new(),
+            bounded_evidence: false,
         }
     }
 
@@ -225,6 +235,12 @@ pub struct SimReport {
     pub ran_s: f64,
     /// Stopped early by a signal.
     pub interrupted: bool,
+    /// Revives the application reported (KILLED or FAILSAFE to MANUAL).
+    pub revives: u64,
+    /// The run kept counts only ([`SimOptions::bounded_evidence`]: a soak).
+    pub evidence_bounded: bool,
+    /// The random fault windows of a soak.
+    pub random_faults: usize,
 }
 
 impl SimReport {
@@ -254,6 +270,12 @@ impl SimReport {
             d.ground_frames,
             d.displays,
         );
+        if self.evidence_bounded {
+            s.push_str(&format!(
+                "soak: {} fault windows, {} failsafe(s), {} revive(s), {} cycles, {} log records dropped\n",
+                self.random_faults, c.failsafes, self.revives, c.cycles, c.log_dropped
+            ));
+        }
         if let Some(o) = d.final_outputs_us {
             s.push_str(&format!(
                 "final outputs at the Maestro: {}/{}/{} µs{}\n",
@@ -298,6 +320,7 @@ fn describe(check: &crate::scenario::Check) -> String {
         SafeThroughout { from_s, to_s } => format!("safe outputs {from_s}-{to_s} s"),
         SafeHeld { from_s, to_s } => format!("safe outputs held {from_s}-{to_s} s"),
         NeverSafe { from_s, to_s } => format!("no failsafe {from_s}-{to_s} s"),
+        Drives { from_s, to_s } => format!("drives {from_s}-{to_s} s"),
         Tracks {
             speed_m_s,
             heading_deg,
@@ -353,9 +376,15 @@ where
     )?;
     let outputs = OutputMap::new(&config.channels);
     let channels = outputs.channel_numbers();
-    let board_stats = Arc::new(BoardStats::default());
+    let board_stats = Arc::new(BoardStats {
+        counts_only: o.bounded_evidence,
+        ..BoardStats::default()
+    });
     let maestro_stats = Arc::new(MaestroStats::default());
-    let ground_stats = Arc::new(GroundStats::default());
+    let ground_stats = Arc::new(GroundStats {
+        counts_only: o.bounded_evidence,
+        ..GroundStats::default()
+    });
     let mut threads = Vec::new();
     threads.push(spawn_board(
         world.clone(),
@@ -514,7 +543,7 @@ where
         None => None,
     };
     let (mut false_accepts, mut logged_intact) = (0, 0);
-    if let Some(l) = &log {
+    if let Some(l) = log.as_ref().filter(|_| !o.bounded_evidence) {
         let intact = lock(&board_stats.intact);
         for fp in &l.raw_packets {
             if intact.contains(fp) {
@@ -578,6 +607,9 @@ where
         evidence,
         ran_s,
         interrupted,
+        revives: app_status.revives.load(Ordering::Relaxed),
+        evidence_bounded: o.bounded_evidence,
+        random_faults: o.random_faults.len(),
     })
 }
 
