@@ -87,7 +87,7 @@ pub struct BoardStats {
     pub packets_intact: AtomicU64,
     /// Packets that went out damaged by the fault injector.
     pub packets_damaged: AtomicU64,
-    /// Info frames sent.
+    /// Info pieces sent (one behind a packet while a snapshot goes out).
     pub info_frames: AtomicU64,
     /// Answers that were complete later than [`LATE_ANSWER`] after their request (the board
     /// thread was held up by the machine): the application may count them missing.
