@@ -283,3 +283,54 @@ fn the_loop_and_the_safety_timers_run_on_the_monotonic_clock() {
     assert!(woke >= deadline, "woke {} ns early", deadline - woke);
     assert!(tick.wake_ns >= deadline && tick.wake_ns - deadline < 1_000_000_000);
 }
+
+#[test]
+fn a_wall_clock_jump_trips_no_failsafe() {
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = temp_dir("wall-clock-jump");
+    // The wall clock of the simulated robot only (LD_PRELOAD, no privileges): ten years
+    // behind from the start, then at 3 s another ten years back, while it drives.
+    let shim = dir.join("wall_clock_jump.so");
+    let built = Process::new(std::env::var("CC").unwrap_or_else(|_| "cc".into()))
+        .args(["-shared", "-fPIC", "-o"])
+        .arg(&shim)
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/fixtures/wall_clock_jump.c"
+        ))
+        .arg("-ldl")
+        .status()
+        .expect("a C compiler (cc) for the clock shim");
+    assert!(built.success());
+    const TEN_YEARS_S: i64 = 10 * 365 * 86_400;
+    let out = Process::new(env!("CARGO_BIN_EXE_dima-e2e-sim"))
+        .args(["--scenario", "manual", "--duration", "8", "--quiet"])
+        .arg("--log-dir")
+        .arg(dir.join("logs"))
+        .env("LD_PRELOAD", &shim)
+        .env("DIMA_WALL_OFFSET_S", (-TEN_YEARS_S).to_string())
+        .env("DIMA_WALL_JUMP_AFTER_S", "3")
+        .env("DIMA_WALL_JUMP_S", (-2 * TEN_YEARS_S).to_string())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    // The shim reached the application's wall clock: its log is named ten years back.
+    let log: Vec<String> = std::fs::read_dir(dir.join("logs"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".mcap"))
+        .collect();
+    let year_now: u32 = dima::logging::log_file_name(std::time::SystemTime::now())[5..9]
+        .parse()
+        .unwrap();
+    assert!(
+        log.len() == 1 && log[0][5..9].parse::<u32>().unwrap() + 10 <= year_now + 1,
+        "{log:?}"
+    );
+    // Driving on, no failsafe: the comms-loss timer never saw the jump (the manual
+    // scenario's checks: outputs reached, no FAILSAFE in the log).
+    assert_eq!(out.status.code(), Some(0), "{stdout}");
+    assert!(stdout.contains("0 failsafe(s)"), "{stdout}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
