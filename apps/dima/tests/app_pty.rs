@@ -49,6 +49,7 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
             o.fetch_add(1, Ordering::Relaxed);
         })),
         busy: None,
+        log_faults: Default::default(),
     };
     let runner = std::thread::spawn(move || app::run(&config, devices, options, s).expect("run"));
 

@@ -25,7 +25,7 @@ use crate::devices::{
     lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardSetup, BoardStats,
     GroundStats, LinkPort, MaestroStats,
 };
-use crate::faults::{FaultWindow, Faults, LoopBusy};
+use crate::faults::{AppFaults, FaultWindow, Faults, LoopBusy};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
 use crate::pty::{LinePace, SimPty};
@@ -68,6 +68,8 @@ pub struct AppLaunch {
     pub request: RequestPin,
     /// Extra work inside the realtime cycle (the `loop:busy` fault), from the loop's start.
     pub busy: Option<LoopBusy>,
+    /// The log disk and Maestro-write faults, windows from the start.
+    pub app_faults: AppFaults,
     /// Where the application reports its live state (optional: the status line shows what
     /// it gets).
     pub status: Arc<AppStatus>,
@@ -521,6 +523,7 @@ where
         config,
         request: RequestPin::new(line),
         busy: o.faults.loop_busy,
+        app_faults: o.faults.app.clone(),
         status: app_status.clone(),
         stop: stop_app.clone(),
     };
