@@ -310,8 +310,8 @@ impl SimReport {
         );
         if self.evidence_bounded {
             s.push_str(&format!(
-                "soak: {} fault windows, {} failsafe(s), {} revive(s), {} cycles, {} log records dropped\n",
-                self.random_faults, c.failsafes, self.revives, c.cycles, c.log_dropped
+                "soak: {} fault windows, {} failsafe(s), {} revive(s), {} cycles, {} missed periods, {} log records dropped\n",
+                self.random_faults, c.failsafes, self.revives, c.cycles, c.missed_periods, c.log_dropped
             ));
         }
         if let Some(o) = d.final_outputs_us {
