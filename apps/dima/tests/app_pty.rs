@@ -127,6 +127,8 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
     );
 
     // Revive and drive again, then stop as SIGTERM would: outputs go safe, log is complete.
+    // (A revive sooner than safety.revive_min_interval_ms after the kill would be refused.)
+    std::thread::sleep(Duration::from_millis(300));
     ground.send(Command::Revive);
     ground.send(Command::Throttle(pct(100)));
     maestro
