@@ -13,7 +13,7 @@ use crate::checksum::crc32;
 /// Length of a display frame on the wire, in bytes.
 pub const DISPLAY_FRAME_LEN: usize = 68;
 /// Bytes covered by the CRC.
-const PAYLOAD_LEN: usize = DISPLAY_FRAME_LEN - 4;
+pub(crate) const PAYLOAD_LEN: usize = DISPLAY_FRAME_LEN - 4;
 /// Largest raw BMP280 ADC value (20 bits).
 pub const MAX_BARO_ADC: u32 = (1 << 20) - 1;
 
@@ -89,7 +89,7 @@ impl core::error::Error for DisplayError {}
 
 /// Little-endian field writer over a fixed buffer (offsets are compile-time facts of the layout).
 struct Writer<'a> {
-    buf: &'a mut [u8; DISPLAY_FRAME_LEN],
+    buf: &'a mut [u8],
     at: usize,
 }
 
@@ -102,7 +102,7 @@ impl Writer<'_> {
 
 /// Little-endian field reader over a fixed buffer.
 struct Reader<'a> {
-    buf: &'a [u8; DISPLAY_FRAME_LEN],
+    buf: &'a [u8],
     at: usize,
 }
 
@@ -131,6 +131,15 @@ impl DisplayFrame {
     /// The 68-byte frame.
     pub fn encode(&self) -> [u8; DISPLAY_FRAME_LEN] {
         let mut buf = [0u8; DISPLAY_FRAME_LEN];
+        buf[..PAYLOAD_LEN].copy_from_slice(&self.payload());
+        let crc = crc32(&buf[..PAYLOAD_LEN]);
+        buf[PAYLOAD_LEN..].copy_from_slice(&crc.to_le_bytes());
+        buf
+    }
+
+    /// Bytes 0-63 of the frame (everything but the CRC); display frames v2 carry them as is.
+    pub(crate) fn payload(&self) -> [u8; PAYLOAD_LEN] {
+        let mut buf = [0u8; PAYLOAD_LEN];
         let mut w = Writer {
             buf: &mut buf,
             at: 0,
@@ -155,8 +164,6 @@ impl DisplayFrame {
             w.put(v.to_le_bytes());
         }
         debug_assert_eq!(w.at, PAYLOAD_LEN);
-        let crc = crc32(&buf[..PAYLOAD_LEN]);
-        buf[PAYLOAD_LEN..].copy_from_slice(&crc.to_le_bytes());
         buf
     }
 
@@ -167,7 +174,17 @@ impl DisplayFrame {
         if computed != received {
             return Err(DisplayError::Crc { computed, received });
         }
-        let mut r = Reader { buf: frame, at: 0 };
+        let mut payload = [0u8; PAYLOAD_LEN];
+        payload.copy_from_slice(&frame[..PAYLOAD_LEN]);
+        DisplayFrame::from_payload(&payload)
+    }
+
+    /// Decodes and validates bytes 0-63 of a frame (the CRC is the caller's business).
+    pub(crate) fn from_payload(payload: &[u8; PAYLOAD_LEN]) -> Result<DisplayFrame, DisplayError> {
+        let mut r = Reader {
+            buf: payload,
+            at: 0,
+        };
         let out = DisplayFrame {
             acc: [r.i16(), r.i16(), r.i16()],
             gyro: [r.i16(), r.i16(), r.i16()],

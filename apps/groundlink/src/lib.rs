@@ -1,5 +1,10 @@
-//! The DIMA ground link, version 1: the frames exchanged between the robot and its ground
-//! station over the XBee radio link (transparent mode).
+//! The DIMA ground link: the frames exchanged between the robot and its ground station over
+//! the XBee radio link (transparent mode).
+//!
+//! Version 1 (the crate root) is bit-compatible with the original ground station; it carries no
+//! authentication. Version 2 ([`v2`]) adds a SipHash-2-4 tag under a pre-shared key, a per-boot
+//! session id and sequence numbers, and a downlink that reports the robot's mode, failsafe
+//! cause, health counters and the acknowledgement of the last accepted command.
 //!
 //! - [`Command`]: 10-byte command frames, ground station -> robot (`$`, type, i32 big-endian data,
 //!   CRC-32/ISO-HDLC over type and data). [`Command::encode`], [`Command::decode`], and the
@@ -36,9 +41,15 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+#[cfg(feature = "std")]
+extern crate std;
+
 pub mod checksum;
 pub mod command;
 pub mod display;
+#[cfg(feature = "std")]
+pub mod key_file;
+pub mod v2;
 
 pub use command::{
     Command, CommandDecoder, CommandError, CommandStats, CommandType, Percent, COMMAND_FRAME_LEN,

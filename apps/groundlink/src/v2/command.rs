@@ -1,0 +1,224 @@
+//! Command frames v2: 24 bytes, ground station -> robot.
+//!
+//! | offset | content |
+//! |---|---|
+//! | 0-1 | start token `A5 32` |
+//! | 2 | length, 24 |
+//! | 3 | command type (version 1 types) |
+//! | 4-7 | data, i32 big-endian (version 1 ranges) |
+//! | 8-11 | session id, u32 big-endian (0: the station does not know it yet) |
+//! | 12-15 | sequence number, u32 big-endian (starts at 1, increases by one per frame) |
+//! | 16-23 | SipHash-2-4 tag over bytes 0-15 |
+
+use super::scanner::Scanner;
+use super::{be_u32, check_envelope, seal, FrameError, LinkKey};
+use crate::command::{Command, CommandType};
+
+/// Length of a command frame v2 on the wire, in bytes.
+pub const COMMAND_FRAME_LEN: usize = 24;
+/// Start token of a command frame v2.
+pub const COMMAND_START: [u8; 2] = [0xA5, 0x32];
+
+/// One authenticated command: what the ground station sends, with its session and sequence.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CommandFrame {
+    /// The command (version 1 types and ranges).
+    pub command: Command,
+    /// The robot's session id as the station knows it, 0 when it does not know it yet.
+    pub session: u32,
+    /// Sequence number, increasing by one per frame sent (the robot accepts each number once).
+    pub seq: u32,
+}
+
+impl CommandFrame {
+    /// The 24-byte frame, tagged with `key`.
+    pub fn encode(&self, key: &LinkKey) -> [u8; COMMAND_FRAME_LEN] {
+        let mut frame = [0u8; COMMAND_FRAME_LEN];
+        frame[3] = self.command.command_type() as u8;
+        frame[4..8].copy_from_slice(&self.command.data().to_be_bytes());
+        frame[8..12].copy_from_slice(&self.session.to_be_bytes());
+        frame[12..16].copy_from_slice(&self.seq.to_be_bytes());
+        seal(&mut frame, COMMAND_START, key);
+        frame
+    }
+
+    /// Decodes one complete frame: start token, length, tag, then type and data range.
+    pub fn decode(
+        frame: &[u8; COMMAND_FRAME_LEN],
+        key: &LinkKey,
+    ) -> Result<CommandFrame, FrameError> {
+        check_envelope(frame, COMMAND_START, key)?;
+        let kind = CommandType::from_byte(frame[3]).ok_or(FrameError::Command(
+            crate::CommandError::UnknownType { found: frame[3] },
+        ))?;
+        let data = i32::from_be_bytes([frame[4], frame[5], frame[6], frame[7]]);
+        let command = Command::from_parts(kind, data).map_err(FrameError::Command)?;
+        Ok(CommandFrame {
+            command,
+            session: be_u32(frame, 8),
+            seq: be_u32(frame, 12),
+        })
+    }
+}
+
+/// What a [`CommandDecoder`] has seen since it was created.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CommandStats {
+    /// Authentic, valid frames delivered.
+    pub frames: u32,
+    /// Candidate frames whose tag did not match (forged, corrupt, other key).
+    pub bad_tag: u32,
+    /// Start tokens with a wrong length byte, and authentic frames with an unknown type or
+    /// out-of-range data.
+    pub malformed: u32,
+    /// Bytes dropped: outside any frame, the first byte of each rejected candidate, and
+    /// authentic frames with invalid content. Bytes fed = 24 x `frames` + `skipped_bytes` +
+    /// pending bytes.
+    pub skipped_bytes: u32,
+}
+
+/// Finds authentic command frames v2 in a byte stream, whatever the read boundaries are.
+///
+/// Total: any byte sequence is accepted. A candidate (start token and length byte) whose tag
+/// does not match costs only its first byte: the search resumes inside it, so garbage or a
+/// forged frame never hides a good frame that follows.
+#[derive(Debug, Clone)]
+pub struct CommandDecoder {
+    key: LinkKey,
+    scanner: Scanner<COMMAND_FRAME_LEN>,
+    frames: u32,
+    bad_tag: u32,
+    malformed: u32,
+}
+
+impl CommandDecoder {
+    /// An empty decoder that checks tags with `key`.
+    pub const fn new(key: LinkKey) -> CommandDecoder {
+        CommandDecoder {
+            key,
+            scanner: Scanner::new(COMMAND_START),
+            frames: 0,
+            bad_tag: 0,
+            malformed: 0,
+        }
+    }
+
+    /// Counters since creation.
+    pub fn stats(&self) -> CommandStats {
+        CommandStats {
+            frames: self.frames,
+            bad_tag: self.bad_tag,
+            malformed: self.malformed.saturating_add(self.scanner.bad_length()),
+            skipped_bytes: self.scanner.skipped(),
+        }
+    }
+
+    /// Bytes held while waiting for the rest of a frame.
+    pub fn pending(&self) -> usize {
+        self.scanner.pending()
+    }
+
+    /// Forgets a partial frame (e.g. after the port was reopened); its bytes count as skipped.
+    pub fn reset(&mut self) {
+        self.scanner.reset();
+    }
+
+    /// Feeds one byte. `Some(Ok(_))` for an authentic valid frame, `Some(Err(BadTag))` for a
+    /// candidate whose tag does not match, `Some(Err(Command(_)))` for an authentic frame with
+    /// invalid content. Wrong length bytes are only counted.
+    pub fn push(&mut self, byte: u8) -> Option<Result<CommandFrame, FrameError>> {
+        if !self.scanner.push(byte) {
+            return None;
+        }
+        match CommandFrame::decode(self.scanner.frame(), &self.key) {
+            Ok(frame) => {
+                self.scanner.consume();
+                self.frames = self.frames.saturating_add(1);
+                Some(Ok(frame))
+            }
+            Err(FrameError::BadTag) => {
+                self.scanner.reject();
+                self.bad_tag = self.bad_tag.saturating_add(1);
+                Some(Err(FrameError::BadTag))
+            }
+            Err(error) => {
+                self.scanner.discard();
+                self.malformed = self.malformed.saturating_add(1);
+                Some(Err(error))
+            }
+        }
+    }
+
+    /// Feeds a chunk of bytes, yielding what [`push`](Self::push) yields for each of them.
+    pub fn feed<'a>(
+        &'a mut self,
+        bytes: &'a [u8],
+    ) -> impl Iterator<Item = Result<CommandFrame, FrameError>> + 'a {
+        bytes.iter().filter_map(move |&b| self.push(b))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Percent;
+
+    const KEY: LinkKey =
+        LinkKey::from_bytes([0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15]);
+
+    #[test]
+    fn layout_offsets() {
+        let frame = CommandFrame {
+            command: Command::Steering(Percent::new(42).unwrap()),
+            session: 0x0102_0304,
+            seq: 0xA0B0_C0D0,
+        };
+        let bytes = frame.encode(&KEY);
+        assert_eq!(&bytes[..4], &[0xA5, 0x32, 24, 4]);
+        assert_eq!(&bytes[4..8], &[0, 0, 0, 42]);
+        assert_eq!(&bytes[8..12], &[1, 2, 3, 4]);
+        assert_eq!(&bytes[12..16], &[0xA0, 0xB0, 0xC0, 0xD0]);
+        assert_eq!(&bytes[16..], &KEY.tag(&bytes[..16]));
+        assert_eq!(CommandFrame::decode(&bytes, &KEY), Ok(frame));
+    }
+
+    #[test]
+    fn every_single_bit_flip_is_rejected() {
+        let bytes = CommandFrame {
+            command: Command::Revive,
+            session: 9,
+            seq: 3,
+        }
+        .encode(&KEY);
+        for bit in 0..COMMAND_FRAME_LEN * 8 {
+            let mut flipped = bytes;
+            flipped[bit / 8] ^= 1 << (bit % 8);
+            assert!(CommandFrame::decode(&flipped, &KEY).is_err(), "bit {bit}");
+        }
+    }
+
+    #[test]
+    fn authentic_unknown_type_is_malformed_not_a_heartbeat() {
+        let mut bytes = [0u8; COMMAND_FRAME_LEN];
+        bytes[3] = 9;
+        seal(&mut bytes, COMMAND_START, &KEY);
+        let mut decoder = CommandDecoder::new(KEY);
+        let got: heapless_vec::Results = decoder.feed(&bytes).collect();
+        assert_eq!(got.0, 1);
+        assert_eq!(decoder.stats().malformed, 1);
+        assert_eq!(decoder.stats().skipped_bytes, 24);
+    }
+
+    /// Counts results without allocating (`no_std` unit tests).
+    mod heapless_vec {
+        use super::*;
+        pub struct Results(pub usize);
+        impl FromIterator<Result<CommandFrame, FrameError>> for Results {
+            fn from_iter<I: IntoIterator<Item = Result<CommandFrame, FrameError>>>(i: I) -> Self {
+                Results(i.into_iter().filter(|r| r.is_err()).count())
+            }
+        }
+    }
+}
