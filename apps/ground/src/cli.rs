@@ -15,6 +15,12 @@ pub struct Cli {
     /// Connect to this serial port (or pty) at start.
     #[arg(long, value_name = "PATH", conflicts_with = "sim")]
     pub port: Option<PathBuf>,
+    /// The link key (one line of 32 hexadecimal characters, readable by its owner only, as
+    /// `dima keygen` writes it): the station speaks ground link v2, authenticated. Without
+    /// it the station speaks version 1, unauthenticated (robots with `[xbee] require_auth =
+    /// false` only). With --sim a fresh key is made for the simulated robot unless this is given.
+    #[arg(long, value_name = "PATH")]
+    pub key_file: Option<PathBuf>,
     /// Baud rate of the XBee link.
     #[arg(long, default_value_t = 9600, value_name = "N")]
     pub baud: u32,
@@ -104,6 +110,7 @@ mod tests {
             .unwrap();
         assert_eq!(c.port, Some(PathBuf::from("/dev/pts/4")));
         assert_eq!(c.baud, 115_200);
+        assert_eq!(c.key_file, None);
         assert_eq!(c.log_dir, PathBuf::from("./dima-ground-logs"));
         assert_eq!(c.key_step, 20);
         assert_eq!(c.window_size, (1400.0, 900.0));
@@ -124,6 +131,8 @@ mod tests {
         assert_eq!(c.after, 7.0);
         assert_eq!(c.window_size, (800.0, 600.0));
 
+        let c = Cli::try_parse_from(["dima-ground", "--key-file", "/etc/dima/link.key"]).unwrap();
+        assert_eq!(c.key_file, Some(PathBuf::from("/etc/dima/link.key")));
         assert!(Cli::try_parse_from(["dima-ground", "--sim", "--port", "/dev/x"]).is_err());
         assert!(Cli::try_parse_from(["dima-ground", "--key-step", "0"]).is_err());
         assert!(Cli::try_parse_from(["dima-ground", "--window-size", "big"]).is_err());

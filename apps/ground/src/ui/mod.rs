@@ -66,6 +66,8 @@ pub struct GroundApp {
     status: LinkStatus,
     recorder: Option<Recorder>,
     recording_note: String,
+    /// Which ground link version, and the key file.
+    link_note: String,
     sim: Option<SimRobot>,
     sim_note: Option<String>,
     table: ChannelTable,
@@ -109,7 +111,18 @@ impl GroundApp {
             let note = format!("recording to {}", r.path().display());
             (Some(r), note)
         };
-        let link = LinkHandle::spawn(recorder.as_ref().map(Recorder::sender), calibration.clone())?;
+        let (key, link_note) = match &cli.key_file {
+            Some(path) => (
+                Some(dima_groundlink::key_file::load(path)?),
+                format!("ground link v2, authenticated (key {})", path.display()),
+            ),
+            None => (None, "not authenticated (v1)".to_owned()),
+        };
+        let link = LinkHandle::spawn(
+            recorder.as_ref().map(Recorder::sender),
+            calibration.clone(),
+            key,
+        )?;
         let sim = if cli.sim {
             Some(SimRobot::start(&SimLaunch {
                 log_dir: cli.sim_log_dir.clone(),
@@ -138,6 +151,7 @@ impl GroundApp {
             link,
             recorder,
             recording_note,
+            link_note,
             sim_note: sim.as_ref().map(|s| {
                 format!(
                     "simulated robot (pid {}), its log in {}",
