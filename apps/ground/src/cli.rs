@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Parser;
+use dima_groundlink::v2::LinkKey;
 
 /// The DIMA ground station: drive the robot, kill and revive it, watch its sensors and GNSS,
 /// and record the session.
@@ -83,6 +84,19 @@ fn parse_size(text: &str) -> Result<(f32, f32), String> {
 }
 
 impl Cli {
+    /// The link key of `--key-file` (ground link v2) and a note for the window; `None` and
+    /// "not authenticated (v1)" without it. A key file its group or others can read is refused
+    /// with the loader's error, which names the file and the `chmod` that fixes it.
+    pub fn link_key(&self) -> anyhow::Result<(Option<LinkKey>, String)> {
+        Ok(match &self.key_file {
+            Some(path) => (
+                Some(dima_groundlink::key_file::load(path)?),
+                format!("ground link v2, authenticated (key {})", path.display()),
+            ),
+            None => (None, "not authenticated (v1)".to_owned()),
+        })
+    }
+
     /// Checks what clap cannot.
     pub fn validate(&self) -> anyhow::Result<()> {
         if !(self.after.is_finite() && self.after >= 0.0) {
@@ -138,5 +152,30 @@ mod tests {
         assert!(Cli::try_parse_from(["dima-ground", "--window-size", "big"]).is_err());
         let bad = Cli::try_parse_from(["dima-ground", "--baud", "1234"]).unwrap();
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn a_key_file_others_can_read_is_refused() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("dima-ground-key-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("link.key");
+        let key = dima_groundlink::key_file::create(&path).unwrap();
+        let cli =
+            Cli::try_parse_from(["dima-ground", "--key-file", path.to_str().unwrap()]).unwrap();
+        let (loaded, note) = cli.link_key().unwrap();
+        assert_eq!(loaded, Some(key));
+        assert!(note.contains("v2"), "{note}");
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let error = format!("{:#}", cli.link_key().unwrap_err());
+        assert!(error.contains("chmod 600"), "{error}");
+        assert!(error.contains(path.to_str().unwrap()), "{error}");
+        let v1 = Cli::try_parse_from(["dima-ground"])
+            .unwrap()
+            .link_key()
+            .unwrap();
+        assert_eq!(v1, (None, "not authenticated (v1)".to_owned()));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -92,6 +92,7 @@ pub struct GroundApp {
 impl GroundApp {
     /// Sets everything up from the command line (starting the simulated robot with --sim).
     fn new(cli: &Cli, screenshot_result: ScreenshotResult) -> anyhow::Result<GroundApp> {
+        let (key, link_note) = cli.link_key()?;
         let (table, table_source) = match &cli.robot_config {
             Some(path) => (
                 ChannelTable::from_robot_config(path)?,
@@ -110,13 +111,6 @@ impl GroundApp {
             let r = Recorder::start(&cli.log_dir)?;
             let note = format!("recording to {}", r.path().display());
             (Some(r), note)
-        };
-        let (key, link_note) = match &cli.key_file {
-            Some(path) => (
-                Some(dima_groundlink::key_file::load(path)?),
-                format!("ground link v2, authenticated (key {})", path.display()),
-            ),
-            None => (None, "not authenticated (v1)".to_owned()),
         };
         let link = LinkHandle::spawn(
             recorder.as_ref().map(Recorder::sender),
