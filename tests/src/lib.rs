@@ -39,6 +39,26 @@ pub fn simulate_with(
     seed: u64,
     config: Option<&Config>,
 ) -> SimReport {
+    simulate_options(name, scenario, faults, seed, config, |_| {})
+}
+
+/// [`simulate`] over ground link v1: `[xbee] require_auth = false`, no key, and a scripted
+/// ground station that sends v1 frames (the scenario's heartbeat and raw frames as they are).
+pub fn simulate_v1(name: &str, scenario: Scenario, faults: &[&str], seed: u64) -> SimReport {
+    simulate_options(name, scenario, faults, seed, None, |o| {
+        o.require_auth = Some(false)
+    })
+}
+
+/// [`simulate_with`], with `adjust` applied to the simulation's options last.
+pub fn simulate_options(
+    name: &str,
+    scenario: Scenario,
+    faults: &[&str],
+    seed: u64,
+    config: Option<&Config>,
+    adjust: impl FnOnce(&mut SimOptions),
+) -> SimReport {
     let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = temp_dir(name);
     let mut o = SimOptions::new(scenario);
@@ -55,6 +75,7 @@ pub fn simulate_with(
     for f in faults {
         o.faults.apply_arg(f).expect("a valid fault");
     }
+    adjust(&mut o);
     let report = run_simulation(&o, run_app).expect("the simulation runs");
     eprintln!(
         "[{name}]\n{}\napp: {}",

@@ -9,7 +9,7 @@
 
 use dima_core::schema::Event;
 use dima_core::{FailsafeCause, Mode};
-use dima_e2e::{assert_passed, run_app, simulate, temp_dir, ONE_AT_A_TIME};
+use dima_e2e::{assert_passed, run_app, simulate, simulate_v1, temp_dir, ONE_AT_A_TIME};
 use dima_groundlink::Command;
 use dima_sensorboard::{INFO_V1_LEN, PACKET_LEN};
 use dima_sim::devices::{GroundAction, ScriptStep};
@@ -385,7 +385,8 @@ fn t10_original_ground_station_frames_are_accepted_byte_for_byte() {
         Check::Failsafes(0),
         Check::ModesInOrder(vec![Mode::Manual, Mode::Killed]),
     ];
-    let r = simulate("original-frames", s, &[], 10);
+    // The original station speaks v1: the robot must be told to accept it.
+    let r = simulate_v1("original-frames", s, &[], 10);
     assert_passed(&r);
     assert_eq!(r.app.ground_rejected, 0);
     assert!(r.app.ground_frames >= 30, "{:?}", r.app);
@@ -401,6 +402,8 @@ fn t11_ground_pty_lets_a_gui_drive() {
     o.log_dir = dir.join("logs");
     o.status = StatusMode::Quiet;
     o.ground_pty = true;
+    // This GUI speaks ground link v1.
+    o.require_auth = Some(false);
     o.duration_s = Some(4.0);
     // The GUI: opens the printed pty once it exists and, once display frames arrive, sends a
     // frame every 100 ms.

@@ -179,6 +179,14 @@ pub struct XbeeConfig {
     pub display_rate_hz: f64,
     /// Pause between attempts to reopen a missing device, in milliseconds.
     pub reopen_interval_ms: u32,
+    /// Accept only authenticated ground link v2 commands; v1 frames are ignored and counted.
+    /// `false` lets the unauthenticated v1 ground station drive the robot (and v2 commands
+    /// too when `key_file` is set).
+    pub require_auth: bool,
+    /// File holding the pre-shared ground-link key (one line of 32 hex characters, mode 0600;
+    /// `dima keygen PATH` writes one). Needed when `require_auth` is true.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub key_file: Option<PathBuf>,
 }
 
 impl Default for XbeeConfig {
@@ -188,6 +196,27 @@ impl Default for XbeeConfig {
             baud: 9_600,
             display_rate_hz: 2.0,
             reopen_interval_ms: 1_000,
+            require_auth: true,
+            key_file: None,
+        }
+    }
+}
+
+impl XbeeConfig {
+    /// The ground-link key file to load, `None` when the robot runs without one (v1 only).
+    /// `require_auth = true` without a key file is an error that says how to fix it.
+    pub fn key_file_needed(&self) -> Result<Option<&std::path::Path>, ConfigError> {
+        match (&self.key_file, self.require_auth) {
+            (Some(path), _) => Ok(Some(path)),
+            (None, false) => Ok(None),
+            (None, true) => Err(invalid(
+                "xbee.key_file",
+                "(not set)",
+                "required by xbee.require_auth = true: create a key with \
+                 `dima keygen /etc/dima/link.key`, set key_file = \"/etc/dima/link.key\" in [xbee] \
+                 and give the same key to the ground station (or set require_auth = false to let \
+                 the unauthenticated v1 ground station drive the robot)",
+            )),
         }
     }
 }

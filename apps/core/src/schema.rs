@@ -125,6 +125,49 @@ pub struct CycleMessage {
     pub targets_us: [u16; 3],
     /// Counters since start-up.
     pub counters: Counters,
+    /// Ground-link frame counters since start-up, as the telemetry thread last published them
+    /// (absent from logs written before ground link v2: read as zeros).
+    #[serde(default)]
+    pub link: GroundLinkCounters,
+}
+
+/// What the telemetry thread did with the command frames it received since start-up.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(default)]
+pub struct GroundLinkCounters {
+    /// Authenticated v2 commands accepted (kills included).
+    pub v2_accepted: u64,
+    /// v2 frames rejected: the tag did not match (forged, corrupt, another key).
+    pub bad_tag: u64,
+    /// v2 frames rejected: sequence number not newer than the last accepted one.
+    pub replayed: u64,
+    /// v2 frames rejected: authentic but for another session.
+    pub stale_session: u64,
+    /// v2 frames rejected: wrong length, unknown type or out-of-range data.
+    pub malformed: u64,
+    /// Authentic v2 kills accepted from another session or with an old sequence number.
+    pub kills_outside_window: u64,
+    /// v1 commands accepted (only with `xbee.require_auth = false`).
+    pub v1_accepted: u64,
+    /// Valid v1 commands ignored because `xbee.require_auth = true`.
+    pub v1_ignored: u64,
+    /// v1 frames with a valid CRC rejected (unknown type, out-of-range data).
+    pub v1_rejected: u64,
+    /// v1 candidates (a `$` and nine bytes) whose CRC did not match: line noise, and `$` bytes
+    /// inside v2 frames while both versions are decoded; not counted in [`rejected`](Self::rejected).
+    pub v1_crc_errors: u64,
+}
+
+impl GroundLinkCounters {
+    /// Every command frame rejected or ignored, whatever the reason.
+    pub fn rejected(&self) -> u64 {
+        self.bad_tag
+            + self.replayed
+            + self.stale_session
+            + self.malformed
+            + self.v1_ignored
+            + self.v1_rejected
+    }
 }
 
 /// One ground-link command as on the wire (type byte and data field).
@@ -394,6 +437,9 @@ pub struct SummaryRecord {
     pub compute: DurationStats,
     /// Maestro write.
     pub servo_write: DurationStats,
+    /// Ground-link frame counters at exit (absent from logs written before ground link v2).
+    #[serde(default)]
+    pub link: GroundLinkCounters,
 }
 
 #[cfg(test)]
@@ -419,5 +465,24 @@ mod tests {
             assert_eq!(schema["title"], name);
         }
         assert_eq!(schema_of(&SENSOR_RAW), None);
+    }
+
+    #[test]
+    fn link_counters_are_optional_for_older_logs() {
+        let cycle: serde_json::Value =
+            serde_json::from_str(&json_schema::<CycleMessage>()).unwrap();
+        let required = cycle["required"].as_array().unwrap();
+        assert!(required.iter().any(|k| k == "counters"));
+        assert!(!required.iter().any(|k| k == "link"));
+        assert!(cycle["properties"]["link"].is_object());
+        let summary: SummaryRecord = serde_json::from_value(serde_json::json!({
+            "counters": Counters::default(),
+            "wake_latency": DurationStats::default(),
+            "request_to_packet": DurationStats::default(),
+            "compute": DurationStats::default(),
+            "servo_write": DurationStats::default(),
+        }))
+        .unwrap();
+        assert_eq!(summary.link, GroundLinkCounters::default());
     }
 }

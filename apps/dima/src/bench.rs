@@ -117,6 +117,7 @@ pub fn measured_cycles(
             n_commands: n as u8,
             stale_passed: c.stale_packets,
             counters: state.counters,
+            link: Default::default(),
             events: 0,
         };
         sink = sink.wrapping_add(std::hint::black_box(&record).outputs.targets.pulse_us[0] as u64);

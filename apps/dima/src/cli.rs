@@ -30,6 +30,22 @@ pub enum Command {
     Inspect(crate::logtools::InspectArgs),
     /// Measure the loop against the operating system (wake-up latency, cyclictest's format).
     Bench(crate::bench::BenchArgs),
+    /// Write a new random ground-link key (mode 0600; never overwrites a file).
+    Keygen(KeygenArgs),
+}
+
+/// `dima keygen`.
+#[derive(Debug, Args)]
+#[command(
+    long_about = "Write a new random ground-link key: 32 hexadecimal characters (a 128-bit \
+SipHash-2-4 key) on one line, in a new file created with mode 0600. An existing file is never \
+overwritten. Point [xbee] key_file at it on the robot and give the same key to the ground \
+station over a trusted channel (not the radio): whoever holds it can drive the robot."
+)]
+pub struct KeygenArgs {
+    /// The key file to create.
+    #[arg(value_name = "PATH")]
+    pub path: PathBuf,
 }
 
 /// `dima run`.
@@ -145,6 +161,16 @@ mod tests {
         assert_eq!(config.maestro.port, PathBuf::from("/dev/pts/7"));
         assert_eq!(config.realtime.loop_rate_hz, 100);
         assert!(!config.log.enabled);
+    }
+
+    #[test]
+    fn keygen_takes_a_path() {
+        let cli = Cli::try_parse_from(["dima", "keygen", "/etc/dima/link.key"]).unwrap();
+        let Command::Keygen(args) = cli.command else {
+            panic!("not keygen")
+        };
+        assert_eq!(args.path, PathBuf::from("/etc/dima/link.key"));
+        assert!(Cli::try_parse_from(["dima", "keygen"]).is_err());
     }
 
     #[test]

@@ -86,6 +86,7 @@ pub fn cycle_message(r: &CycleRecord) -> CycleMessage {
         },
         targets_us: out.targets.pulse_us,
         counters: r.counters,
+        link: r.link,
     }
 }
 

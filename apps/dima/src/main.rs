@@ -56,6 +56,16 @@ fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
 fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Bench(args) => dima::bench::bench(args),
+        Command::Keygen(args) => {
+            dima_groundlink::key_file::create(&args.path)?;
+            println!(
+                "wrote a new ground-link key to {} (mode 0600): set [xbee] key_file = \"{}\" \
+                 and give the same key to the ground station over a trusted channel",
+                args.path.display(),
+                args.path.display()
+            );
+            Ok(())
+        }
         Command::Sim(_) | Command::Log(_) | Command::Inspect(_) => {
             unreachable!("handled in main")
         }

@@ -178,6 +178,7 @@ impl LoopMetrics {
             request_to_packet: stats(&self.request_to_packet),
             compute: stats(&self.compute),
             servo_write: stats(&self.servo_write),
+            link: Default::default(),
         }
     }
 

@@ -61,8 +61,8 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
         log_path: summary.log_path,
         summary: summary.metrics.summary(),
         counters: summary.metrics.counters,
-        ground_frames: u64::from(summary.telemetry.commands.frames),
-        ground_rejected: u64::from(summary.telemetry.commands.rejected()),
+        ground_frames: summary.telemetry.link.v1_accepted + summary.telemetry.link.v2_accepted,
+        ground_rejected: summary.telemetry.link.rejected(),
         outputs_safe: summary.outputs_safe,
     })
 }

@@ -1,6 +1,11 @@
 //! The telemetry thread (below the loop's priority): command frames in from the XBee, display
 //! frames out.
 //!
+//! Command frames v2 pass through a [`CommandGate`] (tag, session, sequence); v1 frames are
+//! acted on only with `xbee.require_auth = false`, and counted as ignored otherwise. Display
+//! frames v2 (mode, failsafe cause, health, the acknowledgement of the last accepted command)
+//! go out whenever a key is configured, v1 display frames whenever v1 commands are accepted.
+//!
 //! Commands go to the loop as events through a ring, never as a latest value, so a kill or a
 //! revive cannot be overwritten; if the ring is ever full they wait here, in order, in a
 //! bounded queue ([`CommandHandOff`]). A kill goes first: it is pushed before anything else is
@@ -8,11 +13,15 @@
 //! taken here but in the loop, so a dead telemetry thread still trips the failsafe.
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use dima_groundlink::{Command, CommandDecoder, CommandStats, DisplayFrame};
+use dima_core::config::XbeeConfig;
+use dima_core::schema::GroundLinkCounters;
+use dima_core::{FailsafeCause, Mode, ReviveRefusal};
+use dima_groundlink::v2::{self, CommandGate, LinkKey};
+use dima_groundlink::{key_file, Command, CommandDecoder, CommandStats, DisplayFrame};
 use dima_sensorboard::SensorPacket;
 use embedded_hal_nb::serial::{Read, Write};
 use xbee_driver::{Transparent, XBee};
@@ -115,23 +124,255 @@ impl CommandHandOff {
     }
 }
 
+/// How the ground link authenticates commands, fixed for a run.
+#[derive(Debug, Clone)]
+pub struct LinkSecurity {
+    /// The pre-shared key (`None`: no key file, v1 only).
+    pub key: Option<LinkKey>,
+    /// Ignore v1 command frames (count them, never act on them).
+    pub require_auth: bool,
+    /// This boot's session id (nonzero; command frames v2 must carry it).
+    pub session: u32,
+}
+
+impl LinkSecurity {
+    /// From the `[xbee]` section: loads the key file (refusing one that others can read) and
+    /// draws a random session id. `require_auth = true` without a key file is an error that
+    /// says how to fix it.
+    pub fn from_config(xbee: &XbeeConfig) -> anyhow::Result<LinkSecurity> {
+        let key = match xbee.key_file_needed()? {
+            Some(path) => Some(key_file::load(path)?),
+            None => None,
+        };
+        let session = v2::random_session_id()
+            .map_err(|e| anyhow::anyhow!("drawing the ground-link session id: {e}"))?;
+        Ok(LinkSecurity {
+            key,
+            require_auth: xbee.require_auth,
+            session,
+        })
+    }
+
+    /// Whether display frames v1 go out (the v1 ground station is allowed to drive).
+    pub fn sends_v1_display(&self) -> bool {
+        !self.require_auth
+    }
+}
+
+/// Ground-link counters shared with the realtime loop, which copies them into its records
+/// with relaxed loads (no lock). Each counter only grows; a record may mix counters of two
+/// consecutive publications.
+#[derive(Debug, Default)]
+pub struct LinkCounters {
+    counters: [AtomicU64; 10],
+}
+
+impl LinkCounters {
+    /// The counters as last published.
+    pub fn load(&self) -> GroundLinkCounters {
+        let c = |i: usize| self.counters[i].load(Ordering::Relaxed);
+        GroundLinkCounters {
+            v2_accepted: c(0),
+            bad_tag: c(1),
+            replayed: c(2),
+            stale_session: c(3),
+            malformed: c(4),
+            kills_outside_window: c(5),
+            v1_accepted: c(6),
+            v1_ignored: c(7),
+            v1_rejected: c(8),
+            v1_crc_errors: c(9),
+        }
+    }
+
+    /// Publishes `counters`.
+    pub fn store(&self, counters: &GroundLinkCounters) {
+        let values = [
+            counters.v2_accepted,
+            counters.bad_tag,
+            counters.replayed,
+            counters.stale_session,
+            counters.malformed,
+            counters.kills_outside_window,
+            counters.v1_accepted,
+            counters.v1_ignored,
+            counters.v1_rejected,
+            counters.v1_crc_errors,
+        ];
+        for (slot, value) in self.counters.iter().zip(values) {
+            slot.store(value, Ordering::Relaxed);
+        }
+    }
+}
+
+/// The command side of the ground link: both decoders over the same byte stream, the v2 gate,
+/// and the rule for v1 frames.
+#[derive(Debug, Clone)]
+pub struct CommandLink {
+    v1: CommandDecoder,
+    gate: Option<CommandGate>,
+    require_auth: bool,
+    v1_accepted: u64,
+    v1_ignored: u64,
+}
+
+impl CommandLink {
+    /// The command link for these settings.
+    pub fn new(security: &LinkSecurity) -> CommandLink {
+        CommandLink {
+            v1: CommandDecoder::new(),
+            gate: security
+                .key
+                .clone()
+                .map(|key| CommandGate::new(key, security.session)),
+            require_auth: security.require_auth,
+            v1_accepted: 0,
+            v1_ignored: 0,
+        }
+    }
+
+    /// Feeds one received byte; `deliver` gets every command to act on, at once.
+    pub fn push(&mut self, byte: u8, deliver: &mut impl FnMut(Command)) {
+        if let Some(gate) = self.gate.as_mut() {
+            match gate.push(byte) {
+                Some(Ok(command)) => deliver(command),
+                Some(Err(rejection)) => tracing::debug!("ground link v2: rejected: {rejection}"),
+                None => {}
+            }
+        }
+        match self.v1.push(byte) {
+            Some(Ok(command)) if self.require_auth => {
+                self.v1_ignored += 1;
+                tracing::debug!("ground link v1: {command:?} ignored (require_auth = true)");
+            }
+            Some(Ok(command)) => {
+                self.v1_accepted += 1;
+                deliver(command);
+            }
+            Some(Err(e)) => tracing::debug!("ground link v1: rejected: {e}"),
+            None => {}
+        }
+    }
+
+    /// Forgets partial frames (the port was reopened).
+    pub fn reset(&mut self) {
+        self.v1.reset();
+        if let Some(gate) = self.gate.as_mut() {
+            gate.reset_stream();
+        }
+    }
+
+    /// Sequence number of the last accepted v2 command of this session (0: none).
+    pub fn last_accepted(&self) -> u32 {
+        self.gate.as_ref().map_or(0, CommandGate::last_accepted)
+    }
+
+    /// The v1 decoder's counters.
+    pub fn v1_stats(&self) -> CommandStats {
+        self.v1.stats()
+    }
+
+    /// Every counter of both versions.
+    pub fn counters(&self) -> GroundLinkCounters {
+        let v1 = self.v1.stats();
+        let v2 = self
+            .gate
+            .as_ref()
+            .map(CommandGate::stats)
+            .unwrap_or_default();
+        GroundLinkCounters {
+            v2_accepted: u64::from(v2.accepted),
+            bad_tag: u64::from(v2.bad_tag),
+            replayed: u64::from(v2.replayed),
+            stale_session: u64::from(v2.stale_session),
+            malformed: u64::from(v2.malformed),
+            kills_outside_window: u64::from(v2.kills_outside_window),
+            v1_accepted: self.v1_accepted,
+            v1_ignored: self.v1_ignored,
+            v1_rejected: u64::from(v1.unknown_type) + u64::from(v1.out_of_range),
+            v1_crc_errors: u64::from(v1.crc_errors),
+        }
+    }
+}
+
+/// The robot's mode as display frames v2 carry it.
+pub fn robot_mode(mode: Mode) -> v2::RobotMode {
+    match mode {
+        Mode::Killed => v2::RobotMode::Killed,
+        Mode::Manual => v2::RobotMode::Manual,
+        Mode::Auto => v2::RobotMode::Auto,
+        Mode::Failsafe => v2::RobotMode::Failsafe,
+    }
+}
+
+fn failsafe_cause(cause: FailsafeCause) -> v2::FailsafeCause {
+    match cause {
+        FailsafeCause::CommsLoss => v2::FailsafeCause::CommsLoss,
+        FailsafeCause::SensorLoss => v2::FailsafeCause::SensorLoss,
+        FailsafeCause::ImuStuck => v2::FailsafeCause::ImuStuck,
+        FailsafeCause::Overrun => v2::FailsafeCause::Overrun,
+        FailsafeCause::GnssStale => v2::FailsafeCause::GnssStale,
+    }
+}
+
+fn revive_refusal(refusal: ReviveRefusal) -> v2::ReviveRefusal {
+    match refusal {
+        ReviveRefusal::SensorLoss => v2::ReviveRefusal::SensorLoss,
+        ReviveRefusal::ImuStuck => v2::ReviveRefusal::ImuStuck,
+        ReviveRefusal::Overrun => v2::ReviveRefusal::Overrun,
+        ReviveRefusal::RealtimeSetup => v2::ReviveRefusal::RealtimeSetup,
+    }
+}
+
+/// Saturating narrowing for the display frame's 32-bit counters.
+fn c32(value: u64) -> u32 {
+    u32::try_from(value).unwrap_or(u32::MAX)
+}
+
+/// The display frame v2 for the loop's latest snapshot and the link's state.
+pub fn display_frame_v2(
+    snap: &Snapshot,
+    session: u32,
+    seq: u32,
+    ack_seq: u32,
+    link: &GroundLinkCounters,
+) -> v2::DisplayFrame {
+    let c = &snap.counters;
+    v2::DisplayFrame {
+        mode: robot_mode(snap.mode),
+        failsafe_cause: snap.cause.map(failsafe_cause),
+        revive_refusal: snap.refusal.map(revive_refusal),
+        session,
+        seq,
+        ack_seq,
+        health: v2::Health {
+            missed_periods: c32(c.missed_periods),
+            sensor_bad: c32(c.packet_crc_errors + c.packets_stale + c.packets_late),
+            sensor_missing: c32(c.packets_missing),
+            commands: c32(c.commands),
+            bad_tag: c32(link.bad_tag),
+            replayed: c32(link.replayed),
+            stale_session: c32(link.stale_session),
+            malformed: c32(link.malformed),
+            v1_ignored: c32(link.v1_ignored),
+        },
+        sensors: display_frame(snap.packet.as_ref()),
+    }
+}
+
 /// Why a radio operation failed: the port is then reopened.
 #[derive(Debug)]
 struct RadioFailed;
 
-/// Reads what the radio has (bounded) into the decoder.
+/// Reads what the radio has (bounded) into the command link.
 fn receive(
     radio: &mut XBee<SerialPort, Transparent>,
-    decoder: &mut CommandDecoder,
+    link: &mut CommandLink,
     mut deliver: impl FnMut(Command),
 ) -> Result<(), RadioFailed> {
     for _ in 0..1024 {
         match radio.read() {
-            Ok(byte) => match decoder.push(byte) {
-                Some(Ok(command)) => deliver(command),
-                Some(Err(e)) => tracing::debug!("ground link: rejected: {e}"),
-                None => {}
-            },
+            Ok(byte) => link.push(byte, &mut deliver),
             Err(nb::Error::WouldBlock) => return Ok(()),
             Err(nb::Error::Other(_)) => return Err(RadioFailed),
         }
@@ -170,14 +411,18 @@ pub struct TelemetrySettings {
     pub reopen_interval: Duration,
     /// SCHED_FIFO priority (0: SCHED_OTHER).
     pub priority: u8,
+    /// Key, session and the v1 rule.
+    pub security: LinkSecurity,
 }
 
 /// What the telemetry thread counted.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct TelemetryStats {
-    /// Command decoder counters.
+    /// v1 command decoder counters.
     pub commands: CommandStats,
-    /// Display frames sent.
+    /// Both versions' command counters.
+    pub link: GroundLinkCounters,
+    /// Display frames sent (v1 and v2).
     pub display_frames: u64,
     /// Port errors (each followed by a reopen).
     pub port_errors: u64,
@@ -188,19 +433,65 @@ pub struct TelemetryStats {
 impl TelemetryStats {
     /// One line for the exit summary.
     pub fn summary(&self) -> String {
-        let c = &self.commands;
+        let l = &self.link;
         format!(
-            "ground link: frames {} crc-errors {} unknown-type {} out-of-range {} skipped-bytes {} \
-             | commands dropped {} | display frames {} | port errors {}",
-            c.frames,
-            c.crc_errors,
-            c.unknown_type,
-            c.out_of_range,
-            c.skipped_bytes,
+            "ground link: v2 accepted {} rejected: bad-tag {} replayed {} stale-session {} \
+             malformed {} | v1 accepted {} ignored {} rejected {} crc-errors {} | \
+             commands dropped {} | display frames {} | port errors {}",
+            l.v2_accepted,
+            l.bad_tag,
+            l.replayed,
+            l.stale_session,
+            l.malformed,
+            l.v1_accepted,
+            l.v1_ignored,
+            l.v1_rejected,
+            l.v1_crc_errors,
             self.commands_dropped,
             self.display_frames,
             self.port_errors
         )
+    }
+}
+
+/// The display frames due now, v1 and/or v2, as one burst of bytes.
+struct Downlink {
+    security: LinkSecurity,
+    seq: u32,
+    bytes: Vec<u8>,
+}
+
+impl Downlink {
+    fn new(security: LinkSecurity) -> Downlink {
+        Downlink {
+            security,
+            seq: 0,
+            bytes: Vec::with_capacity(v2::DISPLAY_FRAME_LEN + dima_groundlink::DISPLAY_FRAME_LEN),
+        }
+    }
+
+    /// The frames for `snap`; returns how many.
+    fn frames(&mut self, snap: &Snapshot, link: &CommandLink) -> u64 {
+        self.bytes.clear();
+        let mut n = 0;
+        if self.security.sends_v1_display() {
+            self.bytes
+                .extend_from_slice(&display_frame(snap.packet.as_ref()).encode());
+            n += 1;
+        }
+        if let Some(key) = &self.security.key {
+            self.seq = self.seq.wrapping_add(1).max(1);
+            let frame = display_frame_v2(
+                snap,
+                self.security.session,
+                self.seq,
+                link.last_accepted(),
+                &link.counters(),
+            );
+            self.bytes.extend_from_slice(&frame.encode(key));
+            n += 1;
+        }
+        n
     }
 }
 
@@ -210,6 +501,7 @@ pub fn spawn_telemetry(
     commands: rtrb::Producer<Command>,
     mut snapshot: triple_buffer::Output<Snapshot>,
     settings: TelemetrySettings,
+    shared: Arc<LinkCounters>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<std::thread::JoinHandle<TelemetryStats>> {
     std::thread::Builder::new()
@@ -223,7 +515,8 @@ pub fn spawn_telemetry(
             }
             let mut stats = TelemetryStats::default();
             let mut radio: Option<XBee<SerialPort, Transparent>> = None;
-            let mut decoder = CommandDecoder::new();
+            let mut link = CommandLink::new(&settings.security);
+            let mut downlink = Downlink::new(settings.security.clone());
             let mut hand_off = CommandHandOff::new(commands);
             let mut last_open: Option<Instant> = None;
             let mut failures = 0u64;
@@ -237,8 +530,12 @@ pub fn spawn_telemetry(
                         Ok(port) => {
                             tracing::info!("XBee: connected");
                             failures = 0;
-                            decoder.reset();
+                            link.reset();
                             radio = Some(XBee::new(port));
+                            if settings.security.key.is_some() {
+                                // The station learns the session from the first display frame.
+                                next_display = now;
+                            }
                         }
                         Err(e) => {
                             failures += 1;
@@ -261,7 +558,7 @@ pub fn spawn_telemetry(
                     .serial_mut()
                     .wait_input(monotonic_ns() + wait.as_nanos() as u64)
                 {
-                    Ok(_) => receive(r, &mut decoder, |c| {
+                    Ok(_) => receive(r, &mut link, |c| {
                         // Hand over first (a kill goes straight to the loop), then report.
                         hand_off.push(c);
                         if matches!(c, Command::Kill | Command::Revive) {
@@ -270,16 +567,17 @@ pub fn spawn_telemetry(
                     }),
                     Err(_) => Err(RadioFailed),
                 };
+                shared.store(&link.counters());
                 if result.is_ok() && Instant::now() >= next_display {
                     next_display += settings.display_period;
                     if next_display < Instant::now() {
                         next_display = Instant::now() + settings.display_period;
                     }
                     let snap = *snapshot.read();
-                    let frame = display_frame(snap.packet.as_ref()).encode();
-                    result = match send(r, &frame, monotonic_ns() + 200_000_000) {
+                    let frames = downlink.frames(&snap, &link);
+                    result = match send(r, &downlink.bytes, monotonic_ns() + 200_000_000) {
                         Ok(true) => {
-                            stats.display_frames += 1;
+                            stats.display_frames += frames;
                             Ok(())
                         }
                         Ok(false) => {
@@ -293,10 +591,11 @@ pub fn spawn_telemetry(
                     stats.port_errors += 1;
                     tracing::warn!("XBee: port failed; reopening");
                     radio = None;
-                    decoder.reset();
+                    link.reset();
                 }
             }
-            stats.commands = decoder.stats();
+            stats.commands = link.v1_stats();
+            stats.link = link.counters();
             stats.commands_dropped = hand_off.dropped();
             stats
         })

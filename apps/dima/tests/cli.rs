@@ -78,6 +78,7 @@ fn sigterm_writes_safe_outputs_and_exits_zero() {
     config.realtime.cpus = vec![];
     config.realtime.lock_memory = false;
     config.realtime.cpu_dma_latency = false;
+    config.xbee.require_auth = false;
     config.log.directory = dir.clone();
     let path = dir.join("dima.toml");
     std::fs::write(&path, toml::to_string(&config).unwrap()).unwrap();

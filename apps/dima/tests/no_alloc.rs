@@ -18,7 +18,7 @@ use dima::app::{LoopEnds, LoopParams, RealtimeLoop};
 use dima::devices::{device_link, spawn_supervisors};
 use dima::logging::{spawn_logger, LoggerSettings, McapLog};
 use dima::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup};
-use dima::telemetry::{spawn_telemetry, TelemetrySettings};
+use dima::telemetry::{spawn_telemetry, LinkCounters, LinkSecurity, TelemetrySettings};
 use dima_groundlink::{Command, Percent};
 
 struct CountingAllocator;
@@ -130,6 +130,7 @@ fn realtime_thread_never_allocates() {
         None,
     )
     .unwrap();
+    let link_counters = Arc::new(LinkCounters::default());
     let telemetry = spawn_telemetry(
         Box::new(move || open_port(&gp, 9_600, 1)),
         commands_tx,
@@ -138,7 +139,9 @@ fn realtime_thread_never_allocates() {
             display_period: Duration::from_millis(100),
             reopen_interval: Duration::from_millis(100),
             priority: 0,
+            security: LinkSecurity::from_config(&config.xbee).unwrap(),
         },
+        link_counters.clone(),
         aux_stop.clone(),
     )
     .unwrap();
@@ -153,6 +156,7 @@ fn realtime_thread_never_allocates() {
         commands: commands_rx,
         log: log_tx,
         snapshot: snap_in,
+        link: link_counters,
         stop: stop.clone(),
     };
     let settings = RtSettings::from(&config.realtime);

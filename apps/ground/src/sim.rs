@@ -144,6 +144,8 @@ pub fn run_robot(args: &[String]) -> ExitCode {
         }
     };
     options.ground_pty = true;
+    // This station speaks ground link v1.
+    options.require_auth = Some(false);
     options.run_dir = args.run_dir.clone();
     options.status = StatusMode::Quiet;
     let result = run_simulation(&options, |launch| {

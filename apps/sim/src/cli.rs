@@ -54,6 +54,11 @@ pub struct SimArgs {
     /// No status line, only the summary.
     #[arg(long)]
     pub quiet: bool,
+    /// Ground-link key file (mode 0600, from `dima keygen`) for the robot and the scripted
+    /// ground station; default: the configuration's [xbee] key_file, else a fresh key in the
+    /// run directory.
+    #[arg(long, value_name = "PATH")]
+    pub key_file: Option<PathBuf>,
 }
 
 impl SimArgs {
@@ -80,6 +85,7 @@ impl SimArgs {
         o.loop_rate_hz = self.loop_rate;
         o.app_config = self.config.clone();
         o.realtime = self.realtime;
+        o.key_file = self.key_file.clone();
         o.status = if self.quiet {
             StatusMode::Quiet
         } else if self.plain {

@@ -14,6 +14,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use dima_groundlink::v2::{self, LinkKey};
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use pololu_maestro::{CommandDecoder, DecoderConfig};
 
@@ -423,10 +424,12 @@ pub struct GroundStats {
     pub last_sent_s: Mutex<Option<f64>>,
     /// Display frames received intact.
     pub displays: AtomicU64,
-    /// Display frames rejected by the decoder (CRC or range).
+    /// Display frames rejected by the decoder (CRC or range; v2: tag, mode or range).
     pub display_errors: AtomicU64,
-    /// The last display frame and its arrival time, s.
+    /// The sensor values of the last display frame and its arrival time, s.
     pub last_display: Mutex<Option<(f64, DisplayFrame)>>,
+    /// The last display frame v2 (mode, health, acknowledgement) and its arrival time, s.
+    pub last_status: Mutex<Option<(f64, v2::DisplayFrame)>>,
     /// Samples of the model: time and state, once per 100 ms.
     pub truth: Mutex<Vec<VehicleState>>,
 }
@@ -434,13 +437,119 @@ pub struct GroundStats {
 /// The frame period of the ground station (DESIGN 2.2: one frame every 100 ms).
 pub const GROUND_PERIOD_S: f64 = 0.1;
 
+/// Which ground link the scripted station speaks.
+#[derive(Debug, Clone)]
+pub enum GroundProtocol {
+    /// Version 1: unauthenticated frames, this heartbeat in idle slots.
+    V1 {
+        /// The heartbeat frame.
+        heartbeat: [u8; 10],
+    },
+    /// Version 2 with this key. The station learns the robot's session from its display
+    /// frames and sends nothing but kills (with session 0) before it knows it; commands due
+    /// before then wait, in order.
+    V2 {
+        /// The pre-shared key.
+        key: LinkKey,
+    },
+}
+
+/// The scripted station's side of the link: display frames in, command frames out.
+struct Station {
+    protocol: GroundProtocol,
+    v1: DisplayDecoder,
+    v2: Option<v2::DisplayDecoder>,
+    session: Option<u32>,
+    seq: u32,
+}
+
+impl Station {
+    fn new(protocol: GroundProtocol) -> Station {
+        let v2 = match &protocol {
+            GroundProtocol::V2 { key } => Some(v2::DisplayDecoder::new(key.clone())),
+            GroundProtocol::V1 { .. } => None,
+        };
+        Station {
+            protocol,
+            v1: DisplayDecoder::new(),
+            v2,
+            session: None,
+            seq: 0,
+        }
+    }
+
+    fn receive(&mut self, bytes: &[u8], at: f64, stats: &GroundStats) {
+        let count = |ok: bool| {
+            let counter = if ok {
+                &stats.displays
+            } else {
+                &stats.display_errors
+            };
+            counter.fetch_add(1, Ordering::Relaxed);
+        };
+        if let Some(decoder) = self.v2.as_mut() {
+            for result in decoder.feed(bytes) {
+                count(result.is_ok());
+                if let Ok(frame) = result {
+                    self.session = Some(frame.session);
+                    *lock(&stats.last_display) = Some((at, frame.sensors));
+                    *lock(&stats.last_status) = Some((at, frame));
+                }
+            }
+            return;
+        }
+        for result in self.v1.feed(bytes) {
+            count(result.is_ok());
+            if let Ok(frame) = result {
+                *lock(&stats.last_display) = Some((at, frame));
+            }
+        }
+    }
+
+    /// Whether `command` can go out now (v2: only kills before the session is known).
+    fn can_send(&self, command: Command) -> bool {
+        match self.protocol {
+            GroundProtocol::V1 { .. } => true,
+            GroundProtocol::V2 { .. } => self.session.is_some() || command == Command::Kill,
+        }
+    }
+
+    /// The frame for `command`.
+    fn encode(&mut self, command: Command) -> Vec<u8> {
+        match &self.protocol {
+            GroundProtocol::V1 { .. } => command.encode().to_vec(),
+            GroundProtocol::V2 { key } => {
+                self.seq += 1;
+                v2::CommandFrame {
+                    command,
+                    session: self.session.unwrap_or(0),
+                    seq: self.seq,
+                }
+                .encode(key)
+                .to_vec()
+            }
+        }
+    }
+
+    /// The frame for an idle slot, if one goes out.
+    fn heartbeat(&mut self) -> Option<Vec<u8>> {
+        match &self.protocol {
+            GroundProtocol::V1 { heartbeat } => Some(heartbeat.to_vec()),
+            GroundProtocol::V2 { .. } if self.session.is_some() => {
+                Some(self.encode(Command::Heartbeat))
+            }
+            GroundProtocol::V2 { .. } => None,
+        }
+    }
+}
+
 /// Runs the scripted ground station until `stop`.
 #[allow(clippy::too_many_arguments)]
 pub fn spawn_ground(
     world: Arc<World>,
     mut port: LinkPort,
     script: Vec<ScriptStep>,
-    heartbeat: [u8; 10],
+    protocol: GroundProtocol,
     spec: FaultSpec,
     pace: LinePace,
     rng: SimRng,
@@ -451,7 +560,7 @@ pub fn spawn_ground(
         .name("sim-ground".into())
         .spawn(move || {
             let mut injector = FaultInjector::new(spec.clone(), rng.fork(4));
-            let mut decoder = DisplayDecoder::new();
+            let mut station = Station::new(protocol);
             let mut next_slot = 0.0f64;
             let mut step = 0usize;
             let mut sending = true;
@@ -466,18 +575,7 @@ pub fn spawn_ground(
                     let n = pty
                         .read(&mut buf, Duration::from_secs_f64(wait))
                         .unwrap_or(0);
-                    let at = world.now_s();
-                    for result in decoder.feed(&buf[..n]) {
-                        match result {
-                            Ok(frame) => {
-                                stats.displays.fetch_add(1, Ordering::Relaxed);
-                                *lock(&stats.last_display) = Some((at, frame));
-                            }
-                            Err(_) => {
-                                stats.display_errors.fetch_add(1, Ordering::Relaxed);
-                            }
-                        }
-                    }
+                    station.receive(&buf[..n], world.now_s(), &stats);
                 } else {
                     std::thread::sleep(Duration::from_millis(5));
                 }
@@ -491,11 +589,12 @@ pub fn spawn_ground(
                 }
                 lock(&stats.truth).push(world.state());
                 // Everything due now, in script order.
-                let mut frames: Vec<(Option<Command>, [u8; 10])> = Vec::new();
+                let mut frames: Vec<(Option<Command>, Vec<u8>)> = Vec::new();
                 while let Some(s) = script.get(step).filter(|s| s.at_s <= t) {
                     match s.action {
-                        GroundAction::Send(c) => frames.push((Some(c), c.encode())),
-                        GroundAction::Raw(bytes) => frames.push((None, bytes)),
+                        GroundAction::Send(c) if !station.can_send(c) => break,
+                        GroundAction::Send(c) => frames.push((Some(c), station.encode(c))),
+                        GroundAction::Raw(bytes) => frames.push((None, bytes.to_vec())),
                         GroundAction::Silence => sending = false,
                         GroundAction::Resume => sending = true,
                     }
@@ -505,7 +604,10 @@ pub fn spawn_ground(
                     continue;
                 }
                 if frames.is_empty() {
-                    frames.push((None, heartbeat));
+                    match station.heartbeat() {
+                        Some(bytes) => frames.push((None, bytes)),
+                        None => continue,
+                    }
                 }
                 wire.clear();
                 for (_, bytes) in &frames {

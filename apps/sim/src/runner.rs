@@ -18,12 +18,14 @@ use dima_core::config::{bits_per_byte, Config};
 use dima_core::control::OutputMap;
 use dima_core::counters::Counters;
 use dima_core::Mode;
+use dima_groundlink::key_file;
+use dima_groundlink::v2::LinkKey;
 
 use crate::app_config::{app_config, SimPorts};
 use crate::board::BoardConfig;
 use crate::devices::{
     lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardSetup, BoardStats,
-    GroundStats, LinkPort, MaestroStats,
+    GroundProtocol, GroundStats, LinkPort, MaestroStats,
 };
 use crate::faults::{Faults, LoopBusy};
 use crate::logcheck::LogSummary;
@@ -132,6 +134,13 @@ pub struct SimOptions {
     pub app_config: Option<PathBuf>,
     /// Keep the configuration's realtime settings.
     pub realtime: bool,
+    /// The ground-link key file (mode 0600). `None`: the configuration's `[xbee] key_file`,
+    /// else a fresh key in `<run_dir>/link.key` (unless `require_auth` ends up false, when the
+    /// robot runs with the v1 link only).
+    pub key_file: Option<PathBuf>,
+    /// Overrides `[xbee] require_auth` (`None`: the configuration's, true by default). A v1
+    /// ground station (a v1 GUI on the ground pty, raw v1 frames) needs `Some(false)`.
+    pub require_auth: Option<bool>,
 }
 
 impl SimOptions {
@@ -152,6 +161,8 @@ impl SimOptions {
             status: StatusMode::Auto,
             app_config: None,
             realtime: false,
+            key_file: None,
+            require_auth: None,
         }
     }
 
@@ -163,6 +174,31 @@ impl SimOptions {
             Some(self.duration_s.unwrap_or(self.scenario.duration_s))
         }
     }
+}
+
+/// The ground-link key of a run, written into `config`: `--key-file`, else the
+/// configuration's `[xbee] key_file`, else (unless `require_auth` is false) a fresh key in
+/// `<run_dir>/link.key`. `None`: the robot runs with the v1 link only.
+fn link_key(o: &SimOptions, config: &mut Config) -> anyhow::Result<Option<LinkKey>> {
+    if let Some(require) = o.require_auth {
+        config.xbee.require_auth = require;
+    }
+    if let Some(path) = &o.key_file {
+        config.xbee.key_file = Some(path.clone());
+    }
+    let key = match &config.xbee.key_file {
+        Some(path) => key_file::load(path)?,
+        None if !config.xbee.require_auth => return Ok(None),
+        None => {
+            let path = o.run_dir.join("link.key");
+            // A key left by an earlier run in this directory is this simulation's own.
+            let _ = std::fs::remove_file(&path);
+            let key = key_file::create(&path)?;
+            config.xbee.key_file = Some(path);
+            key
+        }
+    };
+    Ok(Some(key))
 }
 
 /// A copy of what the simulated devices counted.
@@ -351,6 +387,8 @@ where
         o.realtime,
         &o.log_dir,
     )?;
+    let mut config = config;
+    let key = link_key(o, &mut config)?;
     let outputs = OutputMap::new(&config.channels);
     let channels = outputs.channel_numbers();
     let board_stats = Arc::new(BoardStats::default());
@@ -402,7 +440,12 @@ where
             world.clone(),
             xbee,
             o.scenario.script.clone(),
-            o.scenario.heartbeat,
+            match key {
+                Some(key) => GroundProtocol::V2 { key },
+                None => GroundProtocol::V1 {
+                    heartbeat: o.scenario.heartbeat,
+                },
+            },
             o.faults.ground.clone(),
             radio_pace,
             rng.fork(13),

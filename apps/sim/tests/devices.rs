@@ -9,6 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use dima_groundlink::v2::{self, LinkKey};
 use dima_groundlink::{Command, CommandDecoder, DisplayFrame};
 use dima_sensorboard::{Frame, StreamDecoder};
 use dima_sim::board::BoardConfig;
@@ -183,7 +184,9 @@ fn ground_station_sends_script_and_heartbeats_and_reads_display_frames() {
                 action: GroundAction::Silence,
             },
         ],
-        Command::Heartbeat.encode(),
+        GroundProtocol::V1 {
+            heartbeat: Command::Heartbeat.encode(),
+        },
         FaultSpec::default(),
         LinePace::new(9_600, 10),
         SimRng::new(1),
@@ -204,6 +207,63 @@ fn ground_station_sends_script_and_heartbeats_and_reads_display_frames() {
     assert!(commands[1..].iter().all(|c| *c == Command::Heartbeat));
     assert_eq!(stats.displays.load(Ordering::Relaxed), 1);
     std::fs::remove_dir_all(&d).unwrap();
+}
+
+#[test]
+fn v2_ground_station_learns_the_session_then_sends_authenticated_frames() {
+    let key = LinkKey::from_bytes([0x42; 16]);
+    let d = dir("ground-v2");
+    let link = d.join("xbee");
+    let stats = Arc::new(GroundStats::default());
+    let stop = Arc::new(AtomicBool::new(false));
+    let t = spawn_ground(
+        world(),
+        LinkPort::open(&link).unwrap(),
+        vec![send(0.0, Command::Kill), send(0.0, Command::Revive)],
+        GroundProtocol::V2 { key: key.clone() },
+        FaultSpec::default(),
+        LinePace::new(9_600, 10),
+        SimRng::new(1),
+        stats.clone(),
+        stop.clone(),
+    )
+    .unwrap();
+    let mut app = open_app_side(&link);
+    // Before the station knows the session only the kill goes out, with session 0.
+    let early = read_for(&mut app, 10_000, Duration::from_millis(350));
+    let mut decoder = v2::CommandDecoder::new(key.clone());
+    let frames: Vec<v2::CommandFrame> = decoder.feed(&early).map(|f| f.unwrap()).collect();
+    assert_eq!(frames.len(), 1, "{frames:?}");
+    assert_eq!((frames[0].command, frames[0].session), (Command::Kill, 0));
+    let display = v2::DisplayFrame {
+        session: 0xDEAD_BEEF,
+        seq: 1,
+        ..v2::DisplayFrame::default()
+    };
+    app.write_all(&display.encode(&key)).unwrap();
+    let later = read_for(&mut app, 10_000, Duration::from_millis(450));
+    let frames: Vec<v2::CommandFrame> = decoder.feed(&later).map(|f| f.unwrap()).collect();
+    stop.store(true, Ordering::Relaxed);
+    t.join().unwrap();
+    assert_eq!(frames[0].command, Command::Revive);
+    assert!(frames.len() >= 3, "{frames:?}");
+    assert!(frames[1..].iter().all(|f| f.command == Command::Heartbeat));
+    assert!(frames.iter().all(|f| f.session == 0xDEAD_BEEF));
+    // Sequence numbers go up by one per frame, after the kill's 1.
+    let seqs: Vec<u32> = frames.iter().map(|f| f.seq).collect();
+    assert_eq!(seqs, (2..2 + frames.len() as u32).collect::<Vec<_>>());
+    assert_eq!(stats.displays.load(Ordering::Relaxed), 1);
+    let status = lock_status(&stats);
+    assert_eq!(status.map(|s| s.session), Some(0xDEAD_BEEF));
+    std::fs::remove_dir_all(&d).unwrap();
+}
+
+fn lock_status(stats: &GroundStats) -> Option<v2::DisplayFrame> {
+    stats
+        .last_status
+        .lock()
+        .unwrap_or_else(|e| e.into_inner())
+        .map(|(_, frame)| frame)
 }
 
 #[test]

@@ -3,9 +3,9 @@
 
 use dima_core::counters::Counters;
 use dima_core::safety::Setpoints;
-use dima_core::schema::Event;
+use dima_core::schema::{Event, GroundLinkCounters};
 use dima_core::step::CycleOutputs;
-use dima_core::{Command, FailsafeCause, Mode, Nanos};
+use dima_core::{Command, FailsafeCause, Mode, Nanos, ReviveRefusal};
 use dima_sensorboard::{InfoFrame, RawPacket, SensorPacket};
 
 use super::rt_loop::MAX_COMMANDS_PER_CYCLE;
@@ -89,6 +89,8 @@ pub struct CycleRecord {
     pub stale_passed: u32,
     /// Counters after this cycle.
     pub counters: Counters,
+    /// Ground-link counters as the telemetry thread last published them.
+    pub link: GroundLinkCounters,
     /// [`events`] bits.
     pub events: u16,
 }
@@ -109,8 +111,12 @@ pub struct Snapshot {
     pub mode: Mode,
     /// Why FAILSAFE was entered, while in FAILSAFE.
     pub cause: Option<FailsafeCause>,
+    /// Why the last revive was refused, until a revive succeeds.
+    pub refusal: Option<ReviveRefusal>,
     /// Outputs.
     pub targets: ServoTargets,
+    /// The loop's counters.
+    pub counters: Counters,
     /// Monotonic time of this snapshot.
     pub time_ns: Nanos,
 }
@@ -121,7 +127,9 @@ impl Default for Snapshot {
             packet: None,
             mode: Mode::Killed,
             cause: None,
+            refusal: None,
             targets: ServoTargets::default(),
+            counters: Counters::default(),
             time_ns: 0,
         }
     }

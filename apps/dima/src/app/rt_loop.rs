@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, Mode, Nanos};
+use dima_core::{Command, Core, CoreState, Mode, Nanos, ReviveRefusal};
 use dima_sensorboard::{DecoderStats, Frame, InfoFrame, SensorPacket};
 use embedded_hal::digital::OutputPin;
 
@@ -21,6 +21,7 @@ use crate::devices::servo::{ServoError, ServoOutput};
 use crate::devices::{DeviceLink, LinkEvent};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, Tick};
+use crate::telemetry::LinkCounters;
 
 /// Most command events applied per cycle (the rest wait for the next cycle).
 pub const MAX_COMMANDS_PER_CYCLE: usize = 64;
@@ -91,6 +92,8 @@ pub struct LoopEnds {
     pub log: rtrb::Producer<CycleRecord>,
     /// Latest state to telemetry.
     pub snapshot: triple_buffer::Input<Snapshot>,
+    /// Ground-link counters from telemetry (atomics: read without a lock), for the records.
+    pub link: Arc<LinkCounters>,
     /// Set by the signal handler (or a test) to stop.
     pub stop: Arc<AtomicBool>,
 }
@@ -103,6 +106,8 @@ pub struct RealtimeLoop<P: OutputPin, S: ServoOutput> {
     servo: DeviceLink<S>,
     state: CoreState,
     last_packet: Option<SensorPacket>,
+    /// Why the last revive was refused, until a revive succeeds (for the display frames).
+    last_refusal: Option<ReviveRefusal>,
     last_written: Option<ServoTargets>,
     pending_request_ns: Option<Nanos>,
     /// An info frame that arrived since the last record.
@@ -138,6 +143,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             servo,
             state,
             last_packet: None,
+            last_refusal: None,
             last_written: None,
             pending_request_ns: None,
             info: None,
@@ -404,6 +410,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             n_commands: n as u8,
             stale_passed: stale_packets,
             counters: self.state.counters,
+            link: self.ends.link.load(),
             events: ev,
         });
         self.cycle += 1;
@@ -442,11 +449,18 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
     }
 
     fn publish(&mut self, record: CycleRecord) {
+        if record.outputs.refused.is_some() {
+            self.last_refusal = record.outputs.refused;
+        } else if matches!(record.outputs.mode, Mode::Manual | Mode::Auto) {
+            self.last_refusal = None;
+        }
         self.ends.snapshot.write(Snapshot {
             packet: self.last_packet,
             mode: record.outputs.mode,
             cause: record.outputs.cause,
+            refusal: self.last_refusal,
             targets: record.outputs.targets,
+            counters: record.counters,
             time_ns: record.tick.wake_ns,
         });
         if self.ends.log.push(record).is_err() {
@@ -504,6 +518,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             n_commands: 0,
             stale_passed: 0,
             counters: self.state.counters,
+            link: self.ends.link.load(),
             events: ev,
         });
     }

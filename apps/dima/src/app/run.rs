@@ -23,8 +23,10 @@ use crate::devices::{device_link, spawn_supervisors, Opener};
 use crate::logging::{spawn_logger, LoggerSettings, McapLog};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport};
-use crate::telemetry::{spawn_telemetry, TelemetrySettings, TelemetryStats};
-use dima_core::schema;
+use crate::telemetry::{
+    spawn_telemetry, LinkCounters, LinkSecurity, TelemetrySettings, TelemetryStats,
+};
+use dima_core::schema::{self, SummaryRecord};
 
 /// One opener per device.
 pub struct Devices<P, S> {
@@ -138,6 +140,7 @@ where
     S: ServoOutput + Send + 'static,
 {
     config.validate()?;
+    let security = LinkSecurity::from_config(&config.xbee)?;
     let mut params = LoopParams::from_config(config)?;
     params.busy = options.busy;
     let rt = &config.realtime;
@@ -204,6 +207,7 @@ where
     )?;
 
     // Telemetry.
+    let link_counters = Arc::new(LinkCounters::default());
     let telemetry = spawn_telemetry(
         devices.ground,
         commands_tx,
@@ -212,7 +216,9 @@ where
             display_period: Duration::from_secs_f64(1.0 / config.xbee.display_rate_hz),
             reopen_interval: Duration::from_millis(u64::from(config.xbee.reopen_interval_ms)),
             priority: rt.telemetry_priority,
+            security,
         },
+        Arc::clone(&link_counters),
         Arc::clone(&aux_stop),
     )?;
 
@@ -222,6 +228,7 @@ where
         commands: commands_rx,
         log: log_tx,
         snapshot: snapshot_in,
+        link: link_counters,
         stop: Arc::clone(&stop),
     };
     let period_ns = params.period_ns;
@@ -309,7 +316,13 @@ where
                 &[
                     ("summary", summary.clone()),
                     ("ground_link", telemetry.summary()),
-                    ("json", serde_json::to_string(&metrics.summary_record())?),
+                    (
+                        "json",
+                        serde_json::to_string(&SummaryRecord {
+                            link: telemetry.link,
+                            ..metrics.summary_record()
+                        })?,
+                    ),
                 ],
             )?;
             log.attach(

@@ -380,6 +380,8 @@ pub fn test_config(log_dir: &std::path::Path) -> Config {
     c.maestro.reopen_interval_ms = 100;
     c.xbee.reopen_interval_ms = 100;
     c.xbee.display_rate_hz = 10.0;
+    // The test ground station speaks ground link v1.
+    c.xbee.require_auth = false;
     c.log.directory = log_dir.to_owned();
     c.log.flush_interval_ms = 200;
     c
