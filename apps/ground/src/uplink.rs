@@ -3,8 +3,9 @@
 //!
 //! The robot accepts a command frame v2 only with its per-boot session id and a sequence
 //! number above the last one it accepted, and reports that last accepted number (the
-//! acknowledgement) in every display frame. This module turns the [`CommandScheduler`]'s
-//! slots into numbered [`CommandFrame`]s and reads the acknowledgements back:
+//! acknowledgement) in every display frame. This module turns the slots of the
+//! [`CommandScheduler`](crate::scheduler::CommandScheduler) into numbered [`CommandFrame`]s
+//! and reads the acknowledgements back:
 //!
 //! - **Session**: learned from authenticated display frames. Until it is known only a kill
 //!   goes out (with session 0, which the robot accepts for a kill and nothing else); every
