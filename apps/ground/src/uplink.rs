@@ -28,7 +28,9 @@
 //!   a repetition never switches the robot back to a mode the operator has left. A kill drops
 //!   everything waiting.
 //! - **Downlink order**: a display frame of the current session whose downlink sequence
-//!   number is not newer than the last one is ignored and counted (a replay or a reordering).
+//!   number is not newer than the last one is ignored and counted (a replay or a reordering),
+//!   and so is a frame of a session that an earlier boot's frames were replaced by (a robot
+//!   draws a new random session id at every boot and never goes back to an old one).
 //!
 //! Pure: time is an argument, nothing here touches the port.
 
@@ -42,6 +44,8 @@ use crate::scheduler::{Origin, Scheduled};
 /// How long a requested command is repeated without its acknowledgement before it is given up
 /// (five display periods at the robot's default 2 Hz).
 pub const CONFIRM_TIMEOUT: Duration = Duration::from_millis(2_500);
+/// Session ids of earlier boots remembered, so that their replayed frames are refused.
+const RETIRED_KEPT: usize = 32;
 /// Numbers of one command remembered for matching acknowledgements (a command repeated every
 /// 100 ms for [`CONFIRM_TIMEOUT`] uses 25).
 const SEQS_KEPT: usize = 64;
@@ -138,7 +142,8 @@ pub struct UplinkStats {
     pub unacknowledged: u64,
     /// Frames not sent because the session was not known yet (everything but kills).
     pub held_back: u64,
-    /// Display frames ignored: current session, downlink number not newer than the last.
+    /// Display frames ignored: current session with a downlink number not newer than the
+    /// last, or the session of an earlier boot.
     pub old_display_frames: u64,
     /// Session ids seen (more than one: the robot restarted while the station ran).
     pub sessions: u32,
@@ -163,7 +168,7 @@ pub enum DownlinkVerdict {
         /// The previous session id, if there was one (the robot restarted).
         previous: Option<u32>,
     },
-    /// Not newer than the last frame of this session: ignored.
+    /// Not newer than the last frame of this session, or from an earlier boot: ignored.
     Old,
 }
 
@@ -171,6 +176,8 @@ pub enum DownlinkVerdict {
 #[derive(Debug, Clone)]
 pub struct Uplink {
     session: Option<u32>,
+    /// Sessions replaced by a newer one, oldest first.
+    retired: Vec<u32>,
     next_seq: u32,
     last_ack: Option<u32>,
     last_downlink_seq: u32,
@@ -196,6 +203,7 @@ impl Uplink {
     pub fn new() -> Uplink {
         Uplink {
             session: None,
+            retired: Vec::new(),
             next_seq: 1,
             last_ack: None,
             last_downlink_seq: 0,
@@ -247,19 +255,25 @@ impl Uplink {
     /// Takes an authenticated display frame received at `now`: session, numbering,
     /// acknowledgements. Frames judged [`DownlinkVerdict::Old`] change nothing.
     pub fn on_display(&mut self, frame: &DisplayFrame, now: Instant) -> DownlinkVerdict {
+        let old = match self.session {
+            Some(s) if s == frame.session => frame.seq <= self.last_downlink_seq,
+            _ => self.retired.contains(&frame.session),
+        };
+        if old {
+            self.stats.old_display_frames = self.stats.old_display_frames.saturating_add(1);
+            return DownlinkVerdict::Old;
+        }
         let verdict = match self.session {
-            Some(s) if s == frame.session => {
-                if frame.seq <= self.last_downlink_seq {
-                    self.stats.old_display_frames = self.stats.old_display_frames.saturating_add(1);
-                    return DownlinkVerdict::Old;
-                }
-                DownlinkVerdict::Current
-            }
+            Some(s) if s == frame.session => DownlinkVerdict::Current,
             previous => {
                 self.stats.sessions = self.stats.sessions.saturating_add(1);
-                if previous.is_some() {
+                if let Some(previous) = previous {
                     // A new boot: its window starts afresh, and what waited was meant for the
                     // old one.
+                    if self.retired.len() == RETIRED_KEPT {
+                        self.retired.remove(0);
+                    }
+                    self.retired.push(previous);
                     self.next_seq = 1;
                     self.settle_all(Delivery::RobotRestarted, now);
                 }
@@ -722,6 +736,12 @@ mod tests {
         let f = u.frames(&heartbeat(), ms(t0, 500));
         assert_eq!((f[0].session, f[0].seq), (0xABCD, 1));
         assert_eq!(u.stats().sessions, 2);
+        // A replayed frame of the earlier boot does not take the station back to it.
+        let replay = display(SESSION, 99, 800, RobotMode::Manual);
+        assert_eq!(u.on_display(&replay, ms(t0, 600)), DownlinkVerdict::Old);
+        assert_eq!(u.session(), Some(0xABCD));
+        assert_eq!(u.next_seq(), 2);
+        assert_eq!(u.stats().old_display_frames, 1);
     }
 
     #[test]
