@@ -456,3 +456,73 @@ fn t11_ground_pty_lets_a_gui_drive() {
     assert_eq!(r.app.counters.failsafes, 0);
     assert!(r.app.ground_frames >= 10, "{:?}", r.app);
 }
+
+#[test]
+fn t12_board_health_at_least_once_a_second_without_a_skipped_request() {
+    // The board answers every request with a packet and one info piece (3.65 ms of the 4 ms
+    // period at 460 800 baud): health reaches the log every ~250 ms and no request is skipped.
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = temp_dir("health");
+    let duration = 5.0;
+    let mut o = SimOptions::new(Scenario::custom("health", duration));
+    o.run_dir = dir.join("dev");
+    o.log_dir = dir.join("logs");
+    o.status = StatusMode::Quiet;
+    let r = run_simulation(&o, run_app).expect("the simulation runs");
+    eprintln!("[health]\n{}\napp: {}", r.summary(), r.app.summary);
+    let run = dima::logtools::read::LoggedRun::read(r.app.log_path.as_ref().expect("a log"))
+        .expect("the log reads");
+
+    let times: Vec<f64> = run.infos.iter().map(|i| run.seconds(i.t_ns)).collect();
+    assert!(
+        times.len() >= 5,
+        "{} info records in 5 s: {times:?}",
+        times.len()
+    );
+    let mut previous = 0.0;
+    for t in times
+        .iter()
+        .chain([&run.seconds(run.cycles.last().unwrap().t_ns)])
+    {
+        assert!(
+            t - previous <= 1.0,
+            "no info record from {previous:.3} to {t:.3} s"
+        );
+        previous = *t;
+    }
+    // A request is skipped only while an answer is still going out: with packet + piece
+    // fitting the period, only when the machine held the board thread up (a late answer).
+    let held_up = r.devices.late_answers + r.app.counters.missed_periods;
+    for info in &run.infos {
+        assert_eq!(info.msg.version, 2);
+        assert!(
+            u64::from(info.msg.requests_skipped) <= held_up,
+            "{:?} with {held_up} late answers or missed periods",
+            info.msg
+        );
+    }
+    let last = &run.infos.last().unwrap().msg;
+    eprintln!(
+        "{} info records, requests skipped {} ({held_up} late answers or missed periods)",
+        run.infos.len(),
+        last.requests_skipped
+    );
+    if held_up == 0 {
+        assert_eq!(last.requests_skipped, 0);
+    }
+    assert!(last.uptime_ms >= 4_000, "{last:?}");
+    assert_eq!(r.app.counters.packet_crc_errors, 0);
+
+    // `dima log info` shows the health.
+    let report = dima::logtools::info::report(&run);
+    let line = report
+        .lines()
+        .find(|l| l.starts_with("sensor board (info frame v2"))
+        .unwrap_or_else(|| panic!("no health line in:\n{report}"));
+    assert!(line.contains("requests skipped"), "{line}");
+    assert!(line.contains("watchdog resets 0"), "{line}");
+    assert!(
+        line.contains("errors: accel 0 gyro 0 mag 0 bmp280 0"),
+        "{line}"
+    );
+}

@@ -285,6 +285,9 @@ pub struct SafetyConfig {
     /// A revive needs this many good sensor packets since the link was last lost
     /// (`sensor_loss_packets` bad ones in a row) or since start-up.
     pub revive_good_packets: u32,
+    /// A revive sooner than this after the previous kill or revive is refused (`TooSoon`):
+    /// kill/revive toggling is rate-limited, a kill never is. In milliseconds.
+    pub revive_min_interval_ms: u32,
 }
 
 impl Default for SafetyConfig {
@@ -296,6 +299,7 @@ impl Default for SafetyConfig {
             gnss_timeout_ms: 500,
             imu_stuck_packets: 50,
             revive_good_packets: 25,
+            revive_min_interval_ms: 250,
         }
     }
 }
@@ -853,7 +857,12 @@ impl Config {
         )?;
         within("safety.gnss_timeout_ms", s.gnss_timeout_ms, 100..=5_000)?;
         within("safety.imu_stuck_packets", s.imu_stuck_packets, 2..=10_000)?;
-        within("safety.revive_good_packets", s.revive_good_packets, 1..=250)
+        within("safety.revive_good_packets", s.revive_good_packets, 1..=250)?;
+        within(
+            "safety.revive_min_interval_ms",
+            s.revive_min_interval_ms,
+            100..=5_000,
+        )
     }
 
     fn validate_pca9685(&self) -> Result<(), ConfigError> {

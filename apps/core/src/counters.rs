@@ -38,9 +38,11 @@ pub struct Counters {
     pub servo_missing: u64,
     /// Commands applied.
     pub commands: u64,
-    /// Speed setpoints rejected as out of range (below 0 or above `control.max_speed_mm_s`).
+    /// Setpoints rejected as out of range: speed below 0 or above `control.max_speed_mm_s`,
+    /// heading outside 0..36 000 000 (1e-5 degrees).
     pub setpoints_rejected: u64,
-    /// Revives refused (sensor loss, stuck IMU, overruns or a failed realtime setup).
+    /// Revives refused (sensor loss, stuck IMU, overruns, a failed realtime setup, or too
+    /// soon after a kill or revive).
     pub revives_refused: u64,
     /// Log records dropped because the logger ring was full.
     pub log_dropped: u64,

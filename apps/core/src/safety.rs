@@ -8,8 +8,11 @@
 //! - any valid command frame is link activity;
 //! - kill -> KILLED from any state, immediately;
 //! - revive leaves KILLED or FAILSAFE for MANUAL at neutral, only while nothing blocks it (see
-//!   [`ReviveRefusal`]: among others, enough good packets since the sensor link was last lost); a
-//!   revive in MANUAL or AUTO changes nothing;
+//!   [`ReviveRefusal`]: among others, enough good packets since the sensor link was last lost,
+//!   and at least `revive_min_interval_ms` since the last kill or revive: toggling is
+//!   rate-limited, a kill never is); a revive in MANUAL or AUTO changes nothing;
+//! - a heading setpoint outside 0..36 000 000 (1e-5 degrees) is rejected like an out-of-range
+//!   speed, whatever built the command (the ground-link decoder checks it too);
 //! - a manual command in AUTO switches to MANUAL with every channel at neutral except the one
 //!   just commanded, and forgets the AUTO setpoints;
 //! - a speed or heading setpoint switches MANUAL to AUTO and forgets the manual values; a speed
@@ -22,7 +25,7 @@
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
 //!   from neutral.
 
-use dima_groundlink::{Command, Percent};
+use dima_groundlink::{Command, Percent, HEADING_FULL_TURN_DEG_E5};
 
 use crate::config::{ControlConfig, SafetyConfig};
 use crate::Nanos;
@@ -124,6 +127,8 @@ pub enum ReviveRefusal {
     Overrun,
     /// The required realtime setup failed (`realtime.required`).
     RealtimeSetup,
+    /// Less than `safety.revive_min_interval_ms` since the last kill or revive.
+    TooSoon,
 }
 
 /// Thresholds, in the units the transition functions use.
@@ -137,6 +142,8 @@ pub struct SafetyLimits {
     pub revive_good_packets: u32,
     /// Largest speed setpoint accepted, mm/s.
     pub max_speed_mm_s: i32,
+    /// Shortest time from a kill or revive to the next revive, ns.
+    pub revive_min_interval_ns: Nanos,
 }
 
 impl SafetyLimits {
@@ -147,6 +154,7 @@ impl SafetyLimits {
             sensor_loss_packets: safety.sensor_loss_packets.max(1),
             revive_good_packets: safety.revive_good_packets.max(1),
             max_speed_mm_s: control.max_speed_mm_s,
+            revive_min_interval_ns: u64::from(safety.revive_min_interval_ms) * 1_000_000,
         }
     }
 }
@@ -218,6 +226,9 @@ pub struct SafetyState {
     pub good_packets: u32,
     /// Current manual values and setpoints.
     pub setpoints: Setpoints,
+    /// Time of the last kill or accepted revive (the next revive waits
+    /// `revive_min_interval_ns` from it).
+    pub last_toggle_ns: Option<Nanos>,
 }
 
 impl Default for SafetyState {
@@ -242,6 +253,7 @@ impl SafetyState {
                 speed_mm_s: None,
                 heading_deg_e5: None,
             },
+            last_toggle_ns: None,
         }
     }
 
@@ -316,21 +328,38 @@ impl SafetyState {
         let mut effect = CommandEffect::default();
         match command {
             Command::Heartbeat => {}
-            Command::Kill => self.enter_safe(Mode::Killed, None),
+            Command::Kill => {
+                self.enter_safe(Mode::Killed, None);
+                self.last_toggle_ns = Some(now);
+            }
             Command::Revive => {
+                let too_soon = self
+                    .last_toggle_ns
+                    .is_some_and(|t| now.saturating_sub(t) < limits.revive_min_interval_ns);
                 if self.mode.is_safe() {
-                    match self.revive_refusal(limits, blocked) {
+                    let refusal = if too_soon {
+                        Some(ReviveRefusal::TooSoon)
+                    } else {
+                        self.revive_refusal(limits, blocked)
+                    };
+                    match refusal {
                         Some(why) => effect.refused = Some(why),
                         None => {
                             self.mode = Mode::Manual;
                             self.cause = None;
                             self.setpoints = Setpoints::default();
+                            self.last_toggle_ns = Some(now);
                         }
                     }
                 }
             }
             Command::Throttle(_) | Command::Steering(_) | Command::Tail(_) => self.manual(command),
             Command::SpeedSetpoint { mm_s } if !(0..=limits.max_speed_mm_s).contains(&mm_s) => {
+                effect.rejected = true;
+            }
+            Command::HeadingSetpoint { deg_e5 }
+                if !(0..HEADING_FULL_TURN_DEG_E5).contains(&deg_e5) =>
+            {
                 effect.rejected = true;
             }
             Command::SpeedSetpoint { .. } | Command::HeadingSetpoint { .. } => {
@@ -388,6 +417,7 @@ mod tests {
         sensor_loss_packets: 3,
         revive_good_packets: 3,
         max_speed_mm_s: 5_000,
+        revive_min_interval_ns: 250 * MS,
     };
     const OK: CycleHealth = CycleHealth::GOOD;
     const BAD: CycleHealth = CycleHealth {
@@ -560,23 +590,83 @@ mod tests {
     fn sensor_loss_after_k_consecutive_bad_packets() {
         let s = run_table(&[
             (0, Cmd(Command::Revive), Manual),
-            (4, Cycle(BAD), Manual),
-            (8, Cycle(BAD), Manual),
-            (12, Cycle(OK), Manual), // the run is broken: count restarts
-            (16, Cycle(BAD), Manual),
-            (20, Cycle(BAD), Manual),
-            (24, Cycle(BAD), Failsafe),
+            // (The loss comes later than `revive_min_interval_ns` after that revive, so only
+            // the sensor link can refuse the next ones.)
+            (304, Cycle(BAD), Manual),
+            (308, Cycle(BAD), Manual),
+            (312, Cycle(OK), Manual), // the run is broken: count restarts
+            (316, Cycle(BAD), Manual),
+            (320, Cycle(BAD), Manual),
+            (324, Cycle(BAD), Failsafe),
             // A revive is refused while the sensor link is still down...
-            (25, Cmd(Command::Revive), Failsafe),
-            (28, Cycle(OK), Failsafe),
-            (29, Cycle(OK), Failsafe),
+            (325, Cmd(Command::Revive), Failsafe),
+            (328, Cycle(OK), Failsafe),
+            (329, Cycle(OK), Failsafe),
             // ...and while it is not yet healthy for as long as it took to trip...
-            (30, Cmd(Command::Revive), Failsafe),
-            (32, Cycle(OK), Failsafe),
+            (330, Cmd(Command::Revive), Failsafe),
+            (332, Cycle(OK), Failsafe),
             // ...and accepted once it is.
-            (33, Cmd(Command::Revive), Manual),
+            (333, Cmd(Command::Revive), Manual),
         ]);
         assert_eq!(s.bad_packets, 0);
+    }
+
+    #[test]
+    fn revive_toggling_is_rate_limited_and_kill_never_is() {
+        let mut s = healthy();
+        let revive = |s: &mut SafetyState, t_ms: u64| {
+            s.on_command(&LIMITS, Command::Revive, t_ms * MS, None)
+                .refused
+        };
+        assert_eq!(
+            revive(&mut s, 0),
+            None,
+            "the first revive has nothing to wait for"
+        );
+        assert_eq!(s.mode, Manual);
+        // A kill right after the revive: never delayed.
+        s.on_command(&LIMITS, Command::Kill, MS, None);
+        assert_eq!(s.mode, Killed);
+        // A revive 249 ms after the kill: refused; at 250 ms: accepted.
+        assert_eq!(revive(&mut s, 250), Some(ReviveRefusal::TooSoon));
+        assert_eq!(s.mode, Killed);
+        assert_eq!(revive(&mut s, 251), None);
+        assert_eq!(s.mode, Manual);
+        // A failsafe, then a kill: the wait starts at the kill; a refused revive does not
+        // restart it.
+        s.on_cycle(&LIMITS, OK, 300 * MS);
+        s.on_cycle(&LIMITS, OK, 1_400 * MS); // comms loss: no command since 251 ms
+        assert_eq!(s.mode, Failsafe);
+        s.on_command(&LIMITS, Command::Kill, 1_400 * MS, None);
+        assert_eq!(revive(&mut s, 1_500), Some(ReviveRefusal::TooSoon));
+        assert_eq!(revive(&mut s, 1_649), Some(ReviveRefusal::TooSoon));
+        assert_eq!(revive(&mut s, 1_650), None);
+        // Kills repeated for a second (as the ground station sends them) each restart the
+        // wait; each of them kills.
+        for t in (1_700..2_700).step_by(100) {
+            s.on_command(&LIMITS, Command::Kill, t * MS, None);
+            assert_eq!(s.mode, Killed);
+        }
+        assert_eq!(revive(&mut s, 2_700), Some(ReviveRefusal::TooSoon));
+        assert_eq!(revive(&mut s, 2_850), None);
+        // A revive while driving changes nothing and is not refused.
+        assert_eq!(revive(&mut s, 2_860), None);
+        assert_eq!(s.mode, Manual);
+    }
+
+    #[test]
+    fn out_of_range_heading_setpoints_are_rejected_in_the_core() {
+        let mut s = run_table(&[(0, Cmd(Command::Revive), Manual)]);
+        for deg_e5 in [-1, i32::MIN, HEADING_FULL_TURN_DEG_E5, i32::MAX] {
+            let effect = s.on_command(&LIMITS, Command::HeadingSetpoint { deg_e5 }, MS, None);
+            assert!(effect.rejected, "{deg_e5}");
+            assert_eq!((s.mode, s.setpoints.heading_deg_e5), (Manual, None));
+        }
+        for deg_e5 in [0, HEADING_FULL_TURN_DEG_E5 - 1] {
+            let effect = s.on_command(&LIMITS, Command::HeadingSetpoint { deg_e5 }, MS, None);
+            assert!(!effect.rejected);
+            assert_eq!((s.mode, s.setpoints.heading_deg_e5), (Auto, Some(deg_e5)));
+        }
     }
 
     #[test]

@@ -288,6 +288,7 @@ fn late_answers_count_as_missing_and_trip_sensor_loss() {
 fn a_stuck_imu_trips_failsafe_and_blocks_revive_while_it_lasts() {
     let mut rig = Rig::new();
     rig.cycle(&[Command::Revive]);
+    let revived_at = rig.now;
     rig.imu_running = false;
     let mut packets = 0;
     let out = loop {
@@ -304,6 +305,12 @@ fn a_stuck_imu_trips_failsafe_and_blocks_revive_while_it_lasts() {
     );
     // The identical run started with the packet before the freeze: 50 identical in all.
     assert_eq!(packets, 49);
+    // Past `safety.revive_min_interval_ms` since the revive above (the failsafe came sooner),
+    // so only the stuck IMU can refuse the next one.
+    let interval = u64::from(Config::default().safety.revive_min_interval_ms) * MS;
+    while rig.now < revived_at + interval {
+        rig.cycle(&[Command::Heartbeat]);
+    }
     let out = rig.cycle(&[Command::Revive]);
     assert_eq!(
         (out.mode, out.refused),

@@ -239,7 +239,8 @@ fn report_events(r: &CycleRecord, last_mode: &mut Mode) {
     }
     if out.setpoints_rejected > 0 {
         tracing::warn!(
-            "speed setpoint rejected (allowed 0..=control.max_speed_mm_s) at cycle {}",
+            "setpoint rejected (speed allowed 0..=control.max_speed_mm_s mm/s, heading \
+             0..36000000 x 1e-5 deg) at cycle {}",
             r.cycle
         );
     }

@@ -39,9 +39,14 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
         ground: hardware.ground,
     };
     let status = launch.status.clone();
+    let mut last_mode = dima_core::Mode::Killed;
     let observer: app::run::Observer = Box::new(move |r| {
         use std::sync::atomic::Ordering::Relaxed;
         *status.mode.lock().unwrap_or_else(|e| e.into_inner()) = Some(r.outputs.mode);
+        if last_mode.is_safe() && r.outputs.mode == dima_core::Mode::Manual {
+            status.revives.fetch_add(1, Relaxed);
+        }
+        last_mode = r.outputs.mode;
         status.cycles.store(r.counters.cycles, Relaxed);
         status.packets_ok.store(r.counters.packets_ok, Relaxed);
         status

@@ -321,6 +321,7 @@ fn revive_refusal(refusal: ReviveRefusal) -> v2::ReviveRefusal {
         ReviveRefusal::ImuStuck => v2::ReviveRefusal::ImuStuck,
         ReviveRefusal::Overrun => v2::ReviveRefusal::Overrun,
         ReviveRefusal::RealtimeSetup => v2::ReviveRefusal::RealtimeSetup,
+        ReviveRefusal::TooSoon => v2::ReviveRefusal::TooSoon,
     }
 }
 

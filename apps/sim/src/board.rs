@@ -7,9 +7,10 @@
 //! - BMP280 raw values through the inverse of the datasheet compensation for a real
 //!   calibration set (the datasheet's own example device);
 //! - a NAV-PVT frame at 10 Hz from the model's position and velocity ([`neo_m8t::NavPvt`]);
-//! - the v1 packet assembled by [`PacketBuilder`] with the STM32 CRC, and the info frame
-//!   appended by the board's trigger rule (first request after boot, or a request 500 ms or
-//!   more after the previous one).
+//! - the v1 packet assembled by [`PacketBuilder`] with the STM32 CRC, and behind it one info
+//!   piece (`$H`) as the firmware sends them ([`InfoPieceCycle`]): a version 2 info frame with
+//!   calibration and health, snapshot every 250 ms, each snapshot cut into 9 pieces and sent
+//!   once, from piece 0 again after a request 500 ms or more after the previous one.
 
 use bosch_bmp280::compensation::inverse::raw_for_celsius_pascal_f32;
 use bosch_bmp280::Calibration;
@@ -19,8 +20,8 @@ use bosch_bmx055::mag::MagTrim;
 use bosch_bmx055::Xyz;
 use bosch_bmx055::{packet_words_from_physical, ImuPhysical};
 use dima_sensorboard::{
-    InfoFrame, PacketBuilder, SensorStatus, Stm32Crc, GNSS_FRAME_LEN, INFO_V1_LEN, INFO_VERSION,
-    PACKET_LEN,
+    BoardHealth, InfoFrame, InfoPieceCycle, PacketBuilder, SensorStatus, Stm32Crc, GNSS_FRAME_LEN,
+    INFO_GAP_MS, INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
 };
 
 use crate::model::VehicleState;
@@ -48,8 +49,8 @@ const G: f64 = 9.806_65;
 const EARTH_RADIUS_M: f64 = 6_371_000.0;
 /// GPS time of week at the simulated start (Sunday 08:00:00 UTC plus 18 leap seconds), ms.
 const START_ITOW_MS: u32 = 8 * 3_600_000 + 18_000;
-/// Bytes of an answer: a packet and, sometimes, an info frame.
-pub const MAX_ANSWER_LEN: usize = PACKET_LEN + INFO_V1_LEN;
+/// Bytes of an answer: a packet and, most of the time, an info piece.
+pub const MAX_ANSWER_LEN: usize = PACKET_LEN + INFO_PIECE_LEN;
 
 /// Where and how the simulated board starts.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,8 +112,8 @@ pub struct SensorFaultState {
 pub struct Answer {
     /// The v1 packet.
     pub packet: [u8; PACKET_LEN],
-    /// The info frame sent after it, when the trigger rule says so.
-    pub info: Option<[u8; INFO_V1_LEN]>,
+    /// The info piece sent after it, while a snapshot's pieces are going out.
+    pub info: Option<[u8; INFO_PIECE_LEN]>,
 }
 
 /// The simulated board's logic, without I/O.
@@ -129,6 +130,11 @@ pub struct BoardSim {
     last_head_mot_deg: f64,
     last_request_s: Option<f64>,
     requests_skipped: u32,
+    /// The info pieces going out behind the packets.
+    pieces: InfoPieceCycle,
+    /// When the last info snapshot was taken, s, and its counter.
+    last_snapshot_s: Option<f64>,
+    snapshot: u8,
 }
 
 impl BoardSim {
@@ -159,6 +165,9 @@ impl BoardSim {
             last_head_mot_deg: 0.0,
             last_request_s: None,
             requests_skipped: 0,
+            pieces: InfoPieceCycle::new(),
+            last_snapshot_s: None,
+            snapshot: 0,
         }
     }
 
@@ -193,7 +202,8 @@ impl BoardSim {
         state: &VehicleState,
         faults: SensorFaultState,
     ) -> Answer {
-        let info_due = self.last_request_s.is_none_or(|t| now_s - t >= 0.5);
+        let gap_s = f64::from(INFO_GAP_MS) * 1e-3;
+        let restart = self.last_request_s.is_none_or(|t| now_s - t >= gap_s);
         self.last_request_s = Some(now_s);
         if !faults.gnss_frozen {
             self.update_gnss(now_s, state, faults.gnss_lost);
@@ -254,24 +264,37 @@ impl BoardSim {
             .gnss_frame(&self.gnss_frame);
         let packet = *self.builder.build(&mut Stm32Crc);
 
-        let info = info_due.then(|| {
-            InfoFrame {
-                version: INFO_VERSION,
-                firmware: [0, 1, 0],
-                status: SensorStatus::ACCEL_OK
-                    | SensorStatus::GYRO_OK
-                    | SensorStatus::MAG_OK
-                    | SensorStatus::BMP280_OK
-                    | SensorStatus::GNSS_SEEN,
-                bmp280_calibration: DATASHEET_BMP280_CALIBRATION,
-                bmm150_trim: BMM150_TRIM,
-                uptime_ms: (now_s * 1e3) as u32,
-                requests_skipped: self.requests_skipped,
-                ..InfoFrame::default()
-            }
-            .encode_with(&mut Stm32Crc)
-        });
+        self.take_info_snapshot(now_s);
+        let info = self.pieces.next(restart).copied();
         Answer { packet, info }
+    }
+
+    /// Takes a new info snapshot (a version 2 frame cut into pieces) when the last one is
+    /// [`INFO_SNAPSHOT_MS`] old, as the firmware's sampling task does.
+    fn take_info_snapshot(&mut self, now_s: f64) {
+        let every_s = f64::from(INFO_SNAPSHOT_MS) * 1e-3;
+        if self.last_snapshot_s.is_some_and(|t| now_s - t < every_s) {
+            return;
+        }
+        self.last_snapshot_s = Some(now_s);
+        self.snapshot = self.snapshot.wrapping_add(1);
+        let set = InfoFrame {
+            version: 2,
+            firmware: [0, 1, 0],
+            status: SensorStatus::ACCEL_OK
+                | SensorStatus::GYRO_OK
+                | SensorStatus::MAG_OK
+                | SensorStatus::BMP280_OK
+                | SensorStatus::GNSS_SEEN,
+            bmp280_calibration: DATASHEET_BMP280_CALIBRATION,
+            bmm150_trim: BMM150_TRIM,
+            uptime_ms: (now_s * 1e3) as u32,
+            requests_skipped: self.requests_skipped,
+            // The simulated sensors never fail; each is read for every packet.
+            health: BoardHealth::default(),
+        }
+        .encode_v2_pieces_with(self.snapshot, &mut Stm32Crc);
+        self.pieces.publish(&set);
     }
 
     /// A new NAV-PVT epoch every `1 / gnss_rate_hz` s of simulated time (without a fix when
@@ -378,29 +401,63 @@ mod tests {
     }
 
     #[test]
-    fn info_frame_by_the_trigger_rule() {
+    fn info_pieces_behind_the_packets_like_the_firmware() {
         let mut b = exact();
         let s = VehicleState::default();
-        assert!(
-            b.answer(0.010, &s).info.is_some(),
-            "first request after boot"
-        );
-        assert!(b.answer(0.014, &s).info.is_none());
-        assert!(b.answer(0.513, &s).info.is_none(), "499 ms later");
-        assert!(b.answer(1.014, &s).info.is_some(), "500 ms later");
-        assert!(b.answer(1.018, &s).info.is_none());
-        b.skip_request();
-        let a = b.answer(3.0, &s);
-        let frames = decode(&[a.packet.as_slice(), a.info.unwrap().as_slice()].concat());
-        assert_eq!(frames.len(), 2);
-        assert!(matches!(frames[0], Frame::Packet(_)), "packet first");
-        let Frame::Info(info) = frames[1] else {
-            panic!("info second")
-        };
+        let mut stream = Vec::new();
+        let mut pieces = 0;
+        // 2 s of requests at 250 Hz: a snapshot every 250 ms, each sent once in 9 pieces.
+        for i in 0..500 {
+            if i == 300 {
+                b.skip_request();
+            }
+            let a = b.answer(0.010 + f64::from(i) * 0.004, &s);
+            stream.extend_from_slice(&a.packet);
+            if let Some(piece) = a.info {
+                pieces += 1;
+                stream.extend_from_slice(&piece);
+            }
+        }
+        assert_eq!(pieces, 8 * 9);
+        let frames = decode(&stream);
+        let infos: Vec<_> = frames
+            .iter()
+            .filter_map(|f| match f {
+                Frame::Info(i) => Some(*i),
+                Frame::Packet(_) => None,
+            })
+            .collect();
+        assert_eq!(frames.len() - infos.len(), 500);
+        let uptimes: Vec<u32> = infos.iter().map(|i| i.uptime_ms).collect();
+        // The first request at least 250 ms after the last snapshot: every 63rd, 252 ms apart.
+        assert_eq!(uptimes, [10, 262, 514, 766, 1018, 1270, 1522, 1774]);
+        let info = infos[7];
+        assert_eq!(info.version, 2);
         assert_eq!(info.bmp280_calibration, DATASHEET_BMP280_CALIBRATION);
         assert_eq!(info.bmm150_trim, BMM150_TRIM);
-        assert_eq!(info.uptime_ms, 3_000);
         assert_eq!(info.requests_skipped, 1);
+        assert_eq!(infos[4].requests_skipped, 0);
+    }
+
+    #[test]
+    fn a_host_restart_gets_a_record_within_nine_answers() {
+        let mut b = exact();
+        let s = VehicleState::default();
+        for i in 0..5 {
+            b.answer(0.010 + f64::from(i) * 0.004, &s);
+        }
+        // The host stops mid-record and comes back 600 ms later: piece 0 again.
+        let mut stream = Vec::new();
+        for i in 0..9 {
+            let a = b.answer(0.630 + f64::from(i) * 0.004, &s);
+            stream.extend_from_slice(&a.packet);
+            stream.extend_from_slice(&a.info.expect("a piece behind each packet"));
+        }
+        let infos = decode(&stream)
+            .into_iter()
+            .filter(|f| matches!(f, Frame::Info(_)))
+            .count();
+        assert_eq!(infos, 1);
     }
 
     #[test]

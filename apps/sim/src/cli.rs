@@ -6,15 +6,17 @@ use std::process::ExitCode;
 
 use clap::Args;
 
-use crate::faults::Faults;
+use crate::faults::{random_windows, Faults};
+use crate::rng::SimRng;
 use crate::runner::{run_simulation, AppLaunch, AppOutcome, SimOptions, StatusMode};
 use crate::scenario::Scenario;
 
 /// Flags of `dima sim`.
 #[derive(Debug, Clone, Args, Default)]
 pub struct SimArgs {
-    /// Scenario: `default` (about 20 s: revive, manual, AUTO, comms loss, revive, kill) or
-    /// `manual` (revive and drive).
+    /// Scenario: `default` (about 20 s: revive, manual, AUTO, comms loss, revive, kill),
+    /// `manual` (revive and drive) or `soak` (drive until --duration, default 60 s, reviving
+    /// after every fault window; with --random-faults).
     #[arg(long, default_value = "default", value_name = "NAME")]
     pub scenario: String,
     /// Stop after this many seconds (default: the scenario's length; with --ground-pty: run
@@ -30,6 +32,10 @@ pub struct SimArgs {
     /// maestro:disconnect=5+1
     #[arg(long = "fault", value_name = "LINK:KEY=VALUE")]
     pub faults: Vec<String>,
+    /// With `--scenario soak`: random fault windows one after another (every kind of
+    /// `--fault` window, drawn from --seed), each followed by a revive and driving.
+    #[arg(long)]
+    pub random_faults: bool,
     /// Leave the ground link to a ground-station GUI: print the pty path to connect it to,
     /// instead of running the scripted ground station.
     #[arg(long)]
@@ -64,12 +70,27 @@ pub struct SimArgs {
 impl SimArgs {
     /// The run these flags describe.
     pub fn options(&self) -> anyhow::Result<SimOptions> {
-        let scenario = Scenario::by_name(&self.scenario, self.duration).ok_or_else(|| {
-            anyhow::anyhow!("unknown scenario `{}` (default, manual)", self.scenario)
+        let mut scenario = Scenario::by_name(&self.scenario, self.duration).ok_or_else(|| {
+            anyhow::anyhow!(
+                "unknown scenario `{}` (default, manual, soak)",
+                self.scenario
+            )
         })?;
         let mut faults = Faults::default();
         for f in &self.faults {
             faults.apply_arg(f)?;
+        }
+        let mut random = Vec::new();
+        if self.random_faults {
+            if scenario.name != "soak" {
+                anyhow::bail!("--random-faults needs --scenario soak");
+            }
+            let mut rng = SimRng::new(self.seed).fork(RANDOM_FAULTS_STREAM);
+            random = random_windows(&mut rng, 3.0, scenario.duration_s);
+            for w in &random {
+                faults.add_window(*w)?;
+            }
+            scenario = Scenario::soak(scenario.duration_s, &random);
         }
         if let Some(d) = self.duration {
             if !(d > 0.0 && d.is_finite()) {
@@ -80,6 +101,10 @@ impl SimArgs {
         o.duration_s = self.duration;
         o.seed = self.seed;
         o.faults = faults;
+        o.random_faults = random;
+        // A soak must show whether the application's memory grows: the simulation keeps
+        // counts, not a record of every packet.
+        o.bounded_evidence = o.scenario.name == "soak";
         o.ground_pty = self.ground_pty;
         o.log_dir = self.log_dir.clone();
         o.loop_rate_hz = self.loop_rate;
@@ -96,6 +121,9 @@ impl SimArgs {
         Ok(o)
     }
 }
+
+/// The random stream of `--random-faults` (apart from the devices' noise).
+const RANDOM_FAULTS_STREAM: u64 = 20;
 
 /// Runs `dima sim`: the simulation with the application started by `app`; prints the summary
 /// and the log path; exit code 0 when the scenario's checks held, 1 with the reason when one
@@ -122,6 +150,9 @@ where
             "scripted ground station"
         }
     );
+    for w in &options.random_faults {
+        eprintln!("dima sim: random fault --fault {}", w.kind.arg(w.window));
+    }
     match run_simulation(&options, app) {
         Err(e) => {
             eprintln!("dima sim: {e:#}");
@@ -188,6 +219,20 @@ mod tests {
         assert!(bad.sim.options().is_err());
         let bad = Wrapper::try_parse_from(["sim", "--scenario", "nope"]).unwrap();
         assert!(bad.sim.options().is_err());
+        let soak = |args: &[&str]| Wrapper::try_parse_from(args).unwrap().sim.options();
+        let o = soak(&[
+            "sim",
+            "--scenario",
+            "soak",
+            "--duration",
+            "120",
+            "--random-faults",
+        ])
+        .unwrap();
+        assert!(o.bounded_evidence);
+        assert!(o.random_faults.len() > 5, "{:?}", o.random_faults);
+        assert!(o.faults.sensor.silences.len() + o.faults.ground.silences.len() > 0);
+        assert!(soak(&["sim", "--random-faults"]).is_err());
         let gui = Wrapper::try_parse_from(["sim", "--ground-pty"]).unwrap();
         assert_eq!(gui.sim.options().unwrap().run_length_s(), None);
     }

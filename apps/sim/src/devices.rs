@@ -88,7 +88,7 @@ pub struct BoardStats {
     pub packets_intact: AtomicU64,
     /// Packets that went out damaged by the fault injector.
     pub packets_damaged: AtomicU64,
-    /// Info frames sent.
+    /// Info pieces sent (one behind a packet while a snapshot goes out).
     pub info_frames: AtomicU64,
     /// Answers that were complete later than [`LATE_ANSWER`] after their request (the board
     /// thread was held up by the machine): the application may count them missing.
@@ -103,6 +103,8 @@ pub struct BoardStats {
     pub faults: Mutex<FaultStats>,
     /// Times the pty was (re)opened.
     pub opens: AtomicU64,
+    /// Count only: keep no fingerprints (a long run's memory stays flat).
+    pub counts_only: bool,
 }
 
 /// An answer written this long after its request edge misses the application's default packet
@@ -199,10 +201,14 @@ pub fn spawn_board(
                 let intact = out.windows(answer.packet.len()).any(|w| w == answer.packet);
                 if intact {
                     stats.packets_intact.fetch_add(1, Ordering::Relaxed);
-                    lock(&stats.intact).insert(fingerprint(&answer.packet));
+                    if !stats.counts_only {
+                        lock(&stats.intact).insert(fingerprint(&answer.packet));
+                    }
                 } else {
                     stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
-                    lock(&stats.damaged).insert(fingerprint(&out));
+                    if !stats.counts_only {
+                        lock(&stats.damaged).insert(fingerprint(&out));
+                    }
                 }
                 if let Some(info) = answer.info {
                     injector.mangle(&info, &mut out);
@@ -432,6 +438,8 @@ pub struct GroundStats {
     pub last_status: Mutex<Option<(f64, v2::DisplayFrame)>>,
     /// Samples of the model: time and state, once per 100 ms.
     pub truth: Mutex<Vec<VehicleState>>,
+    /// Count only: keep no model samples (a long run's memory stays flat).
+    pub counts_only: bool,
 }
 
 /// The frame period of the ground station (DESIGN 2.2: one frame every 100 ms).
@@ -587,7 +595,9 @@ pub fn spawn_ground(
                 if next_slot < t {
                     next_slot = t + GROUND_PERIOD_S;
                 }
-                lock(&stats.truth).push(world.state());
+                if !stats.counts_only {
+                    lock(&stats.truth).push(world.state());
+                }
                 // Everything due now, in script order.
                 let mut frames: Vec<(Option<Command>, Vec<u8>)> = Vec::new();
                 while let Some(s) = script.get(step).filter(|s| s.at_s <= t) {

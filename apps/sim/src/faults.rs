@@ -288,6 +288,110 @@ impl Faults {
     }
 }
 
+/// One kind of fault that `--random-faults` puts in a window.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FaultKind {
+    /// `sensor:silence`: the sensor board answers nothing.
+    SensorSilence,
+    /// `sensor:disconnect`: the sensor board is unplugged.
+    SensorDisconnect,
+    /// `ground:silence`: the ground station sends nothing (comms loss when long enough).
+    GroundSilence,
+    /// `maestro:disconnect`: the Maestro is unplugged.
+    MaestroDisconnect,
+    /// `gnss:freeze`: the receiver repeats its last solution.
+    GnssFreeze,
+    /// `gnss:loss`: the receiver has no fix.
+    GnssLoss,
+    /// `imu:stuck`: accelerometer and gyroscope words frozen.
+    ImuStuck,
+    /// `loop:busy`: 6 ms of extra work in every cycle (at most once per run).
+    LoopBusy,
+}
+
+impl FaultKind {
+    /// Every kind, in the order the draw indexes them.
+    pub const ALL: [FaultKind; 8] = [
+        FaultKind::SensorSilence,
+        FaultKind::SensorDisconnect,
+        FaultKind::GroundSilence,
+        FaultKind::MaestroDisconnect,
+        FaultKind::GnssFreeze,
+        FaultKind::GnssLoss,
+        FaultKind::ImuStuck,
+        FaultKind::LoopBusy,
+    ];
+
+    /// The `--fault` form of this kind in `window`, e.g. `sensor:silence=12.5+1.2`.
+    pub fn arg(self, window: Window) -> String {
+        let w = format!("{}+{}", window.start_s, window.duration_s);
+        match self {
+            FaultKind::SensorSilence => format!("sensor:silence={w}"),
+            FaultKind::SensorDisconnect => format!("sensor:disconnect={w}"),
+            FaultKind::GroundSilence => format!("ground:silence={w}"),
+            FaultKind::MaestroDisconnect => format!("maestro:disconnect={w}"),
+            FaultKind::GnssFreeze => format!("gnss:freeze={w}"),
+            FaultKind::GnssLoss => format!("gnss:loss={w}"),
+            FaultKind::ImuStuck => format!("imu:stuck={w}"),
+            FaultKind::LoopBusy => format!("loop:busy={w},busy_ms=6"),
+        }
+    }
+}
+
+/// A fault in its window.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FaultWindow {
+    /// What.
+    pub kind: FaultKind,
+    /// When.
+    pub window: Window,
+}
+
+/// Seconds from the end of one random fault window to the start of the next: room for the
+/// link to recover, a revive, and driving that must not be interrupted.
+pub const RANDOM_GAP_S: (f64, f64) = (5.0, 7.0);
+
+/// Length of a random fault window, s.
+pub const RANDOM_LENGTH_S: (f64, f64) = (0.5, 3.0);
+
+/// Random fault windows for a run of `duration_s`, drawn from `rng`: one after another from
+/// `first_s`, each of a random [`FaultKind`] and length, separated by [`RANDOM_GAP_S`], none
+/// ending later than `duration_s - 5` s (the run ends with recovery, driving and a kill).
+pub fn random_windows(rng: &mut SimRng, first_s: f64, duration_s: f64) -> Vec<FaultWindow> {
+    let mut windows = Vec::new();
+    let mut t = first_s;
+    let mut loop_busy_used = false;
+    let between = |rng: &mut SimRng, (lo, hi): (f64, f64)| {
+        // Tenths of a second, so the windows print exactly as `--fault` arguments.
+        ((lo + (hi - lo) * rng.uniform()) * 10.0).round() / 10.0
+    };
+    loop {
+        let duration_s_w = between(rng, RANDOM_LENGTH_S);
+        if t + duration_s_w > duration_s - 5.0 {
+            break;
+        }
+        let mut kind = FaultKind::ALL[rng.below(FaultKind::ALL.len() as u64) as usize];
+        while kind == FaultKind::LoopBusy && loop_busy_used {
+            kind = FaultKind::ALL[rng.below(FaultKind::ALL.len() as u64) as usize];
+        }
+        loop_busy_used |= kind == FaultKind::LoopBusy;
+        let window = Window {
+            start_s: (t * 10.0).round() / 10.0,
+            duration_s: duration_s_w,
+        };
+        windows.push(FaultWindow { kind, window });
+        t = window.start_s + window.duration_s + between(rng, RANDOM_GAP_S);
+    }
+    windows
+}
+
+impl Faults {
+    /// Adds a fault in its window.
+    pub fn add_window(&mut self, w: FaultWindow) -> Result<(), FaultParseError> {
+        self.apply_arg(&w.kind.arg(w.window))
+    }
+}
+
 /// What an injector did to the frames it passed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct FaultStats {
@@ -449,6 +553,34 @@ mod tests {
         ] {
             assert!(Faults::default().apply_arg(bad).is_err(), "{bad}");
         }
+    }
+
+    #[test]
+    fn random_windows_are_separated_reproducible_and_parse() {
+        let a = random_windows(&mut SimRng::new(7), 3.0, 600.0);
+        let b = random_windows(&mut SimRng::new(7), 3.0, 600.0);
+        let c = random_windows(&mut SimRng::new(8), 3.0, 600.0);
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+        // 600 s with windows of 0.5..3 s and gaps of 5..7 s: about 70.
+        assert!((60..90).contains(&a.len()), "{}", a.len());
+        let mut faults = Faults::default();
+        for pair in a.windows(2) {
+            let end = pair[0].window.start_s + pair[0].window.duration_s;
+            let gap = pair[1].window.start_s - end;
+            assert!(gap >= RANDOM_GAP_S.0 - 0.11, "{pair:?}");
+        }
+        for w in &a {
+            assert!(w.window.start_s >= 3.0);
+            assert!(w.window.start_s + w.window.duration_s <= 595.0);
+            faults.add_window(*w).unwrap();
+        }
+        let busy = a.iter().filter(|w| w.kind == FaultKind::LoopBusy).count();
+        assert!(busy <= 1);
+        for kind in FaultKind::ALL.iter().filter(|k| **k != FaultKind::LoopBusy) {
+            assert!(a.iter().any(|w| w.kind == *kind), "{kind:?} never drawn");
+        }
+        assert!(random_windows(&mut SimRng::new(1), 3.0, 5.0).is_empty());
     }
 
     #[test]

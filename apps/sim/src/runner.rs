@@ -27,7 +27,7 @@ use crate::devices::{
     lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardSetup, BoardStats,
     GroundProtocol, GroundStats, LinkPort, MaestroStats,
 };
-use crate::faults::{Faults, LoopBusy};
+use crate::faults::{FaultWindow, Faults, LoopBusy};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
 use crate::pty::{LinePace, SimPty};
@@ -49,6 +49,8 @@ pub struct AppStatus {
     pub crc_errors: AtomicU64,
     /// Cycles without a valid packet.
     pub packets_missing: AtomicU64,
+    /// Revives seen: changes from KILLED or FAILSAFE to MANUAL.
+    pub revives: AtomicU64,
 }
 
 impl AppStatus {
@@ -141,6 +143,12 @@ pub struct SimOptions {
     /// Overrides `[xbee] require_auth` (`None`: the configuration's, true by default). A v1
     /// ground station (a v1 GUI on the ground pty, raw v1 frames) needs `Some(false)`.
     pub require_auth: Option<bool>,
+    /// The random fault windows of a soak (already in `faults`), to report.
+    pub random_faults: Vec<FaultWindow>,
+    /// Keep counts only, not every packet's fingerprint or the model's track: memory stays
+    /// flat however long the run (a soak); the check of logged packets against the board's
+    /// intact ones is skipped.
+    pub bounded_evidence: bool,
 }
 
 impl SimOptions {
@@ -163,6 +171,8 @@ impl SimOptions {
             realtime: false,
             key_file: None,
             require_auth: None,
+            random_faults: Vec::new(),
+            bounded_evidence: false,
         }
     }
 
@@ -261,6 +271,12 @@ pub struct SimReport {
     pub ran_s: f64,
     /// Stopped early by a signal.
     pub interrupted: bool,
+    /// Revives the application reported (KILLED or FAILSAFE to MANUAL).
+    pub revives: u64,
+    /// The run kept counts only ([`SimOptions::bounded_evidence`]: a soak).
+    pub evidence_bounded: bool,
+    /// The random fault windows of a soak.
+    pub random_faults: usize,
 }
 
 impl SimReport {
@@ -290,6 +306,12 @@ impl SimReport {
             d.ground_frames,
             d.displays,
         );
+        if self.evidence_bounded {
+            s.push_str(&format!(
+                "soak: {} fault windows, {} failsafe(s), {} revive(s), {} cycles, {} log records dropped\n",
+                self.random_faults, c.failsafes, self.revives, c.cycles, c.log_dropped
+            ));
+        }
         if let Some(o) = d.final_outputs_us {
             s.push_str(&format!(
                 "final outputs at the Maestro: {}/{}/{} µs{}\n",
@@ -334,6 +356,7 @@ fn describe(check: &crate::scenario::Check) -> String {
         SafeThroughout { from_s, to_s } => format!("safe outputs {from_s}-{to_s} s"),
         SafeHeld { from_s, to_s } => format!("safe outputs held {from_s}-{to_s} s"),
         NeverSafe { from_s, to_s } => format!("no failsafe {from_s}-{to_s} s"),
+        Drives { from_s, to_s } => format!("drives {from_s}-{to_s} s"),
         Tracks {
             speed_m_s,
             heading_deg,
@@ -391,9 +414,15 @@ where
     let key = link_key(o, &mut config)?;
     let outputs = OutputMap::new(&config.channels);
     let channels = outputs.channel_numbers();
-    let board_stats = Arc::new(BoardStats::default());
+    let board_stats = Arc::new(BoardStats {
+        counts_only: o.bounded_evidence,
+        ..BoardStats::default()
+    });
     let maestro_stats = Arc::new(MaestroStats::default());
-    let ground_stats = Arc::new(GroundStats::default());
+    let ground_stats = Arc::new(GroundStats {
+        counts_only: o.bounded_evidence,
+        ..GroundStats::default()
+    });
     let mut threads = Vec::new();
     threads.push(spawn_board(
         world.clone(),
@@ -557,7 +586,7 @@ where
         None => None,
     };
     let (mut false_accepts, mut logged_intact) = (0, 0);
-    if let Some(l) = &log {
+    if let Some(l) = log.as_ref().filter(|_| !o.bounded_evidence) {
         let intact = lock(&board_stats.intact);
         for fp in &l.raw_packets {
             if intact.contains(fp) {
@@ -621,6 +650,9 @@ where
         evidence,
         ran_s,
         interrupted,
+        revives: app_status.revives.load(Ordering::Relaxed),
+        evidence_bounded: o.bounded_evidence,
+        random_faults: o.random_faults.len(),
     })
 }
 

@@ -6,12 +6,23 @@ use dima_core::{FailsafeCause, Mode};
 use dima_groundlink::{Command, Percent};
 
 use crate::devices::{GroundAction, OutputChange, ScriptStep};
+use crate::faults::FaultWindow;
 use crate::logcheck::LogSummary;
 use crate::model::VehicleState;
 
 /// How long outputs must hold the expected values for [`Check::OutputsReach`], s: a value seen
 /// for one cycle on the way to another is not reached.
 pub const OUTPUTS_HOLD_S: f64 = 0.2;
+
+/// The soak's revive, s after the end of a fault window: the links are back and the sensor
+/// link has delivered the good packets a revive needs.
+pub const SOAK_REVIVE_AFTER_S: f64 = 2.0;
+
+/// How often the soak's operator revives while no fault is on, s.
+pub const SOAK_REVIVE_EVERY_S: f64 = 1.0;
+
+/// Length of `--scenario soak` without `--duration`, s.
+pub const SOAK_DEFAULT_S: f64 = 60.0;
 
 /// Manual mapping of percentages to µs (DESIGN 2.4): throttle 1000 + 10 d, steering
 /// 1250 + 590 d / 100, tail 1000 + 10 d, rounded to the nearest µs.
@@ -83,6 +94,15 @@ pub enum Check {
         after_s: f64,
         /// Comms timeout, s.
         timeout_s: f64,
+    },
+    /// The Maestro shows outputs other than the safe ones, unbroken for at least
+    /// [`OUTPUTS_HOLD_S`], starting in `from_s..to_s`: the car drives (after a fault, it
+    /// recovered).
+    Drives {
+        /// Window start, s.
+        from_s: f64,
+        /// Window end, s.
+        to_s: f64,
     },
     /// The log's mode changes contain these modes in this order.
     ModesInOrder(Vec<Mode>),
@@ -266,6 +286,72 @@ impl Scenario {
         }
     }
 
+    /// Runs until `duration_s`, driving (alternately MANUAL and AUTO between fault windows)
+    /// around every fault window (from `--random-faults`, or none). The operator watches the
+    /// car: outside the fault windows, from [`SOAK_REVIVE_AFTER_S`] after each one, it sends a
+    /// revive every [`SOAK_REVIVE_EVERY_S`] and drives again after it (a revive while driving
+    /// changes nothing), so every failsafe is revived, whether a fault or the machine caused
+    /// it. Checks: safe until the first revive; after every window the car drives again (not
+    /// safe for at least [`OUTPUTS_HOLD_S`] before the next window); safe after the final
+    /// kill.
+    pub fn soak(duration_s: f64, windows: &[FaultWindow]) -> Scenario {
+        let tenths = |t: f64| (t * 10.0).round() / 10.0;
+        let mut script = Vec::new();
+        let mut checks = vec![Check::SafeThroughout {
+            from_s: 0.0,
+            to_s: 0.9,
+        }];
+        let mut phases = vec![(0.0, "KILLED (start-up)"), (1.0, "revive, driving")];
+        let kill_s = tenths(duration_s - 1.0);
+        // Driving stretches: from the start and after every window, each until the next window
+        // (or the kill).
+        let mut stretches = vec![(1.0, false)];
+        for (i, w) in windows.iter().enumerate() {
+            let end = w.window.start_s + w.window.duration_s;
+            phases.push((w.window.start_s, "fault"));
+            phases.push((end, "recovering"));
+            phases.push((tenths(end + SOAK_REVIVE_AFTER_S), "revive, driving"));
+            stretches.push((tenths(end + SOAK_REVIVE_AFTER_S), i % 2 == 0));
+        }
+        let next_starts = windows.iter().map(|w| w.window.start_s).chain([kill_s]);
+        for ((from_s, auto), to_s) in stretches.into_iter().zip(next_starts) {
+            let mut t = from_s;
+            while t + 0.3 < to_s {
+                script.push(send(t, Command::Revive));
+                let at_s = tenths(t + 0.3);
+                if auto {
+                    script.push(send(at_s, Command::SpeedSetpoint { mm_s: 2_000 }));
+                    script.push(send(at_s, Command::HeadingSetpoint { deg_e5: 9_000_000 }));
+                } else {
+                    script.push(send(at_s, Command::Throttle(pct(60))));
+                    script.push(send(at_s, Command::Steering(pct(55))));
+                    script.push(send(at_s, Command::Tail(pct(50))));
+                }
+                t = tenths(t + SOAK_REVIVE_EVERY_S);
+            }
+            if from_s + 0.3 < to_s {
+                checks.push(Check::Drives { from_s, to_s });
+            }
+        }
+        script.push(send(kill_s, Command::Kill));
+        phases.push((kill_s, "kill"));
+        checks.push(Check::SafeHeld {
+            from_s: kill_s,
+            to_s: tenths(duration_s - 0.1),
+        });
+        script.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+        phases.sort_by(|a, b| a.0.total_cmp(&b.0));
+        Scenario {
+            name: "soak",
+            duration_s,
+            start_heading_deg: 0.0,
+            heartbeat: Command::Heartbeat.encode(),
+            script,
+            phases,
+            checks,
+        }
+    }
+
     /// An empty scenario of `duration_s` (build the script and checks yourself).
     pub fn custom(name: &'static str, duration_s: f64) -> Scenario {
         Scenario {
@@ -279,11 +365,13 @@ impl Scenario {
         }
     }
 
-    /// A scenario by name: `default` or `manual`.
+    /// A scenario by name: `default`, `manual` or `soak` (without fault windows: see
+    /// [`Scenario::soak`]).
     pub fn by_name(name: &str, duration_s: Option<f64>) -> Option<Scenario> {
         match name {
             "default" | "tour" => Some(Scenario::default_tour()),
             "manual" => Some(Scenario::manual_drive(duration_s.unwrap_or(10.0))),
+            "soak" => Some(Scenario::soak(duration_s.unwrap_or(SOAK_DEFAULT_S), &[])),
             _ => None,
         }
     }
@@ -361,6 +449,31 @@ impl Evidence {
         best
     }
 
+    /// The longest stretch of outputs other than the safe ones, starting in `from_s..to_s`
+    /// and lasting until the next safe outputs (or the run's end), s.
+    fn longest_unsafe(&self, from_s: f64, to_s: f64) -> f64 {
+        let safe = |c: &OutputChange| c.targets_qus.map(|q| q / 4) == self.safe_us;
+        let mut best: f64 = 0.0;
+        let mut since: Option<f64> = self
+            .outputs_at(from_s)
+            .filter(|o| *o != self.safe_us)
+            .map(|_| from_s);
+        for c in self.outputs.iter().filter(|c| c.t_s > from_s) {
+            match (since, safe(c)) {
+                (Some(t0), true) => {
+                    best = best.max(c.t_s - t0);
+                    since = None;
+                }
+                (None, false) if c.t_s < to_s => since = Some(c.t_s),
+                _ => {}
+            }
+        }
+        if let Some(t0) = since {
+            best = best.max(self.ran_s - t0);
+        }
+        best
+    }
+
     /// Modes the log shows in `from_s..=to_s` that are not safe ones (none without a log).
     fn unsafe_modes_in(&self, from_s: f64, to_s: f64) -> Vec<Mode> {
         let Some(log) = &self.log else {
@@ -385,6 +498,7 @@ fn check_end(check: &Check) -> f64 {
         | Check::SafeThroughout { to_s, .. }
         | Check::SafeHeld { to_s, .. }
         | Check::NeverSafe { to_s, .. }
+        | Check::Drives { to_s, .. }
         | Check::Tracks { to_s, .. } => *to_s,
         Check::CommsFailsafe {
             after_s, timeout_s, ..
@@ -458,6 +572,19 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
                 ))
             } else {
                 Ok(())
+            }
+        }
+        Check::Drives { from_s, to_s } => {
+            let held = e.longest_unsafe(*from_s, *to_s);
+            let needed = OUTPUTS_HOLD_S.min(to_s - from_s);
+            if held >= needed {
+                Ok(())
+            } else {
+                Err(format!(
+                    "no driving between {from_s} s and {to_s} s (outputs other than safe for \
+                     {held:.3} s at most, {needed} s needed); saw {:?}",
+                    e.outputs_in(*from_s, *to_s)
+                ))
             }
         }
         Check::Tracks {
@@ -747,6 +874,77 @@ mod tests {
             "wraps through north"
         );
         assert!(evaluate(&check(10.0), &e).unwrap().is_err());
+    }
+
+    #[test]
+    fn soak_revives_after_every_window() {
+        use crate::faults::{FaultKind, Window};
+        let w = |start_s, duration_s| FaultWindow {
+            kind: FaultKind::GroundSilence,
+            window: Window {
+                start_s,
+                duration_s,
+            },
+        };
+        let s = Scenario::soak(30.0, &[w(5.0, 2.0), w(15.0, 1.0)]);
+        let revives: Vec<f64> = s
+            .script
+            .iter()
+            .filter(|st| st.action == GroundAction::Send(Command::Revive))
+            .map(|st| st.at_s)
+            .collect();
+        // Every second outside the windows, from 2 s after each.
+        assert_eq!(
+            revives,
+            vec![
+                1.0, 2.0, 3.0, 4.0, 9.0, 10.0, 11.0, 12.0, 13.0, 14.0, 18.0, 19.0, 20.0, 21.0,
+                22.0, 23.0, 24.0, 25.0, 26.0, 27.0, 28.0
+            ]
+        );
+        // No command inside a window (a revive there would test nothing).
+        assert!(!s
+            .script
+            .iter()
+            .any(|st| (5.0..7.0).contains(&st.at_s) || (15.0..16.0).contains(&st.at_s)));
+        // The second stretch drives in AUTO, the others in MANUAL.
+        let auto: Vec<f64> = s
+            .script
+            .iter()
+            .filter(|st| matches!(st.action, GroundAction::Send(Command::SpeedSetpoint { .. })))
+            .map(|st| st.at_s)
+            .collect();
+        assert_eq!(auto, vec![9.3, 10.3, 11.3, 12.3, 13.3, 14.3]);
+        let drives: Vec<(f64, f64)> = s
+            .checks
+            .iter()
+            .filter_map(|c| match c {
+                Check::Drives { from_s, to_s } => Some((*from_s, *to_s)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(drives, vec![(1.0, 5.0), (9.0, 15.0), (18.0, 29.0)]);
+        assert_eq!(
+            s.script.last().map(|st| st.action),
+            Some(GroundAction::Send(Command::Kill))
+        );
+        assert!(s.script.windows(2).all(|p| p[0].at_s <= p[1].at_s));
+        assert!(Scenario::by_name("soak", Some(12.0)).is_some_and(|s| s.duration_s == 12.0));
+    }
+
+    #[test]
+    fn drives_needs_a_stretch_of_outputs_other_than_safe() {
+        let e = evidence(vec![
+            change(0.1, SAFE_US),
+            change(1.0, [1600, 1545, 1500]),
+            change(1.1, SAFE_US),
+            change(2.0, [1600, 1545, 1500]),
+            change(2.1, [1650, 1545, 1500]),
+            change(2.3, SAFE_US),
+        ]);
+        let drives = |from_s, to_s| evaluate(&Check::Drives { from_s, to_s }, &e).unwrap();
+        assert!(drives(0.5, 1.5).is_err(), "0.1 s is not driving");
+        assert!(drives(1.5, 2.5).is_ok(), "0.3 s across two values is");
+        assert!(drives(2.5, 3.0).is_err());
     }
 
     #[test]

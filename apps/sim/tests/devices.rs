@@ -58,7 +58,7 @@ fn world() -> Arc<World> {
 }
 
 #[test]
-fn board_answers_each_rising_edge_with_a_packet_and_the_first_with_an_info_frame() {
+fn board_answers_each_rising_edge_with_a_packet_and_an_info_piece() {
     let d = dir("board");
     let link = d.join("sensor");
     let line = RequestLine::new();
@@ -85,7 +85,8 @@ fn board_answers_each_rising_edge_with_a_packet_and_the_first_with_an_info_frame
     assert!(read_for(&mut app, 1, Duration::from_millis(100)).is_empty());
     let mut decoder = StreamDecoder::new();
     let mut frames = Vec::new();
-    for _ in 0..3 {
+    // Nine answers carry the nine info pieces of the first snapshot.
+    for _ in 0..9 {
         let requested = Instant::now();
         pin.set_high().unwrap();
         let bytes = read_for(&mut app, 132, Duration::from_secs(2));
@@ -114,13 +115,14 @@ fn board_answers_each_rising_edge_with_a_packet_and_the_first_with_an_info_frame
         .iter()
         .filter(|f| matches!(f, Frame::Info(_)))
         .count();
-    assert_eq!((packets, infos), (3, 1), "{frames:?}");
+    assert_eq!((packets, infos), (9, 1), "{frames:?}");
     assert!(
-        matches!(frames[1], Frame::Info(_)),
-        "info right after the first packet"
+        matches!(frames[9], Frame::Info(_)),
+        "the record right after the ninth packet"
     );
-    assert_eq!(stats.requests.load(Ordering::Relaxed), 3);
-    assert_eq!(stats.packets_intact.load(Ordering::Relaxed), 3);
+    assert_eq!(decoder.stats().info_pieces, 9);
+    assert_eq!(stats.requests.load(Ordering::Relaxed), 9);
+    assert_eq!(stats.packets_intact.load(Ordering::Relaxed), 9);
     std::fs::remove_dir_all(&d).unwrap();
 }
 

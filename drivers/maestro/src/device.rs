@@ -288,8 +288,10 @@ impl<I: ReadInterface, M: Model> Maestro<I, M> {
         Ok(())
     }
 
+    /// Discards up to [`MAX_STALE_BYTES`]; it takes one read more to see that the port is
+    /// empty after the last of them, so only a byte beyond the limit fails the query.
     fn discard_pending(&mut self) -> Result<(), Error<I::Error>> {
-        for _ in 0..MAX_STALE_BYTES {
+        for _ in 0..=MAX_STALE_BYTES {
             match self.iface.read_byte() {
                 Ok(_) => self.stale_bytes = self.stale_bytes.saturating_add(1),
                 Err(nb::Error::WouldBlock) => return Ok(()),

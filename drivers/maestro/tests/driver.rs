@@ -357,13 +357,27 @@ fn encode_multiple_targets_is_checked_and_sans_io() {
 }
 
 #[test]
+fn sixty_four_stale_bytes_are_discarded_and_the_query_goes_out() {
+    let (mut m, mut s) = micro(&[
+        Tx::read_many([0x55; 64]),
+        Tx::read_error(nb::Error::WouldBlock),
+        Tx::write_many([0xA1]),
+        Tx::read_many([0x00, 0x00]),
+    ]);
+    assert_eq!(m.get_errors(&mut PollBudget(10)), Ok(ErrorFlags::empty()));
+    assert_eq!(m.stale_bytes(), 64);
+    s.done();
+}
+
+#[test]
 fn endless_unasked_data_fails_the_query() {
-    let (mut m, mut s) = micro(&[Tx::read_many([0x55; 64])]);
+    // One byte more than the driver discards: the query is not sent.
+    let (mut m, mut s) = micro(&[Tx::read_many([0x55; 65])]);
     assert_eq!(
         m.get_errors(&mut PollBudget(10)),
         Err(Error::Device(pololu_maestro::DeviceError::UnexpectedData))
     );
-    assert_eq!(m.stale_bytes(), 64);
+    assert_eq!(m.stale_bytes(), 65);
     s.done();
 }
 

@@ -15,10 +15,11 @@
 //! | 52-55 | 4 | requests skipped because a transfer was still running (u32) |
 //! | 56-59 | 4 | sensor CRC ([`crate::crc`]) over bytes 0-55, u32 LE |
 //!
-//! **Trigger.** The board appends an info frame right after the packet (same answer, packet
-//! first) in answer to the first request after boot, and to any request that arrives 500 ms or
-//! more after the previous one (the host has just started or restarted). It never sends one
-//! unrequested.
+//! **Trigger.** Boards before info pieces appended an info frame right after the packet (same
+//! answer, packet first) in answer to the first request after boot, and to any request that
+//! arrives 500 ms or more after the previous one. At 250 Hz a version 2 frame behind a packet
+//! outlasts the period and costs the next request, so the current firmware sends it cut into
+//! info pieces instead ([`crate::InfoPiece`]). No board sends anything unrequested.
 //!
 //! **Version 2** (108 bytes, L = 100) is version 1 with the board's health after byte 55 (the
 //! CRC moves to bytes 104-107), every counter wrapping, ages saturating:

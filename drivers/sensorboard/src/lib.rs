@@ -20,8 +20,12 @@
 //! - The info frame ([`InfoFrame`], start token `$I`): firmware version, sensor status, BMP280
 //!   calibration and BMM150 trim registers, uptime and skipped requests; its layout and trigger
 //!   are documented on [`InfoFrame`].
+//! - Info pieces ([`InfoPiece`], start token `$H`, 21 bytes): the info frame cut into 12-byte
+//!   pieces so that one fits behind every packet in a 4 ms period; [`InfoPieceCycle`] decides
+//!   on the board which piece goes next, and the stream decoder puts the record back together.
 //! - A sans-IO [`StreamDecoder`]: any chunking, no allocation, bounded buffer, resynchronises
-//!   inside rejected bytes, counts what it drops ([`DecoderStats`]); yields [`Frame`]s.
+//!   inside rejected bytes, reassembles info pieces, counts what it drops ([`DecoderStats`]),
+//!   gives the same output for any split of the same bytes; yields [`Frame`]s.
 //! - A host driver [`SensorBoard`], generic over an embedded-hal [`OutputPin`] (request line)
 //!   and an embedded-hal-nb serial [`Read`] (works with linux-embedded-hal's `Serial` and
 //!   `CdevPin`): [`SensorBoard::request`], [`SensorBoard::end_request`],
@@ -70,6 +74,7 @@ mod driver;
 mod gnss;
 mod info;
 mod packet;
+mod piece;
 mod stream;
 pub mod units;
 
@@ -92,6 +97,11 @@ pub use packet::{
     ADC20_MAX, CRC_OFFSET, GNSS_OFFSET, GYRO_OFFSET, MAG_OFFSET, MAG_XY_RANGE, MAG_Z_RANGE,
     PACKET_CRC_COVERED, PACKET_LEN, PACKET_START, PRESSURE_OFFSET, RHALL_MAX, RHALL_OFFSET,
     TEMPERATURE_OFFSET,
+};
+pub use piece::{
+    InfoPiece, InfoPieceCycle, InfoPieceError, InfoPieceSet, INFO_GAP_MS, INFO_PIECE_LEN,
+    INFO_PIECE_MAX_COUNT, INFO_PIECE_PAYLOAD_LEN, INFO_PIECE_START, INFO_SNAPSHOT_MS,
+    INFO_V2_PIECES,
 };
 pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};
 

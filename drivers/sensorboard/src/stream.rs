@@ -1,14 +1,21 @@
-//! Finding packets and info frames in a byte stream (sans-IO).
+//! Finding packets, info frames and info pieces in a byte stream (sans-IO).
 //!
-//! The decoder keeps at most one frame's worth of bytes ([`StreamDecoder::CAPACITY`]) and no
-//! other state than its counters. A candidate starts at a `$` followed by `$` (packet) or `I`
-//! (info frame). When a candidate fails its CRC or header check, only its first byte is
-//! dropped and the search restarts at the next `$` **inside** the rejected bytes, so a good
-//! frame right behind a torn one is still found.
+//! The decoder keeps at most one frame's worth of bytes ([`StreamDecoder::CAPACITY`]), the
+//! record being reassembled from info pieces, and its counters. A candidate starts at a `$`
+//! followed by `$` (packet), `I` (info frame) or `H` (info piece). When a candidate fails its
+//! CRC or header check, only its first byte is dropped and the search restarts at the next `$`
+//! **inside** the rejected bytes, so a good frame right behind a torn one is still found.
+//!
+//! **Independent of chunking.** The decoder decides only at byte boundaries: after every byte
+//! it settles what that byte completes (the front candidate, or a valid frame that ends at
+//! this byte inside the front candidate's bytes) before it looks at the next byte. So the
+//! frames, their order and every counter are the same for any split of the same bytes into
+//! reads (and for [`StreamDecoder::push`] byte by byte). At most one frame completes per byte.
 
 use crate::crc::Stm32Crc;
-use crate::info::{info_frame_len, InfoFrame, INFO_MAX_LEN, INFO_START, INFO_V1_LEN};
+use crate::info::{info_frame_len, InfoFrame, INFO_MAX_LEN, INFO_START};
 use crate::packet::{RawPacket, PACKET_LEN, PACKET_START};
+use crate::piece::{InfoPiece, Reassembler, INFO_PIECE_LEN, INFO_PIECE_START};
 
 /// One complete, CRC-checked frame from the sensor board.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -16,7 +23,8 @@ use crate::packet::{RawPacket, PACKET_LEN, PACKET_START};
 pub enum Frame {
     /// A 132-byte sensor packet.
     Packet(RawPacket),
-    /// An info frame (calibration and health).
+    /// An info record (calibration and health): a whole `$I` frame, or one reassembled from
+    /// its `$H` pieces.
     Info(InfoFrame),
 }
 
@@ -26,16 +34,18 @@ pub enum Frame {
 pub struct DecoderStats {
     /// Packets that passed the CRC.
     pub packets: u64,
-    /// Info frames that passed the header check and the CRC.
+    /// Info records handed out: whole info frames that passed the header check and the CRC,
+    /// and records reassembled from info pieces.
     pub info_frames: u64,
-    /// Candidates (packet or info frame) whose CRC did not match.
-    ///
-    /// A false start in noise is counted when its announced end arrives before a real frame
-    /// behind it settles it, so this count can depend on how the bytes were chunked; the frames
-    /// found and the packet and info-frame counts do not.
+    /// Candidates (packet, info frame or info piece) whose CRC did not match.
     pub crc_errors: u64,
     /// Bytes dropped because they were not part of a valid frame.
     pub bytes_skipped: u64,
+    /// Info pieces that passed the header check and the CRC.
+    pub info_pieces: u64,
+    /// Info records lost because a piece was missing or bad, came from another snapshot, or
+    /// the reassembled bytes were not a valid info frame.
+    pub info_records_dropped: u64,
 }
 
 /// The largest of the two frames: the buffer never holds more.
@@ -47,19 +57,27 @@ const BUFFER_LEN: usize = if INFO_MAX_LEN > PACKET_LEN {
 
 const DOLLAR: u8 = b'$';
 
-/// The shortest frame: a version 1 info frame.
-const MIN_FRAME_LEN: usize = INFO_V1_LEN;
+/// The shortest frame: an info piece.
+const MIN_FRAME_LEN: usize = INFO_PIECE_LEN;
+
+/// A valid frame found in the buffer.
+enum Found {
+    /// A packet or a whole info frame.
+    Frame(Frame),
+    /// An info piece, for the reassembler.
+    Piece(InfoPiece),
+}
 
 /// What the bytes at the front of the buffer are.
 enum Step {
     /// The front is a valid frame of this many bytes.
-    Frame(Frame, usize),
+    Frame(Found, usize),
     /// Drop this many bytes from the front (counted as skipped).
     Reject(usize),
     /// The candidate at the front failed its CRC: drop its first byte.
     CrcError,
-    /// The candidate at the front needs this many more bytes.
-    NeedMore(usize),
+    /// The candidate at the front needs more bytes.
+    NeedMore,
 }
 
 /// Sans-IO decoder for the board's byte stream: push bytes in any chunking, get frames out.
@@ -90,6 +108,8 @@ pub struct StreamDecoder {
     len: usize,
     /// Candidates after the front that end at or before this length were already checked.
     nested_checked: usize,
+    /// The info record being put back together from its pieces.
+    pieces: Reassembler,
     stats: DecoderStats,
 }
 
@@ -110,11 +130,14 @@ impl StreamDecoder {
             buf: [0; BUFFER_LEN],
             len: 0,
             nested_checked: 0,
+            pieces: Reassembler::new(),
             stats: DecoderStats {
                 packets: 0,
                 info_frames: 0,
                 crc_errors: 0,
                 bytes_skipped: 0,
+                info_pieces: 0,
+                info_records_dropped: 0,
             },
         }
     }
@@ -142,60 +165,35 @@ impl StreamDecoder {
     /// `None` means every byte of `input` was consumed and no complete frame is buffered.
     pub fn feed(&mut self, input: &mut &[u8]) -> Option<Frame> {
         loop {
-            match self.examine() {
-                Step::Frame(frame, len) => return Some(self.take_frame(frame, len)),
-                Step::Reject(count) => self.skip(count),
-                Step::CrcError => {
-                    self.stats.crc_errors = self.stats.crc_errors.wrapping_add(1);
-                    self.skip(1);
-                }
-                Step::NeedMore(count) => {
-                    if let Some((start, frame, len)) = self.nested_frame() {
-                        self.skip(start);
-                        return Some(self.take_frame(frame, len));
-                    }
-                    if input.is_empty() {
-                        return None;
-                    }
-                    if self.len == 0 {
-                        // Nothing buffered: jump straight to the next start byte.
-                        let start = input
-                            .iter()
-                            .position(|&b| b == DOLLAR)
-                            .unwrap_or(input.len());
-                        self.count_skipped(start);
-                        *input = &input[start..];
-                        if input.is_empty() {
-                            return None;
-                        }
-                    }
-                    let take = count.min(input.len()).min(BUFFER_LEN - self.len);
-                    if take == 0 {
-                        // Cannot happen (a candidate never needs more than the buffer holds),
-                        // but progress must not depend on that: drop the front byte.
-                        self.skip(1);
-                        continue;
-                    }
-                    let (head, rest) = input.split_at(take);
-                    self.buf[self.len..self.len + take].copy_from_slice(head);
-                    self.len += take;
-                    *input = rest;
-                }
+            if let Some(frame) = self.settle() {
+                return Some(frame);
             }
+            if self.len == 0 {
+                // Nothing buffered: jump straight to the next start byte (the bytes before it
+                // would each be skipped on their own).
+                let start = input
+                    .iter()
+                    .position(|&b| b == DOLLAR)
+                    .unwrap_or(input.len());
+                self.count_skipped(start);
+                *input = &input[start..];
+            }
+            // One byte at a time: what a byte completes is settled before the next is looked
+            // at, so the outcome cannot depend on how the input was split.
+            let (&byte, rest) = input.split_first()?;
+            *input = rest;
+            self.append_one(byte);
         }
     }
 
     /// Feeds one byte; returns a frame if one completed.
     ///
-    /// The byte is always consumed. Rarely (after a rejected candidate) more than one frame can
-    /// become complete at once; the next call, or [`StreamDecoder::next_buffered`], returns it.
+    /// The byte is always consumed. Equivalent to [`StreamDecoder::feed`] with a one-byte
+    /// input.
     pub fn push(&mut self, byte: u8) -> Option<Frame> {
-        // A complete frame can only be waiting if at least the shortest frame is buffered.
-        if self.len < MIN_FRAME_LEN {
-            return self.feed(&mut core::slice::from_ref(&byte));
-        }
-        if let Some(frame) = self.next_buffered() {
-            // Keep the byte: the buffer has room, since a frame was just taken out of it.
+        // A frame is only ever complete right after the byte that ends it, and at most one per
+        // byte, so nothing is waiting here; should one be, it goes first and the byte is kept.
+        if let Some(frame) = self.settle() {
             self.append_one(byte);
             return Some(frame);
         }
@@ -204,7 +202,7 @@ impl StreamDecoder {
 
     /// Returns a frame that is already complete in the buffer, without new input.
     pub fn next_buffered(&mut self) -> Option<Frame> {
-        self.feed(&mut &[][..])
+        self.settle()
     }
 
     /// Iterates over the frames in `data`, consuming it as the iteration goes. Bytes after the
@@ -217,8 +215,38 @@ impl StreamDecoder {
         }
     }
 
+    /// Settles the buffered bytes: rejects what cannot be a frame, takes out complete frames,
+    /// and returns the first packet or info record that results.
+    fn settle(&mut self) -> Option<Frame> {
+        loop {
+            match self.examine() {
+                Step::Frame(found, len) => {
+                    self.drain(len);
+                    if let Some(frame) = self.take_found(found) {
+                        return Some(frame);
+                    }
+                }
+                Step::Reject(count) => self.skip(count),
+                Step::CrcError => {
+                    self.stats.crc_errors = self.stats.crc_errors.wrapping_add(1);
+                    self.skip(1);
+                }
+                Step::NeedMore => {
+                    let (start, found, len) = self.nested_frame()?;
+                    self.skip(start);
+                    self.drain(len);
+                    if let Some(frame) = self.take_found(found) {
+                        return Some(frame);
+                    }
+                }
+            }
+        }
+    }
+
     fn append_one(&mut self, byte: u8) {
         if self.len == BUFFER_LEN {
+            // Cannot happen (a candidate never needs more than the buffer holds), but progress
+            // must not depend on that: drop the front byte.
             self.skip(1);
         }
         if let Some(slot) = self.buf.get_mut(self.len) {
@@ -227,13 +255,26 @@ impl StreamDecoder {
         }
     }
 
-    fn take_frame(&mut self, frame: Frame, len: usize) -> Frame {
-        self.drain(len);
+    /// Counts a frame taken out of the buffer; a piece goes to the reassembler and yields a
+    /// frame only when it completes a record.
+    fn take_found(&mut self, found: Found) -> Option<Frame> {
+        let frame = match found {
+            Found::Frame(frame) => frame,
+            Found::Piece(piece) => {
+                self.stats.info_pieces = self.stats.info_pieces.wrapping_add(1);
+                let outcome = self.pieces.push(&piece, &mut Stm32Crc);
+                self.stats.info_records_dropped = self
+                    .stats
+                    .info_records_dropped
+                    .wrapping_add(u64::from(outcome.dropped));
+                Frame::Info(outcome.record?)
+            }
+        };
         match frame {
             Frame::Packet(_) => self.stats.packets = self.stats.packets.wrapping_add(1),
             Frame::Info(_) => self.stats.info_frames = self.stats.info_frames.wrapping_add(1),
         }
-        frame
+        Some(frame)
     }
 
     /// While the candidate at the front is still incomplete, looks for a complete, valid frame
@@ -248,7 +289,7 @@ impl StreamDecoder {
     /// call are checked (a CRC at most once per candidate), however many false starts the
     /// buffer holds. Of the frames found, the one that starts first wins; the candidates after
     /// it are looked at again once it is taken out.
-    fn nested_frame(&mut self) -> Option<(usize, Frame, usize)> {
+    fn nested_frame(&mut self) -> Option<(usize, Found, usize)> {
         let (checked, len) = (self.nested_checked, self.len);
         if checked >= len {
             return None;
@@ -277,6 +318,7 @@ impl StreamDecoder {
         match self.buf.get(start..start + 2)? {
             [DOLLAR, second] if *second == PACKET_START[1] => Some(start + PACKET_LEN),
             [DOLLAR, second] if *second == INFO_START[1] => self.info_end(start),
+            [DOLLAR, second] if *second == INFO_PIECE_START[1] => Some(start + INFO_PIECE_LEN),
             _ => None,
         }
     }
@@ -296,11 +338,11 @@ impl StreamDecoder {
     fn examine(&self) -> Step {
         let buf = &self.buf[..self.len];
         match buf {
-            [] => Step::NeedMore(1),
+            [] => Step::NeedMore,
             [first, rest @ ..] if *first != DOLLAR => {
                 Step::Reject(1 + rest.iter().position(|&b| b == DOLLAR).unwrap_or(rest.len()))
             }
-            [_] => Step::NeedMore(1),
+            [_] => Step::NeedMore,
             _ => Self::examine_candidate(buf),
         }
     }
@@ -310,18 +352,19 @@ impl StreamDecoder {
         match buf {
             [_, second, ..] if *second == PACKET_START[1] => Self::examine_packet(buf),
             [_, second, ..] if *second == INFO_START[1] => Self::examine_info(buf),
+            [_, second, ..] if *second == INFO_PIECE_START[1] => Self::examine_piece(buf),
             _ => Step::Reject(1),
         }
     }
 
     fn examine_packet(buf: &[u8]) -> Step {
         let Some(candidate) = buf.get(..PACKET_LEN) else {
-            return Step::NeedMore(PACKET_LEN - buf.len());
+            return Step::NeedMore;
         };
         let mut bytes = [0u8; PACKET_LEN];
         bytes.copy_from_slice(candidate);
         match RawPacket::new_with(bytes, &mut Stm32Crc) {
-            Ok(raw) => Step::Frame(Frame::Packet(raw), PACKET_LEN),
+            Ok(raw) => Step::Frame(Found::Frame(Frame::Packet(raw)), PACKET_LEN),
             Err(_) => Step::CrcError,
         }
     }
@@ -329,17 +372,28 @@ impl StreamDecoder {
     fn examine_info(buf: &[u8]) -> Step {
         let header = match buf {
             [a, b, c, d, ..] => [*a, *b, *c, *d],
-            _ => return Step::NeedMore(4 - buf.len()),
+            _ => return Step::NeedMore,
         };
         let Ok(total) = info_frame_len(header) else {
             return Step::Reject(1);
         };
         if buf.len() < total {
-            return Step::NeedMore(total - buf.len());
+            return Step::NeedMore;
         }
         match InfoFrame::decode_with(buf, &mut Stm32Crc) {
-            Ok((info, len)) => Step::Frame(Frame::Info(info), len),
+            Ok((info, len)) => Step::Frame(Found::Frame(Frame::Info(info)), len),
             Err(_) => Step::CrcError,
+        }
+    }
+
+    fn examine_piece(buf: &[u8]) -> Step {
+        if buf.len() < INFO_PIECE_LEN {
+            return Step::NeedMore;
+        }
+        match InfoPiece::decode_with(buf, &mut Stm32Crc) {
+            Ok(piece) => Step::Frame(Found::Piece(piece), INFO_PIECE_LEN),
+            Err(crate::piece::InfoPieceError::Checksum { .. }) => Step::CrcError,
+            Err(_) => Step::Reject(1),
         }
     }
 

@@ -4,7 +4,8 @@
 mod common;
 
 use dima_sensorboard::{
-    DecoderStats, Frame, InfoFrame, RawPacket, SensorPacket, StreamDecoder, PACKET_LEN,
+    DecoderStats, Frame, InfoFrame, RawPacket, SensorPacket, Stm32Crc, StreamDecoder,
+    INFO_PIECE_LEN, PACKET_LEN,
 };
 use proptest::prelude::*;
 
@@ -57,7 +58,10 @@ fn assert_accounted(decoder: &StreamDecoder, fed: usize, frames: &[Frame]) {
     let stats = decoder.stats();
     assert_eq!(
         fed as u64,
-        in_frames as u64 + stats.bytes_skipped + decoder.buffered_len() as u64,
+        in_frames as u64
+            + stats.bytes_skipped
+            + stats.info_pieces * INFO_PIECE_LEN as u64
+            + decoder.buffered_len() as u64,
         "{stats:?}"
     );
 }
@@ -77,7 +81,8 @@ fn back_to_back_packets_in_one_chunk() {
             packets: 5,
             info_frames: 0,
             crc_errors: 0,
-            bytes_skipped: 0
+            bytes_skipped: 0,
+            ..DecoderStats::default()
         }
     );
 }
@@ -371,5 +376,94 @@ proptest! {
             [Frame::Packet(raw)] => prop_assert_eq!(raw.decode(), p),
             other => prop_assert!(false, "unexpected frames {:?}", other),
         }
+    }
+}
+
+// --- the output does not depend on how the bytes are split ---
+
+/// Pieces of one info record (snapshot 5), as the board sends them.
+fn piece_set() -> [[u8; INFO_PIECE_LEN]; 9] {
+    InfoFrame {
+        version: 2,
+        uptime_ms: 777,
+        ..InfoFrame::default()
+    }
+    .encode_v2_pieces_with(5, &mut Stm32Crc)
+}
+
+/// Anything the link can carry: valid frames, pieces, torn frames, false starts, noise.
+fn any_segment() -> impl Strategy<Value = Vec<u8>> {
+    prop_oneof![
+        3 => common::sensor_packet().prop_map(|p| p.encode().to_vec()),
+        1 => common::info_frame().prop_map(|i| i.encode().to_vec()),
+        1 => common::info_frame().prop_map(|i| i.encode_v2_with(&mut Stm32Crc).to_vec()),
+        3 => (0usize..9).prop_map(|i| piece_set()[i].to_vec()),
+        1 => Just(piece_set().concat()),
+        2 => (common::sensor_packet(), 1usize..PACKET_LEN)
+            .prop_map(|(p, cut)| p.encode()[..cut].to_vec()),
+        // A false info start whose announced length swallows what follows.
+        2 => (1u8..4, 52u8..=200).prop_map(|(v, l)| vec![b'$', b'I', v, l]),
+        2 => proptest::collection::vec(
+            prop_oneof![any::<u8>(), Just(b'$'), Just(b'I'), Just(b'H'), Just(b'$')],
+            0..24,
+        ),
+    ]
+}
+
+/// Decodes `stream` split at `cuts` (cycled); frames and counters.
+fn split_decode(stream: &[u8], cuts: &[usize]) -> (Vec<Frame>, DecoderStats, usize) {
+    let mut decoder = StreamDecoder::new();
+    let frames = decode_chunked(&mut decoder, stream, cuts);
+    (frames, decoder.stats(), decoder.buffered_len())
+}
+
+fn push_decode(stream: &[u8]) -> (Vec<Frame>, DecoderStats, usize) {
+    let mut decoder = StreamDecoder::new();
+    let frames = stream.iter().filter_map(|&b| decoder.push(b)).collect();
+    (frames, decoder.stats(), decoder.buffered_len())
+}
+
+#[test]
+fn a_packet_inside_a_false_info_window_comes_out_the_same_in_any_chunking() {
+    // `$I` announcing 196 bytes, noise, then a complete packet inside that window, then the
+    // rest of the window filled by a second packet: the same frames and counters whether the
+    // bytes come in one read, byte by byte, or split anywhere.
+    let mut stream = vec![b'$', b'I', 2, 188, 0x11, 0x22, b'$', 0x33];
+    stream.extend_from_slice(&packet(7));
+    stream.extend_from_slice(&packet(8));
+    stream.extend_from_slice(&piece_set().concat());
+    let one = split_decode(&stream, &[stream.len()]);
+    assert_eq!(packets_of(&one.0), vec![packet(7), packet(8)]);
+    assert_eq!(one.0.len(), 3, "two packets and the record");
+    assert_eq!(
+        one.1.crc_errors, 0,
+        "the false start is settled by the packet inside it"
+    );
+    assert_eq!(one.1.bytes_skipped, 8);
+    assert_eq!(push_decode(&stream), one);
+    for cut in 1..stream.len() {
+        assert_eq!(
+            split_decode(&stream, &[cut, stream.len()]),
+            one,
+            "cut at {cut}"
+        );
+        assert_eq!(split_decode(&stream, &[cut]), one, "chunks of {cut}");
+    }
+}
+
+proptest! {
+    #[test]
+    fn any_split_of_the_same_bytes_gives_the_same_output(
+        segments in proptest::collection::vec(any_segment(), 1..14),
+        cuts in proptest::collection::vec(1usize..250, 1..24),
+    ) {
+        let stream = segments.concat();
+        let one = split_decode(&stream, &[stream.len()]);
+        prop_assert_eq!(&split_decode(&stream, &cuts), &one);
+        prop_assert_eq!(&push_decode(&stream), &one);
+        let (_, stats, buffered) = one;
+        // Every valid frame or piece the stream holds was looked at: none is counted twice.
+        prop_assert!(stats.packets + stats.info_pieces <= segments.len() as u64 * 9);
+        prop_assert!(buffered < StreamDecoder::CAPACITY);
     }
 }

@@ -250,6 +250,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             info_frames: c.info_frames,
             crc_errors: c.packet_crc_errors,
             bytes_skipped: c.packet_bytes_skipped,
+            ..DecoderStats::default()
         };
         self.sensor.fail();
         self.pending_request_ns = None;

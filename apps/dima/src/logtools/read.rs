@@ -9,7 +9,10 @@ use anyhow::Context;
 use dima_core::config::Config;
 use dima_core::schema::{self, CycleMessage, SensorInfoMessage, StateMessage, SummaryRecord};
 use dima_sensorboard::PACKET_LEN;
-use enumset::EnumSet;
+
+/// The longest record read from a log, bytes (a decompressed record inside a chunk included).
+/// `dima` writes records of a few KB; a longer length field is damage, not data.
+pub const MAX_RECORD_LEN: usize = 64 << 20;
 
 /// A message with its log time (Unix-epoch ns).
 #[derive(Debug, Clone, PartialEq)]
@@ -56,33 +59,51 @@ impl LoggedRun {
     }
 
     /// Parses the bytes of an MCAP file written by `dima`.
+    ///
+    /// Any bytes give a result or an error: no record longer than [`MAX_RECORD_LEN`] is read,
+    /// so a damaged length field cannot size an allocation.
     pub fn from_bytes(bytes: &[u8]) -> anyhow::Result<LoggedRun> {
         let mut run = LoggedRun::default();
-        let options = mcap::read::Options::IgnoreEndMagic.into();
-        let stream =
-            mcap::MessageStream::new_with_options(bytes, options).context("not an MCAP file")?;
+        let mut reader = mcap::sans_io::MessageReader::new_with_options(
+            mcap::sans_io::LinearReaderOptions::default()
+                .with_skip_end_magic(true)
+                .with_record_length_limit(MAX_RECORD_LEN),
+        );
+        let mut rest = bytes;
         let mut messages = 0u64;
-        for message in stream {
-            let m = match message {
-                Ok(m) => m,
+        while let Some(event) = reader.next_event() {
+            match event {
+                Ok(mcap::sans_io::MessageReadEvent::ReadRequest(need)) => {
+                    let (now, later) = rest.split_at(need.min(rest.len()));
+                    reader.insert(now.len()).copy_from_slice(now);
+                    reader.notify_read(now.len());
+                    rest = later;
+                }
+                Ok(mcap::sans_io::MessageReadEvent::Message(m)) => {
+                    messages += 1;
+                    if let Err(e) = run.add_message(m.channel.topic.as_str(), m.log_time, &m.data) {
+                        run.warnings.push(format!(
+                            "{} message at {}: {e}",
+                            m.channel.topic, m.log_time
+                        ));
+                    }
+                }
                 Err(e) => {
                     run.warnings
                         .push(format!("read up to message {messages}, then: {e}"));
                     break;
                 }
-            };
-            messages += 1;
-            if let Err(e) = run.add_message(m.channel.topic.as_str(), m.log_time, &m.data) {
-                run.warnings.push(format!(
-                    "{} message at {}: {e}",
-                    m.channel.topic, m.log_time
-                ));
             }
         }
-        run.read_records(bytes, options);
+        run.read_records(bytes);
         if messages == 0 && run.config.is_none() {
+            let reason = run
+                .warnings
+                .first()
+                .map_or(String::new(), |w| format!(" ({w})"));
             anyhow::bail!(
-                "no complete message or metadata record: not a DIMA MCAP log, or cut before its first record"
+                "no complete message or metadata record{reason}: not a DIMA MCAP log, or cut \
+                 before its first record"
             );
         }
         Ok(run)
@@ -109,7 +130,10 @@ impl LoggedRun {
 
     /// Metadata and attachments, from the records themselves (a cut file has no summary
     /// section to index them).
-    fn read_records(&mut self, bytes: &[u8], options: EnumSet<mcap::read::Options>) {
+    /// `mcap::read::LinearReader` bounds every record by the length of `bytes` and yields
+    /// chunks whole, without decompressing them.
+    fn read_records(&mut self, bytes: &[u8]) {
+        let options = mcap::read::Options::IgnoreEndMagic.into();
         let Ok(reader) = mcap::read::LinearReader::new_with_options(bytes, options) else {
             return;
         };

@@ -9,7 +9,7 @@
 //! | 2 | length, 126 |
 //! | 3 | robot mode: 0 KILLED, 1 MANUAL, 2 AUTO, 3 FAILSAFE |
 //! | 4 | failsafe cause: 0 none, 1 comms loss, 2 sensor loss, 3 IMU stuck, 4 overruns, 5 GNSS stale (other values: a cause this decoder does not name) |
-//! | 5 | last revive refusal: 0 none, 1 sensor loss, 2 IMU stuck, 3 overruns, 4 realtime setup |
+//! | 5 | last revive refusal: 0 none, 1 sensor loss, 2 IMU stuck, 3 overruns, 4 realtime setup, 5 too soon after the last kill or revive |
 //! | 6-9 | session id, u32 |
 //! | 10-13 | downlink sequence number, u32 (starts at 1) |
 //! | 14-17 | acknowledgement: sequence number of the last accepted command, u32 (0: none yet) |
@@ -118,6 +118,8 @@ pub enum ReviveRefusal {
     Overrun,
     /// The realtime setup (priority, memory locking) failed and the configuration requires it.
     RealtimeSetup,
+    /// Too soon after the last kill or revive (the robot rate-limits revives).
+    TooSoon,
     /// A reason this version of the decoder has no name for (its nonzero wire code).
     Other(u8),
 }
@@ -131,6 +133,7 @@ impl ReviveRefusal {
             2 => ReviveRefusal::ImuStuck,
             3 => ReviveRefusal::Overrun,
             4 => ReviveRefusal::RealtimeSetup,
+            5 => ReviveRefusal::TooSoon,
             other => ReviveRefusal::Other(other),
         })
     }
@@ -143,6 +146,7 @@ impl ReviveRefusal {
             Some(ReviveRefusal::ImuStuck) => 2,
             Some(ReviveRefusal::Overrun) => 3,
             Some(ReviveRefusal::RealtimeSetup) => 4,
+            Some(ReviveRefusal::TooSoon) => 5,
             Some(ReviveRefusal::Other(code)) => code,
         }
     }

@@ -1,0 +1,82 @@
+//! `dima log` reads any bytes as a log: a clear error or a result, never a panic, an abort on
+//! allocation or a hang. The damaged files here are built by hand from the MCAP specification
+//! (records: opcode, u64 LE length, body) and RFC 8878 (a zstd frame with one raw block), so
+//! they do not depend on our own writer.
+
+use dima::logtools::read::LoggedRun;
+
+const MAGIC: &[u8] = b"\x89MCAP0\r\n";
+
+fn record(opcode: u8, body: &[u8]) -> Vec<u8> {
+    let mut bytes = vec![opcode];
+    bytes.extend((body.len() as u64).to_le_bytes());
+    bytes.extend(body);
+    bytes
+}
+
+/// Magic and a Header record with an empty profile and library.
+fn file_start() -> Vec<u8> {
+    let mut bytes = MAGIC.to_vec();
+    bytes.extend(record(0x01, &[0; 8]));
+    bytes
+}
+
+fn error_text(bytes: &[u8]) -> String {
+    match LoggedRun::from_bytes(bytes) {
+        Ok(run) => panic!("read as a log: {run:?}"),
+        Err(e) => format!("{e:#}"),
+    }
+}
+
+#[test]
+fn a_record_length_near_u64_max_is_an_error() {
+    let mut bytes = file_start();
+    // A Message record whose length field says almost 2^64 bytes follow.
+    bytes.push(0x05);
+    bytes.extend((u64::MAX - 4).to_le_bytes());
+    bytes.extend([0u8; 32]);
+    let text = error_text(&bytes);
+    assert!(text.contains("no complete message"), "{text}");
+    assert!(text.contains("exceeds limit"), "{text}");
+}
+
+#[test]
+fn a_huge_record_inside_a_compressed_chunk_is_an_error_not_an_allocation() {
+    // Inside the chunk: a Message record header announcing 2^60 bytes.
+    let inner = [0x05, 0, 0, 0, 0, 0, 0, 0, 0x10];
+    // zstd frame: magic, descriptor 0x20 (single segment, 1-byte content size), content size,
+    // one raw block (last block, type raw, size 9), the bytes.
+    let mut zstd = vec![
+        0x28,
+        0xB5,
+        0x2F,
+        0xFD,
+        0x20,
+        inner.len() as u8,
+        0x49,
+        0x00,
+        0x00,
+    ];
+    zstd.extend(inner);
+    let mut chunk = Vec::new();
+    chunk.extend(0u64.to_le_bytes()); // message start time
+    chunk.extend(0u64.to_le_bytes()); // message end time
+    chunk.extend(((1u64 << 60) + 9).to_le_bytes()); // uncompressed size
+    chunk.extend(0u32.to_le_bytes()); // uncompressed CRC (0: not checked)
+    chunk.extend(4u32.to_le_bytes());
+    chunk.extend(b"zstd");
+    chunk.extend((zstd.len() as u64).to_le_bytes());
+    chunk.extend(&zstd);
+    let mut bytes = file_start();
+    bytes.extend(record(0x06, &chunk));
+    let text = error_text(&bytes);
+    assert!(text.contains("no complete message"), "{text}");
+    assert!(text.contains("exceeds limit"), "{text}");
+}
+
+#[test]
+fn bytes_that_are_not_mcap_are_a_clear_error() {
+    let text = error_text(b"this is a text file, not a log\n");
+    assert!(text.contains("no complete message"), "{text}");
+    assert!(text.to_lowercase().contains("magic"), "{text}");
+}

@@ -1,0 +1,152 @@
+#!/usr/bin/env bash
+# Soak: the whole application against the simulation for M minutes with random faults, and its
+# memory watched from the outside.
+#
+#   scripts/soak.sh --minutes M [--seed N]
+#
+# Builds `dima` (release), runs `dima sim --scenario soak --random-faults` for M minutes (fault
+# windows drawn from the seed, the scripted ground station revives after each one), samples
+# the process's resident memory (VmRSS in /proc/PID/status) every SOAK_SAMPLE_S seconds
+# (default 10) and prints a summary. RSS "start" is the first sample after SOAK_WARMUP_S
+# seconds (default 30: the loop -> logger ring is allocated at start-up, but without
+# `--realtime` (mlockall) its pages are touched only during its first lap, log_ring_records /
+# loop rate = 4096 / 250 Hz = 16 s), "end" the last sample before the run's end (the read-back
+# of the log afterwards is not the robot's). Exit status 0 only when nothing crashed (exit
+# status and a log check), every expectation of the scenario held (after every fault window
+# the car drives again), and RSS grew by at most SOAK_MAX_GROWTH_KIB (1024).
+#
+# Environment: DIMA (a prebuilt binary: skips the build), OUT (keep the run's files there;
+# default a temporary directory, removed on success).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+usage() { echo "usage: $0 --minutes M [--seed N]" >&2; exit 2; }
+minutes=""
+seed=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --minutes) minutes="${2:-}"; shift 2 || usage ;;
+    --seed) seed="${2:-}"; shift 2 || usage ;;
+    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) usage ;;
+  esac
+done
+[[ "$minutes" =~ ^[0-9]+([.][0-9]+)?$ ]] || usage
+[[ "$seed" =~ ^[0-9]+$ ]] || usage
+sample_s="${SOAK_SAMPLE_S:-10}"
+warmup_s="${SOAK_WARMUP_S:-30}"
+max_growth_kib="${SOAK_MAX_GROWTH_KIB:-1024}"
+duration_s=$(awk -v m="$minutes" 'BEGIN { printf "%.0f", m * 60 }')
+[ "$duration_s" -ge $((warmup_s + 2 * sample_s)) ] \
+  || { echo "soak: at least $((warmup_s + 2 * sample_s)) s (warm-up and two samples)" >&2; exit 2; }
+
+if [ -z "${DIMA:-}" ]; then
+  echo "soak: building dima (release)"
+  cargo build --release --locked -q -p dima
+  DIMA=target/release/dima
+fi
+
+keep_out=1
+if [ -z "${OUT:-}" ]; then
+  OUT=$(mktemp -d)
+  keep_out=0
+fi
+mkdir -p "$OUT"
+stdout="$OUT/sim.out"
+stderr="$OUT/sim.err"
+samples="$OUT/rss.tsv"
+echo "soak: $minutes min, seed $seed, files in $OUT"
+
+"$DIMA" sim --scenario soak --random-faults --duration "$duration_s" --seed "$seed" --quiet \
+  --log-dir "$OUT/logs" >"$stdout" 2>"$stderr" &
+pid=$!
+t0=$SECONDS
+printf 't_s\trss_kib\n' >"$samples"
+while kill -0 "$pid" 2>/dev/null; do
+  t=$((SECONDS - t0))
+  # Only samples inside the run: after --duration the simulation reads its log back.
+  if [ "$t" -le $((duration_s - 2)) ]; then
+    rss=$(awk '/^VmRSS:/ { print $2 }' "/proc/$pid/status" 2>/dev/null || true)
+    [ -n "$rss" ] && printf '%s\t%s\n' "$t" "$rss" >>"$samples"
+  fi
+  # Sleep in short steps, so the end of the run is seen at once.
+  for _ in $(seq $((sample_s * 10))); do
+    kill -0 "$pid" 2>/dev/null || break
+    sleep 0.1
+  done
+done
+set +e
+wait "$pid"
+status=$?
+set -e
+
+# Crashes: the exit status (0 passed, 1 an expectation failed; anything else is an error or a
+# signal) and the log (a panic, or a log that cannot be read back).
+crashes=0
+crash_reasons=()
+if [ "$status" -ne 0 ] && [ "$status" -ne 1 ]; then
+  crashes=$((crashes + 1))
+  crash_reasons+=("exit status $status")
+fi
+if grep -q "panicked" "$stderr"; then
+  crashes=$((crashes + 1))
+  crash_reasons+=("a panic in the log: $(grep -m1 panicked "$stderr")")
+fi
+mcap_log=$(sed -n 's/^MCAP log: \(.*\) (open it in Foxglove Studio)$/\1/p' "$stdout" | tail -1)
+if [ -z "$mcap_log" ] || ! "$DIMA" log info "$mcap_log" >"$OUT/log-info.txt" 2>&1; then
+  crashes=$((crashes + 1))
+  crash_reasons+=("no readable MCAP log (${mcap_log:-none named})")
+fi
+
+soak_line=$(grep '^soak: ' "$stdout" | tail -1 || true)
+field() { sed -n "s/.* \([0-9][0-9]*\) $1.*/\1/p" <<<"$soak_line"; }
+windows=$(sed -n 's/^soak: \([0-9][0-9]*\) fault windows.*/\1/p' <<<"$soak_line")
+failsafes=$(field "failsafe(s)")
+revives=$(field "revive(s)")
+cycles=$(field "cycles")
+dropped=$(field "log records dropped")
+
+rss_start=$(awk -F'\t' -v w="$warmup_s" 'NR > 1 && $1 >= w { print $2; exit }' "$samples")
+rss_end=$(awk -F'\t' 'NR > 1 { v = $2 } END { print v }' "$samples")
+rss_max=$(awk -F'\t' 'NR > 1 && $2 > m { m = $2 } END { print m + 0 }' "$samples")
+n_samples=$(($(wc -l <"$samples") - 1))
+growth=""
+if [ -n "$rss_start" ] && [ -n "$rss_end" ]; then
+  growth=$((rss_end - rss_start))
+fi
+
+checks="held"
+[ "$status" -eq 0 ] || checks="FAILED: $(grep -m1 '^FAIL: ' "$stdout" || echo "exit status $status")"
+
+echo
+echo "=== soak summary"
+echo "minutes:            $minutes (seed $seed)"
+echo "cycles:             ${cycles:-?}"
+echo "fault windows:      ${windows:-?}"
+echo "failsafes:          ${failsafes:-?}"
+echo "revives:            ${revives:-?}"
+echo "log records dropped: ${dropped:-?}"
+echo "crashes:            $crashes${crash_reasons[*]:+ (${crash_reasons[*]})}"
+echo "checks:             $checks"
+echo "RSS start:          ${rss_start:-?} KiB (first sample after ${warmup_s} s)"
+echo "RSS end:            ${rss_end:-?} KiB"
+echo "RSS growth:         ${growth:-?} KiB (limit $max_growth_kib; max ${rss_max} KiB, $n_samples samples every ${sample_s} s in $samples)"
+
+failed=0
+[ "$crashes" -eq 0 ] || failed=1
+[ "$status" -eq 0 ] || failed=1
+if [ -z "$growth" ]; then
+  echo "soak: too few RSS samples" >&2
+  failed=1
+elif [ "$growth" -gt "$max_growth_kib" ]; then
+  echo "soak: RSS grew by $growth KiB (more than $max_growth_kib)" >&2
+  failed=1
+fi
+if [ "$failed" -eq 0 ]; then
+  echo "soak: PASS"
+  [ "$keep_out" -eq 1 ] || rm -rf "$OUT"
+else
+  echo "soak: FAIL (files kept in $OUT)"
+  tail -20 "$stderr" >&2
+fi
+exit "$failed"
