@@ -236,6 +236,7 @@ pub fn refusal_name(refusal: ReviveRefusal) -> String {
         ReviveRefusal::ImuStuck => "IMU stuck".into(),
         ReviveRefusal::Overrun => "loop overruns".into(),
         ReviveRefusal::RealtimeSetup => "realtime setup failed".into(),
+        ReviveRefusal::TooSoon => "too soon after a kill or revive".into(),
         ReviveRefusal::Other(code) => format!("refusal {code}"),
     }
 }
