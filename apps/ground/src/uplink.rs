@@ -127,6 +127,9 @@ struct Outstanding {
     status: CommandStatus,
     /// Its sequence numbers, oldest first (at most [`SEQS_KEPT`]).
     seqs: Vec<u32>,
+    /// A revive: the downlink sequence number of the display frame that first acknowledged
+    /// one of its frames while the robot still reported KILLED or FAILSAFE.
+    accepted_in: Option<u32>,
 }
 
 /// Counters since the station started (each saturates).
@@ -298,8 +301,15 @@ impl Uplink {
             let o = &mut self.outstanding[i];
             let exact = o.seqs.contains(&ack);
             let done = if o.status.command == Command::Revive {
-                if exact && !revived {
-                    o.status.accepted_but_refused = true;
+                if !revived {
+                    // The frame that acknowledges a revive may have been built before the
+                    // loop acted on it: only a later frame still in KILLED or FAILSAFE shows
+                    // a refusal.
+                    match o.accepted_in {
+                        Some(first) if frame.seq > first => o.status.accepted_but_refused = true,
+                        None if exact => o.accepted_in = Some(frame.seq),
+                        _ => {}
+                    }
                 }
                 revived && o.seqs.first().is_some_and(|&first| ack >= first)
             } else {
@@ -431,6 +441,7 @@ impl Uplink {
         self.outstanding.push(Outstanding {
             status,
             seqs: Vec::new(),
+            accepted_in: None,
         });
     }
 
@@ -688,21 +699,24 @@ mod tests {
         let mut u = connected(10, t0);
         let first = u.frames(&[at(Command::Revive, Origin::Request)], t0);
         assert_eq!(first[0].seq, 11);
-        // The robot accepted it but refused it (too soon after a kill): still KILLED.
+        // The robot accepted it, and a later frame still says KILLED: refused (e.g. too soon
+        // after a kill). The first such frame may predate the loop's decision.
         u.on_display(&display(SESSION, 2, 11, RobotMode::Killed), ms(t0, 50));
-        let status = u.pending().next().unwrap();
-        assert!(status.accepted_but_refused);
-        assert_eq!(status.delivery, Delivery::Pending);
+        assert!(!u.pending().next().unwrap().accepted_but_refused);
         let again = u.frames(&heartbeat(), ms(t0, 100));
         assert_eq!(commands(&again), vec![Command::Revive]);
         assert_eq!(again[0].seq, 12);
+        u.on_display(&display(SESSION, 3, 11, RobotMode::Killed), ms(t0, 110));
+        let status = u.pending().next().unwrap();
+        assert!(status.accepted_but_refused);
+        assert_eq!(status.delivery, Delivery::Pending);
         // An acknowledgement older than the revive proves nothing, even in MANUAL.
         let mut u2 = connected(10, t0);
         u2.frames(&[at(Command::Revive, Origin::Request)], t0);
         u2.on_display(&display(SESSION, 2, 10, RobotMode::Manual), ms(t0, 50));
         assert_eq!(u2.pending().count(), 1);
         // MANUAL after one of the revives: done.
-        u.on_display(&display(SESSION, 3, 12, RobotMode::Manual), ms(t0, 150));
+        u.on_display(&display(SESSION, 4, 12, RobotMode::Manual), ms(t0, 150));
         assert_eq!(u.pending().count(), 0);
         assert_eq!(
             u.last_command().unwrap().delivery,
