@@ -2,11 +2,13 @@
 //!
 //! Tasks, highest priority first:
 //! - `request` (EXTI15_10, PD10 rising edge) and `link_done` (DMA1 stream 3): answer a request
-//!   with the latest complete packet, plus an info frame when due; never tear a transfer.
+//!   with the latest complete packet, then one info piece while a snapshot is going out
+//!   (`dima_firmware_logic::TxLink`); never tear a transfer.
 //! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
 //! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
 //!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog when the
-//!   supervisor (`dima_firmware_logic::Supervisor`) finds the link alive.
+//!   supervisor (`dima_firmware_logic::Supervisor`) finds the link alive; every 250 ms, cut
+//!   a new info snapshot into pieces (CRCs from the CRC unit) for the link.
 //! - `gnss_setup` (software task, once at boot): configures the NEO-M8T through USART1 TX
 //!   (PB6) with `neo_m8t::Configurator`, polled every millisecond; its replies come from
 //!   `gnss_bytes` through a byte queue. Never blocks; ends configured, NAK'd or timed out.
@@ -41,14 +43,13 @@ mod app {
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
     use dima_firmware_logic::reset_record::BootFault;
     use dima_firmware_logic::{
-        blink as led_pattern, AfterTransfer, Answer, CheckedCrc, GnssSetupOutcome, LatestPacket,
-        LinkProgress, ReplyPort, ReplyTap, RequestHandler, SetupStatus, Supervisor,
-        SupervisorConfig,
+        blink as led_pattern, CheckedCrc, GnssSetupOutcome, LatestPacket, LinkProgress, ReplyPort,
+        ReplyTap, SetupStatus, Supervisor, SupervisorConfig,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::{
-        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN, INFO_V2_LEN,
-        INFO_VERSION, PACKET_LEN,
+        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN, INFO_PIECE_LEN,
+        INFO_SNAPSHOT_MS, INFO_VERSION, PACKET_LEN,
     };
     use embedded_hal_bus::spi::AtomicDevice;
     use embedded_hal_bus::util::AtomicCell;
@@ -115,9 +116,6 @@ mod app {
     /// (QEMU does not model the unit: there the check fails and the fallback runs.)
     type Crc = CheckedCrc<crate::hw_crc::HwCrc>;
 
-    /// Sampling ticks between two encodings of the info frame (its uptime is this fresh).
-    const INFO_REFRESH_TICKS: u32 = 10;
-
     /// The sensors, one SPI device per die.
     pub type Sensors = dima_firmware_logic::Sensors<SensorSpi, SensorSpi, SensorSpi, SensorSpi>;
 
@@ -129,10 +127,11 @@ mod app {
         builder: PacketBuilder,
         crc: Crc,
         sensors: Sensors,
-        /// Calibration, status and health for the info frame, refreshed every
-        /// [`INFO_REFRESH_TICKS`].
+        /// Calibration, status and health for the info frame, a snapshot every
+        /// `INFO_SNAPSHOT_MS` of the monotonic clock (its `uptime_ms`: when it was taken).
         info: InfoFrame,
-        ticks: u32,
+        /// Counter of the snapshots taken (info piece byte 2); 0 before the first.
+        snapshot: u8,
         /// Decides whether this tick feeds the watchdog; notices a silent receiver.
         supervisor: Supervisor,
         /// The supervisor's latest word on the receiver (info frame status bit 7).
@@ -169,13 +168,8 @@ mod app {
     struct Shared {
         /// Front half of the double buffer: the latest complete packet.
         latest: LatestPacket<PACKET_LEN>,
-        /// The latest encoded info frame (CRC from the CRC unit, outside the request task).
-        latest_info: LatestPacket<INFO_V2_LEN>,
-        /// Request state machine (only the two priority-3 link tasks use it).
-        #[lock_free]
-        handler: RequestHandler,
-        /// The transmitter (only the two priority-3 link tasks use it).
-        #[lock_free]
+        /// The transmitter: request state, buffers, info pieces (the sampling task publishes
+        /// a snapshot, encoded outside the lock, every 250 ms).
         link: link::Link,
         /// Hand-over of NAV-PVT frames from the GNSS task to the sampling tick.
         gnss_latest: GnssLatest,
@@ -197,7 +191,7 @@ mod app {
     #[init(local = [
         packet_a: [u8; PACKET_LEN] = [0; PACKET_LEN],
         packet_b: [u8; PACKET_LEN] = [0; PACKET_LEN],
-        info_buffer: [u8; INFO_V2_LEN] = [0; INFO_V2_LEN],
+        piece_buffer: [u8; INFO_PIECE_LEN] = [0; INFO_PIECE_LEN],
         gnss_a: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
         gnss_b: [u8; GNSS_DMA_LEN] = [0; GNSS_DMA_LEN],
         gnss_replies: heapless::spsc::Queue<u8, REPLY_QUEUE_LEN> = heapless::spsc::Queue::new(),
@@ -277,30 +271,35 @@ mod app {
                 )
                 .unwrap_or_else(|_| fault(BootFault::LinkSerial));
             let streams = StreamsTuple::new(dp.DMA1, &mut rcc);
-            let info_buffer: &'static mut [u8] = cx.local.info_buffer;
+            let piece_buffer: &'static mut [u8] = cx.local.piece_buffer;
             let transfer = Transfer::init_memory_to_peripheral(
                 streams.3,
                 tx,
-                info_buffer,
+                piece_buffer,
                 None,
                 DmaConfig::default()
                     .memory_increment(true)
                     .transfer_complete_interrupt(true)
                     .transfer_error_interrupt(true),
             );
-            link::Link::new(transfer, cx.local.packet_a, cx.local.packet_b)
+            link::Link::new(
+                link::LinkDma(transfer),
+                cx.local.packet_a,
+                cx.local.packet_b,
+            )
         };
         // Under QEMU a byte on USART3's receive side stands in for the request edge.
         #[cfg(feature = "qemu")]
         let (link, host_rx) = {
-            let _ = (cx.local.packet_a, cx.local.packet_b, cx.local.info_buffer);
             let serial = dp
                 .USART3
                 .serial((gpiod.pd8, gpiod.pd9), link_config, &mut rcc)
                 .unwrap_or_else(|_| fault(BootFault::LinkSerial));
             let (tx, mut rx) = serial.split();
             rx.listen();
-            (link::Link::new(tx), rx)
+            let dma = link::LinkDma::new(tx, cx.local.piece_buffer);
+            let link = link::Link::new(dma, cx.local.packet_a, cx.local.packet_b);
+            (link, rx)
         };
 
         // GNSS: USART1 RX on PB7, TX on PB6 (configuration messages only).
@@ -408,8 +407,6 @@ mod app {
         (
             Shared {
                 latest: LatestPacket::new(),
-                latest_info: LatestPacket::new(),
-                handler: RequestHandler::new(),
                 link,
                 gnss_latest: GnssLatest {
                     frame: [0; GNSS_FRAME_LEN],
@@ -429,7 +426,7 @@ mod app {
                     crc,
                     sensors,
                     info,
-                    ticks: 0,
+                    snapshot: 0,
                     supervisor: Supervisor::new(SUPERVISOR),
                     gnss_silent: false,
                 },
@@ -499,44 +496,36 @@ mod app {
     }
 
     /// A request edge: start the answer and return.
-    #[task(binds = EXTI15_10, priority = 3, local = [request_pin], shared = [handler, link, latest, latest_info])]
+    #[task(binds = EXTI15_10, priority = 3, local = [request_pin], shared = [link, latest])]
     fn request(cx: request::Context) {
         use stm32f4xx_hal::gpio::ExtiPin;
         cx.local.request_pin.clear_interrupt_pending_bit();
         let now_ms = Mono::now().ticks();
-        let handler = cx.shared.handler;
-        let link = cx.shared.link;
-        (cx.shared.latest, cx.shared.latest_info).lock(|latest, latest_info| {
-            let packet = latest.get();
-            let answer = handler.on_request(now_ms, packet.is_some());
-            if let (Answer::Send { info }, Some(packet)) = (answer, packet) {
-                link.send_packet(packet);
-                // The info frame was encoded (CRC included) by the sampling task: copy only.
-                if let (true, Some(frame)) = (info, latest_info.get()) {
-                    link.stage_info(frame);
-                }
-            }
+        (cx.shared.link, cx.shared.latest).lock(|link, latest| {
+            link.on_request(now_ms, latest.get());
+            publish_link_state(link);
         });
-        LINK_BUSY.store(handler.is_busy(), Ordering::Relaxed);
-        REQUESTS_SKIPPED.store(handler.skipped(), Ordering::Relaxed);
-        REQUESTS_EARLY.store(handler.not_ready(), Ordering::Relaxed);
-        DMA_ERRORS.store(link.dma_errors(), Ordering::Relaxed);
     }
 
-    /// The running transfer has ended: send the info frame or go idle.
-    #[task(binds = DMA1_STREAM3, priority = 3, shared = [handler, link])]
-    fn link_done(cx: link_done::Context) {
-        // A DMA error counted here reaches the info frame with the next request.
-        if !cx.shared.link.take_completion() {
-            return;
-        }
-        // Only the two priority-3 link tasks write it: a plain load and store suffice.
-        let completed = LINK_COMPLETED.load(Ordering::Relaxed).wrapping_add(1);
-        LINK_COMPLETED.store(completed, Ordering::Relaxed);
-        if cx.shared.handler.on_transfer_complete() == AfterTransfer::SendInfo {
-            cx.shared.link.send_info();
-        }
-        LINK_BUSY.store(cx.shared.handler.is_busy(), Ordering::Relaxed);
+    /// The running transfer has ended: send the info piece or go idle.
+    #[task(binds = DMA1_STREAM3, priority = 3, shared = [link])]
+    fn link_done(mut cx: link_done::Context) {
+        cx.shared.link.lock(|link| {
+            // A DMA error counted here reaches the info frame with the next snapshot.
+            if link.on_dma_interrupt() {
+                publish_link_state(link);
+            }
+        });
+    }
+
+    /// The link's state and counters for the sampling task (supervisor and info frame).
+    /// Only the two priority-3 link tasks write them.
+    fn publish_link_state(link: &link::Link) {
+        LINK_BUSY.store(link.is_busy(), Ordering::Relaxed);
+        LINK_COMPLETED.store(link.completed(), Ordering::Relaxed);
+        REQUESTS_SKIPPED.store(link.skipped(), Ordering::Relaxed);
+        REQUESTS_EARLY.store(link.not_ready(), Ordering::Relaxed);
+        DMA_ERRORS.store(link.dma_errors(), Ordering::Relaxed);
     }
 
     /// Under QEMU: a byte from the host on USART3 is a request.
@@ -586,7 +575,7 @@ mod app {
     }
 
     /// One sampling tick: read what the schedule says, publish the packet, feed the watchdog.
-    #[task(binds = TIM2, priority = 1, local = [sampler], shared = [latest, latest_info, gnss_latest])]
+    #[task(binds = TIM2, priority = 1, local = [sampler], shared = [latest, link, gnss_latest])]
     fn sample(mut cx: sample::Context) {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
@@ -614,10 +603,12 @@ mod app {
                 builder.gnss_frame(&gnss.frame);
             }
         });
-        // The info frame first, so one exists whenever a packet does.
-        if sampler.ticks.is_multiple_of(INFO_REFRESH_TICKS) {
+        // The info snapshot first, so one exists whenever a packet does.
+        let now_ms = Mono::now().ticks();
+        if sampler.snapshot == 0 || now_ms.wrapping_sub(sampler.info.uptime_ms) >= INFO_SNAPSHOT_MS
+        {
             let info = &mut sampler.info;
-            info.uptime_ms = Mono::now().ticks();
+            info.uptime_ms = now_ms;
             info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
             info.status
                 .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
@@ -642,10 +633,12 @@ mod app {
                 mag_age_ms,
                 bmp280_age_ms,
             };
-            let frame = info.encode_v2_with(&mut sampler.crc);
-            cx.shared.latest_info.lock(|latest| latest.publish(&frame));
+            // Never 0 again after the first: 0 means "none taken yet".
+            sampler.snapshot = sampler.snapshot.checked_add(1).unwrap_or(1);
+            // Ten CRCs on the CRC unit, outside the lock; only the copy holds off requests.
+            let pieces = info.encode_v2_pieces_with(sampler.snapshot, &mut sampler.crc);
+            cx.shared.link.lock(|link| link.publish_pieces(&pieces));
         }
-        sampler.ticks = sampler.ticks.wrapping_add(1);
         let packet = sampler.builder.build(&mut sampler.crc);
         cx.shared.latest.lock(|latest| latest.publish(packet));
     }

@@ -90,26 +90,32 @@ fn main() -> ! {
         "no packet before the first one exists",
     );
     checks.check(
-        handler.on_request(1, true) == Answer::Send { info: true },
-        "first answer carries the info frame",
+        handler.on_request(1, true) == Answer::Send,
+        "first answer: the packet",
     );
     checks.check(
         handler.on_request(2, true) == Answer::Skip && handler.skipped() == 1,
         "request during a transfer is skipped and counted",
     );
     checks.check(
-        handler.on_transfer_complete() == AfterTransfer::SendInfo
-            && handler.on_transfer_complete() == AfterTransfer::Idle,
-        "packet, then info frame, then idle",
+        handler.on_transfer_complete() == AfterTransfer::SendPiece { restart: true },
+        "after the first packet: an info piece from piece 0",
     );
+    handler.piece_started();
     checks.check(
-        handler.on_request(6, true) == Answer::Send { info: false },
-        "next request: packet only",
+        handler.on_transfer_complete() == AfterTransfer::Idle && !handler.is_busy(),
+        "packet, then piece, then idle",
     );
-    handler.on_transfer_complete();
+    handler.on_request(6, true);
     checks.check(
-        handler.on_request(6 + INFO_GAP_MS, true) == Answer::Send { info: true },
-        "a pause of 500 ms brings the info frame back",
+        handler.on_transfer_complete() == AfterTransfer::SendPiece { restart: false },
+        "next answer: the next piece",
+    );
+    handler.end_answer();
+    handler.on_request(6 + INFO_GAP_MS, true);
+    checks.check(
+        handler.on_transfer_complete() == AfterTransfer::SendPiece { restart: true },
+        "a pause of 500 ms starts the snapshot again",
     );
 
     // Sampling schedule.
@@ -169,6 +175,19 @@ fn main() -> ! {
     checks.check(
         InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 108),
         "info frame v2 round trip with health (108 bytes)",
+    );
+    // The same frame as the board sends it: nine pieces, through the stream decoder.
+    let pieces = info.encode_v2_pieces_with(7, &mut NibbleCrc);
+    let mut decoder = dima_sensorboard::StreamDecoder::new();
+    let mut records = 0;
+    for piece in &pieces {
+        for frame in decoder.frames(piece) {
+            records += usize::from(frame == dima_sensorboard::Frame::Info(info));
+        }
+    }
+    checks.check(
+        records == 1 && decoder.stats().info_pieces == 9,
+        "info pieces reassemble into the v2 frame (9 x 21 bytes)",
     );
 
     hprintln!("{} passed, {} failed", checks.passed, checks.failed);

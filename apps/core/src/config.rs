@@ -1084,6 +1084,26 @@ mod tests {
     }
 
     #[test]
+    fn require_auth_without_a_key_file_says_how_to_fix_it() {
+        let mut x = XbeeConfig::default();
+        assert!(x.require_auth);
+        let message = x.key_file_needed().unwrap_err().to_string();
+        assert!(message.contains("xbee.key_file"), "{message}");
+        assert!(message.contains("dima keygen"), "{message}");
+        x.require_auth = false;
+        assert_eq!(x.key_file_needed().unwrap(), None);
+        x.key_file = Some("/etc/dima/link.key".into());
+        assert_eq!(
+            x.key_file_needed().unwrap(),
+            Some(std::path::Path::new("/etc/dima/link.key"))
+        );
+        let parsed: Config =
+            toml::from_str("[xbee]\nrequire_auth = false\nkey_file = \"k\"\n").unwrap();
+        assert!(!parsed.xbee.require_auth);
+        assert_eq!(parsed.xbee.key_file, Some("k".into()));
+    }
+
+    #[test]
     fn empty_file_is_the_defaults() {
         assert_eq!(toml::from_str::<Config>("").unwrap(), Config::default());
     }

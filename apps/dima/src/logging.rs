@@ -13,10 +13,21 @@
 //! Chunks are zstd-compressed and flushed at least every `flush_interval_ms`, so a crash loses
 //! at most that much. The thread also prints state transitions and device events: the loop
 //! itself never prints.
+//!
+//! A write that fails (a full disk: ENOSPC, or any I/O error) stops logging with one error
+//! message naming the file and the error; the robot keeps running, and the logger keeps
+//! draining the ring (counting what it cannot log). Every second it tries again: it ends the
+//! failed file at its last complete chunk (so it stays a valid MCAP file) and resumes in a new
+//! one beside it (`NAME-1.mcap`, `NAME-2.mcap`, ...) that starts with the `dima` metadata and
+//! a `log_resumed` note.
+//!
+//! For the simulation, [`LogFaults`] stalls the thread (it stops draining the ring) or makes
+//! every write fail with ENOSPC during time windows; the fault sits in the file wrapper
+//! [`LogFile`], so the code above it is the production path.
 
 use std::collections::BTreeMap;
 use std::fs::File;
-use std::io::BufWriter;
+use std::io::{BufWriter, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
@@ -31,9 +42,78 @@ use crate::app::record::{events, CycleRecord};
 use crate::log_messages::{cycle_message, info_message, state_message};
 use crate::rt::{monotonic_ns, RtSetupReport};
 
+/// A time window, ns from the logger's start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NsWindow {
+    /// Start, ns.
+    pub start_ns: u64,
+    /// Length, ns.
+    pub duration_ns: u64,
+}
+
+impl NsWindow {
+    /// Whether `t_ns` falls inside.
+    pub fn contains(&self, t_ns: u64) -> bool {
+        t_ns >= self.start_ns && t_ns - self.start_ns < self.duration_ns
+    }
+}
+
+/// Faults of the log disk, for the simulation (`log:stall`, `log:full`).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct LogFaults {
+    /// The logger thread stops draining the ring.
+    pub stalls: Vec<NsWindow>,
+    /// Every write fails as on a full disk (ENOSPC).
+    pub full: Vec<NsWindow>,
+}
+
+/// The log file under the MCAP writer: the file itself, and an injected full disk for the
+/// simulation (`None` on the robot, so every write goes straight to the file).
+pub struct LogFile {
+    file: File,
+    full: Arc<AtomicBool>,
+}
+
+/// An injected full disk: ENOSPC while `full` is set.
+fn check_disk(full: &AtomicBool) -> std::io::Result<()> {
+    if full.load(Ordering::Relaxed) {
+        Err(std::io::Error::from_raw_os_error(libc::ENOSPC))
+    } else {
+        Ok(())
+    }
+}
+
+impl LogFile {
+    fn check(&self) -> std::io::Result<()> {
+        check_disk(&self.full)
+    }
+}
+
+impl Write for LogFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.check()?;
+        self.file.write(buf)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.check()?;
+        self.file.flush()
+    }
+}
+
+impl Seek for LogFile {
+    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
+        self.file.seek(pos)
+    }
+}
+
 /// The MCAP file being written.
 pub struct McapLog {
-    writer: mcap::Writer<BufWriter<File>>,
+    writer: mcap::Writer<BufWriter<LogFile>>,
+    /// Length of the file at the last successful flush: complete records only.
+    flushed_len: u64,
+    /// Set: writes fail as on a full disk (the simulation's `log:full`).
+    disk_full: Arc<AtomicBool>,
     path: PathBuf,
     raw: u16,
     cycle: u16,
@@ -77,8 +157,19 @@ impl McapLog {
 
     /// Creates the file at `path`.
     pub fn create_file(path: &Path) -> anyhow::Result<McapLog> {
-        let file = File::create(path)
-            .with_context(|| format!("log: cannot create {} (writable?)", path.display()))?;
+        McapLog::create_file_with(path, Arc::new(AtomicBool::new(false)))
+    }
+
+    /// Creates the file at `path`, its writes failing with ENOSPC while `full` is set.
+    fn create_file_with(path: &Path, full: Arc<AtomicBool>) -> anyhow::Result<McapLog> {
+        check_disk(&full).with_context(|| format!("log: cannot create {}", path.display()))?;
+        let file = LogFile {
+            file: File::create(path)
+                .with_context(|| format!("log: cannot create {} (writable?)", path.display()))?,
+            full: Arc::clone(&full),
+        };
+        file.check()
+            .with_context(|| format!("log: cannot write {}", path.display()))?;
         let mut writer = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
             .chunk_size(Some(4 * 1024 * 1024))
@@ -100,8 +191,10 @@ impl McapLog {
         let wall = SystemTime::now()
             .duration_since(UNIX_EPOCH)
             .map_or(0, |d| d.as_nanos() as i128);
-        Ok(McapLog {
+        let mut log = McapLog {
             writer,
+            flushed_len: 0,
+            disk_full: full,
             path: path.to_owned(),
             raw,
             cycle,
@@ -109,7 +202,11 @@ impl McapLog {
             info,
             sequence: 0,
             epoch_offset_ns: wall - i128::from(monotonic_ns()),
-        })
+        };
+        // The header, schemas and channels on the disk at once: a file that fails later can
+        // be cut back to complete records.
+        log.flush()?;
+        Ok(log)
     }
 
     /// The file's path.
@@ -181,6 +278,7 @@ impl McapLog {
     /// Ends the current chunk and flushes it to the file.
     pub fn flush(&mut self) -> anyhow::Result<()> {
         self.writer.flush()?;
+        self.flushed_len = std::fs::metadata(&self.path)?.len();
         Ok(())
     }
 
@@ -219,6 +317,187 @@ pub struct LoggerSettings {
     pub flush_interval: Duration,
     /// Decoded values every n-th cycle.
     pub decoded_every: u64,
+    /// Metadata records a resumed file starts with (the `dima` record: version and
+    /// configuration).
+    pub header: Vec<(String, Vec<(&'static str, String)>)>,
+    /// Injected disk faults (the simulation's; none on the robot).
+    pub faults: LogFaults,
+}
+
+impl Default for LoggerSettings {
+    fn default() -> Self {
+        LoggerSettings {
+            flush_interval: Duration::from_secs(1),
+            decoded_every: 1,
+            header: Vec::new(),
+            faults: LogFaults::default(),
+        }
+    }
+}
+
+/// Metadata record at the start of a resumed file: `previous_file`, `error`,
+/// `records_not_logged`.
+pub const METADATA_LOG_RESUMED: &str = "log_resumed";
+
+/// How often a failed log is retried.
+const LOG_RETRY: Duration = Duration::from_secs(1);
+
+/// The MCAP end of a file cut at `len` bytes (a complete record boundary): Data End and a
+/// Footer without a summary section, then the magic.
+fn end_of_mcap() -> Vec<u8> {
+    let mut v = Vec::with_capacity(9 + 4 + 9 + 20 + 8);
+    v.push(0x0F); // Data End
+    v.extend_from_slice(&4u64.to_le_bytes());
+    v.extend_from_slice(&0u32.to_le_bytes()); // data section CRC not computed
+    v.push(0x02); // Footer
+    v.extend_from_slice(&20u64.to_le_bytes());
+    v.extend_from_slice(&0u64.to_le_bytes()); // no summary section
+    v.extend_from_slice(&0u64.to_le_bytes()); // no summary offsets
+    v.extend_from_slice(&0u32.to_le_bytes()); // summary CRC not computed
+    v.extend_from_slice(b"\x89MCAP0\r\n");
+    v
+}
+
+/// Ends `path` at its last complete chunk (`len` bytes) as a valid MCAP file.
+fn close_failed_file(path: &Path, len: u64, full: &AtomicBool) -> std::io::Result<()> {
+    check_disk(full)?;
+    let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
+    file.set_len(len)?;
+    file.seek(SeekFrom::End(0))?;
+    file.write_all(&end_of_mcap())?;
+    file.sync_data()
+}
+
+/// `dir/NAME-n.mcap` for `dir/NAME.mcap`.
+fn resumed_name(first: &Path, n: u32) -> PathBuf {
+    let stem = first
+        .file_stem()
+        .map_or_else(|| "dima".to_owned(), |s| s.to_string_lossy().into_owned());
+    first.with_file_name(format!("{stem}-{n}.mcap"))
+}
+
+/// A log file that failed, waiting for the disk.
+struct FailedLog {
+    path: PathBuf,
+    flushed_len: u64,
+    error: String,
+    next_try: Instant,
+    not_logged: u64,
+}
+
+/// Logging of one run, across failed and resumed files.
+struct LogState {
+    log: Option<McapLog>,
+    failed: Option<FailedLog>,
+    /// The run's first file (resumed files are named after it).
+    first: Option<PathBuf>,
+    resumed: u32,
+    disk_full: Arc<AtomicBool>,
+    header: Vec<(String, Vec<(&'static str, String)>)>,
+}
+
+impl LogState {
+    fn new(log: Option<McapLog>, header: Vec<(String, Vec<(&'static str, String)>)>) -> LogState {
+        LogState {
+            first: log.as_ref().map(|l| l.path().to_owned()),
+            disk_full: log.as_ref().map_or_else(
+                || Arc::new(AtomicBool::new(false)),
+                |l| Arc::clone(&l.disk_full),
+            ),
+            log,
+            failed: None,
+            resumed: 0,
+            header,
+        }
+    }
+
+    /// A write failed: logging stops with one message, the file is kept for closing.
+    fn fail(&mut self, error: &anyhow::Error) {
+        let Some(log) = self.log.take() else { return };
+        let path = log.path.clone();
+        let flushed_len = log.flushed_len;
+        tracing::error!(
+            "log: writing {} failed: {error:#}; logging stops, the robot keeps running \
+             (retrying every {} s in a new file)",
+            path.display(),
+            LOG_RETRY.as_secs()
+        );
+        // Dropping the writer tries to finish the file; on a full disk that fails quietly,
+        // and the file is cut back to `flushed_len` when the disk works again.
+        drop(log);
+        self.failed = Some(FailedLog {
+            path,
+            flushed_len,
+            error: format!("{error:#}"),
+            next_try: Instant::now() + LOG_RETRY,
+            not_logged: 0,
+        });
+    }
+
+    /// While failed: counts a record that could not be logged, and every second tries to
+    /// close the failed file and resume in a new one.
+    fn retry(&mut self, now: Instant) {
+        let Some(failed) = self.failed.as_mut() else {
+            return;
+        };
+        if now < failed.next_try {
+            return;
+        }
+        failed.next_try = now + LOG_RETRY;
+        if close_failed_file(&failed.path, failed.flushed_len, &self.disk_full).is_err() {
+            return;
+        }
+        let Some(first) = &self.first else { return };
+        let path = resumed_name(first, self.resumed + 1);
+        let resumed =
+            McapLog::create_file_with(&path, Arc::clone(&self.disk_full)).and_then(|mut l| {
+                for (name, pairs) in &self.header {
+                    l.metadata(name, pairs)?;
+                }
+                l.metadata(
+                    METADATA_LOG_RESUMED,
+                    &[
+                        ("previous_file", failed.path.display().to_string()),
+                        ("error", failed.error.clone()),
+                        ("records_not_logged", failed.not_logged.to_string()),
+                    ],
+                )?;
+                l.flush()?;
+                Ok(l)
+            });
+        match resumed {
+            Ok(l) => {
+                tracing::warn!(
+                    "log: logging resumed in {} ({} records not logged; {} ends at its last \
+                     complete chunk)",
+                    path.display(),
+                    failed.not_logged,
+                    failed.path.display()
+                );
+                self.resumed += 1;
+                self.failed = None;
+                self.log = Some(l);
+            }
+            Err(_) => {
+                let _ = std::fs::remove_file(&path);
+            }
+        }
+    }
+
+    /// At the end of the run: a file still failed is closed at its last complete chunk if
+    /// the disk allows.
+    fn finish(mut self) -> Option<McapLog> {
+        if let Some(failed) = self.failed.take() {
+            if close_failed_file(&failed.path, failed.flushed_len, &self.disk_full).is_ok() {
+                tracing::warn!(
+                    "log: {} ends at its last complete chunk; {} records were not logged",
+                    failed.path.display(),
+                    failed.not_logged
+                );
+            }
+        }
+        self.log
+    }
 }
 
 /// Prints what a record says happened (mode changes, refusals, device events).
@@ -255,7 +534,7 @@ fn report_events(r: &CycleRecord, last_mode: &mut Mode) {
 /// Spawns the logger thread (normal priority). It drains `records` until `stop` is set and
 /// the ring is empty, and writes `rt_setup` reports as they arrive.
 pub fn spawn_logger(
-    mut log: Option<McapLog>,
+    log: Option<McapLog>,
     mut records: rtrb::Consumer<CycleRecord>,
     rt_reports: mpsc::Receiver<RtSetupReport>,
     settings: LoggerSettings,
@@ -265,40 +544,63 @@ pub fn spawn_logger(
     std::thread::Builder::new()
         .name("dima-logger".into())
         .spawn(move || {
+            let mut state = LogState::new(log, settings.header);
+            let faults = settings.faults;
+            let started_ns = monotonic_ns();
             let mut written = 0u64;
             let mut last_flush = Instant::now();
             let mut last_mode = Mode::Killed;
             let decoded_every = settings.decoded_every.max(1);
+            let mut stalled = false;
             loop {
                 let stopping = stop.load(Ordering::Acquire);
+                let t_ns = monotonic_ns().saturating_sub(started_ns);
+                state.disk_full.store(
+                    faults.full.iter().any(|w| w.contains(t_ns)),
+                    Ordering::Relaxed,
+                );
+                if faults.stalls.iter().any(|w| w.contains(t_ns)) && !stopping {
+                    if !stalled {
+                        tracing::warn!("log: the logger stalls (simulated slow disk)");
+                        stalled = true;
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                    continue;
+                }
+                if stalled {
+                    tracing::warn!("log: the logger drains again");
+                    stalled = false;
+                }
                 if let Ok(report) = rt_reports.try_recv() {
-                    if let Some(l) = log.as_mut() {
+                    if let Some(l) = state.log.as_mut() {
                         if let Err(e) = l.rt_setup(&report) {
-                            tracing::error!("log: {e:#}");
+                            state.fail(&e);
                         }
                     }
                 }
+                state.retry(Instant::now());
                 let mut n = 0;
                 while let Ok(r) = records.pop() {
                     report_events(&r, &mut last_mode);
                     if let Some(observe) = observer.as_mut() {
                         observe(&r);
                     }
-                    if let Some(l) = log.as_mut() {
+                    if let Some(l) = state.log.as_mut() {
                         let decoded = r.cycle % decoded_every == 0 || r.events != 0;
                         if let Err(e) = l.record(&r, decoded) {
-                            tracing::error!("log: {e:#}; logging stops, the loop goes on");
-                            log = None;
+                            state.fail(&e);
                         }
+                    }
+                    if let Some(f) = state.failed.as_mut() {
+                        f.not_logged += 1;
                     }
                     written += 1;
                     n += 1;
                 }
                 if last_flush.elapsed() >= settings.flush_interval {
-                    if let Some(l) = log.as_mut() {
+                    if let Some(l) = state.log.as_mut() {
                         if let Err(e) = l.flush() {
-                            tracing::error!("log: flush: {e:#}; logging stops");
-                            log = None;
+                            state.fail(&e);
                         }
                     }
                     last_flush = Instant::now();
@@ -311,7 +613,7 @@ pub fn spawn_logger(
                 }
             }
             LoggerOutcome {
-                log,
+                log: state.finish(),
                 records: written,
             }
         })

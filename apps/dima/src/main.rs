@@ -91,6 +91,7 @@ fn run(command: Command) -> anyhow::Result<()> {
                 duration: args.overrides.duration.map(Duration::from_secs_f64),
                 observer: None,
                 busy: None,
+                log_faults: Default::default(),
             };
             tracing::info!("starting: KILLED until a revive from the ground station");
             let summary = app::run(&config, app::hardware_devices(&config), options, stop)?;

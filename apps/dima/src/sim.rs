@@ -7,11 +7,16 @@
 
 use std::process::ExitCode;
 
+use std::time::Instant;
+
 use crate::app::{self, BusyFault, Devices, RunOptions};
 use crate::devices::sensor::{open_sensor_port, SensorDevice};
+use crate::devices::servo::{ServoError, ServoOutput};
+use crate::logging::{LogFaults, NsWindow};
 use anyhow::Context;
+use dima_core::Nanos;
 pub use dima_sim::cli::SimArgs;
-use dima_sim::faults::LoopBusy;
+use dima_sim::faults::{AppFaults, LoopBusy, Window};
 use dima_sim::runner::{AppLaunch, AppOutcome};
 
 /// The simulation's `loop:busy` fault as the loop takes it.
@@ -24,18 +29,67 @@ fn busy_fault(busy: LoopBusy) -> BusyFault {
     }
 }
 
+fn ns_window(w: &Window) -> NsWindow {
+    let ns = |s: f64| (s * 1e9) as u64;
+    NsWindow {
+        start_ns: ns(w.start_s),
+        duration_ns: ns(w.duration_s),
+    }
+}
+
+/// The simulation's `log:stall` and `log:full` faults as the logger takes them.
+fn log_faults(f: &AppFaults) -> LogFaults {
+    LogFaults {
+        stalls: f.log_stalls.iter().map(ns_window).collect(),
+        full: f.log_full.iter().map(ns_window).collect(),
+    }
+}
+
+/// The servo board with the simulation's `maestro:write_error` fault: in its windows every
+/// write fails as an I/O error of the port would (the loop counts it, closes the board and
+/// reopens it).
+struct FaultyServo<S> {
+    inner: S,
+    start: Instant,
+    windows: Vec<Window>,
+}
+
+impl<S: ServoOutput> ServoOutput for FaultyServo<S> {
+    fn write_targets(
+        &mut self,
+        channels: &[u8; 3],
+        targets_qus: &[u16; 3],
+        deadline_ns: Nanos,
+    ) -> Result<(), ServoError> {
+        let t = self.start.elapsed().as_secs_f64();
+        if self.windows.iter().any(|w| w.contains(t)) {
+            return Err(ServoError::Device);
+        }
+        self.inner.write_targets(channels, targets_qus, deadline_ns)
+    }
+}
+
 /// Runs the application against the simulation until `launch.stop` is set.
 pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
     let config = launch.config;
     let hardware = app::hardware_devices(&config);
     let sensor = config.sensor.clone();
     let pin = launch.request.clone();
+    let start = Instant::now();
+    let write_errors = launch.app_faults.maestro_write_errors.clone();
+    let mut open_servo = hardware.servo;
     let devices = Devices {
         sensor: Box::new(move || {
             let port = open_sensor_port(&sensor)?;
             SensorDevice::new(port, pin.clone()).context("sensor board: duplicating the port")
         }),
-        servo: hardware.servo,
+        servo: Box::new(move || {
+            Ok(FaultyServo {
+                inner: open_servo()?,
+                start,
+                windows: write_errors.clone(),
+            })
+        }),
         ground: hardware.ground,
     };
     let status = launch.status.clone();
@@ -60,6 +114,7 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
         duration: None,
         observer: Some(observer),
         busy: launch.busy.map(busy_fault),
+        log_faults: log_faults(&launch.app_faults),
     };
     let summary = app::run(&config, devices, options, launch.stop.clone())?;
     Ok(AppOutcome {

@@ -607,6 +607,86 @@ mod tests {
     use super::*;
     use dima_groundlink::Percent;
 
+    fn link(require_auth: bool, key: Option<LinkKey>) -> CommandLink {
+        CommandLink::new(&LinkSecurity {
+            key,
+            require_auth,
+            session: 77,
+        })
+    }
+
+    fn fed(link: &mut CommandLink, bytes: &[u8]) -> Vec<Command> {
+        let mut got = Vec::new();
+        for &b in bytes {
+            link.push(b, &mut |c| got.push(c));
+        }
+        got
+    }
+
+    #[test]
+    fn v1_frames_act_only_without_require_auth() {
+        let key = LinkKey::from_bytes([3; 16]);
+        let v1: Vec<u8> = [Command::Revive, Command::Throttle(Percent::MAX)]
+            .iter()
+            .flat_map(|c| c.encode())
+            .collect();
+        let mut strict = link(true, Some(key.clone()));
+        assert!(fed(&mut strict, &v1).is_empty());
+        assert_eq!(strict.counters().v1_ignored, 2);
+        let mut open = link(false, None);
+        assert_eq!(fed(&mut open, &v1).len(), 2);
+        assert_eq!(open.counters().v1_accepted, 2);
+
+        // With a key and require_auth = false, both versions act.
+        let mut both = link(false, Some(key.clone()));
+        let v2 = v2::CommandFrame {
+            command: Command::Kill,
+            session: 77,
+            seq: 9,
+        }
+        .encode(&key);
+        let mut stream = v1.clone();
+        stream.extend_from_slice(&v2);
+        assert_eq!(fed(&mut both, &stream).len(), 3);
+        assert_eq!(both.last_accepted(), 9);
+        assert_eq!(both.counters().v2_accepted, 1);
+    }
+
+    #[test]
+    fn display_v2_carries_mode_cause_counters_and_ack() {
+        let snap = Snapshot {
+            mode: Mode::Failsafe,
+            cause: Some(FailsafeCause::SensorLoss),
+            refusal: Some(ReviveRefusal::TooSoon),
+            counters: dima_core::counters::Counters {
+                missed_periods: 3,
+                packet_crc_errors: 1,
+                packets_late: 2,
+                packets_missing: 5,
+                commands: u64::MAX,
+                ..Default::default()
+            },
+            ..Snapshot::default()
+        };
+        let counters = GroundLinkCounters {
+            bad_tag: 4,
+            v1_ignored: 6,
+            ..Default::default()
+        };
+        let frame = display_frame_v2(&snap, 11, 12, 13, &counters);
+        assert_eq!(frame.mode, v2::RobotMode::Failsafe);
+        assert_eq!(frame.failsafe_cause, Some(v2::FailsafeCause::SensorLoss));
+        assert_eq!(frame.revive_refusal, Some(v2::ReviveRefusal::TooSoon));
+        assert_eq!((frame.session, frame.seq, frame.ack_seq), (11, 12, 13));
+        let h = frame.health;
+        assert_eq!(
+            (h.missed_periods, h.sensor_bad, h.sensor_missing),
+            (3, 3, 5)
+        );
+        assert_eq!(h.commands, u32::MAX);
+        assert_eq!((h.bad_tag, h.v1_ignored), (4, 6));
+    }
+
     fn drain(ring: &mut rtrb::Consumer<Command>) -> Vec<Command> {
         std::iter::from_fn(|| ring.pop().ok()).collect()
     }

@@ -49,6 +49,7 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
             o.fetch_add(1, Ordering::Relaxed);
         })),
         busy: None,
+        log_faults: Default::default(),
     };
     let runner = std::thread::spawn(move || app::run(&config, devices, options, s).expect("run"));
 
@@ -126,7 +127,13 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
         t_kill.elapsed()
     );
 
-    // Revive and drive again, then stop as SIGTERM would: outputs go safe, log is complete.
+    // Revive (once `safety.revive_min_interval_ms` has passed since the kill: a revive
+    // sooner is refused) and drive again, then stop as SIGTERM would: outputs go safe, log
+    // is complete.
+    let interval = dima_core::config::Config::default()
+        .safety
+        .revive_min_interval_ms;
+    std::thread::sleep(Duration::from_millis(u64::from(interval) + 50));
     ground.send(Command::Revive);
     ground.send(Command::Throttle(pct(100)));
     maestro

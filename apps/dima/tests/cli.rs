@@ -194,3 +194,54 @@ fn log_and_inspect_tools_answer_with_exit_codes_and_counts() {
     assert!(err.contains("frames 2"), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn keygen_writes_an_owner_only_key_once() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = std::env::temp_dir().join(format!("dima-keygen-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let key = dir.join("link.key");
+    let out = dima()
+        .args(["keygen", key.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{out:?}");
+    let mode = std::fs::metadata(&key).unwrap().permissions().mode();
+    assert_eq!(mode & 0o777, 0o600);
+    let first = std::fs::read_to_string(&key).unwrap();
+    assert!(dima_groundlink::v2::LinkKey::parse_hex(&first).is_ok());
+    // Never over an existing key.
+    let again = dima()
+        .args(["keygen", key.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!again.status.success());
+    assert!(String::from_utf8_lossy(&again.stderr).contains("exists"));
+    assert_eq!(std::fs::read_to_string(&key).unwrap(), first);
+
+    // `dima run` refuses require_auth = true without a key file, and a readable key file.
+    let config = dir.join("dima.toml");
+    std::fs::write(&config, "[xbee]\nrequire_auth = true\n").unwrap();
+    let out = dima()
+        .args(["run", "--config", config.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("key_file") && stderr.contains("dima keygen"),
+        "{stderr}"
+    );
+    std::fs::set_permissions(&key, std::fs::Permissions::from_mode(0o644)).unwrap();
+    let text = format!("[xbee]\nkey_file = \"{}\"\n", key.display());
+    std::fs::write(&config, text).unwrap();
+    let out = dima()
+        .args(["run", "--config", config.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("chmod 600"), "{stderr}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -3,7 +3,58 @@
 //! (records: opcode, u64 LE length, body) and RFC 8878 (a zstd frame with one raw block), so
 //! they do not depend on our own writer.
 
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
 use dima::logtools::read::LoggedRun;
+
+/// Records the largest single allocation a thread asks for while it is measuring.
+struct LargestAllocation;
+
+thread_local! {
+    static MEASURING: Cell<bool> = const { Cell::new(false) };
+    static LARGEST: Cell<usize> = const { Cell::new(0) };
+}
+
+fn note(size: usize) {
+    let _ = MEASURING.try_with(|on| {
+        if on.get() {
+            let _ = LARGEST.try_with(|largest| largest.set(largest.get().max(size)));
+        }
+    });
+}
+
+// SAFETY: forwards to the system allocator; the bookkeeping touches only const-initialised
+// thread-locals without destructors (no allocation, no re-entry).
+unsafe impl GlobalAlloc for LargestAllocation {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note(layout.size());
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note(layout.size());
+        unsafe { System.alloc_zeroed(layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note(new_size);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: LargestAllocation = LargestAllocation;
+
+/// Runs `f` and returns its result with the largest allocation it made on this thread.
+fn largest_allocation<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    LARGEST.with(|largest| largest.set(0));
+    MEASURING.with(|on| on.set(true));
+    let out = f();
+    MEASURING.with(|on| on.set(false));
+    (out, LARGEST.with(Cell::get))
+}
 
 const MAGIC: &[u8] = b"\x89MCAP0\r\n";
 
@@ -72,6 +123,27 @@ fn a_huge_record_inside_a_compressed_chunk_is_an_error_not_an_allocation() {
     let text = error_text(&bytes);
     assert!(text.contains("no complete message"), "{text}");
     assert!(text.contains("exceeds limit"), "{text}");
+}
+
+#[test]
+fn a_string_length_beyond_its_record_does_not_size_an_allocation() {
+    // A string's u32 length prefix says 3.75 GiB; four bytes follow.
+    let mut huge_string = 0xF000_0000u32.to_le_bytes().to_vec();
+    huge_string.extend(b"dima");
+    // Metadata: name, then the map. Channel: id, schema id, then the topic.
+    let mut channel = vec![1, 0, 0, 0];
+    channel.extend(&huge_string);
+    for (opcode, body) in [(0x0C, huge_string.clone()), (0x04, channel)] {
+        let mut bytes = file_start();
+        bytes.extend(record(opcode, &body));
+        let (result, largest) = largest_allocation(|| LoggedRun::from_bytes(&bytes));
+        assert!(
+            largest < 1 << 20,
+            "opcode {opcode:#04x}: an allocation of {largest} bytes"
+        );
+        let text = format!("{:#}", result.unwrap_err());
+        assert!(text.contains("no complete message"), "{text}");
+    }
 }
 
 #[test]

@@ -125,6 +125,7 @@ fn realtime_thread_never_allocates() {
         LoggerSettings {
             flush_interval: Duration::from_millis(200),
             decoded_every: 1,
+            ..LoggerSettings::default()
         },
         logger_stop.clone(),
         None,

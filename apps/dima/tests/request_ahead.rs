@@ -34,6 +34,7 @@ fn request_ahead_reads_the_previous_cycles_answer() {
         duration: Some(Duration::from_millis(1_500)),
         observer: None,
         busy: None,
+        log_faults: Default::default(),
     };
     let summary = app::run(&config, devices, options, Arc::new(AtomicBool::new(false))).unwrap();
     let m = &summary.metrics;

@@ -28,8 +28,9 @@ pub struct SimArgs {
     pub seed: u64,
     /// A fault on a link, repeatable: LINK:KEY=VALUE[,KEY=VALUE...] with LINK sensor, ground
     /// or maestro and KEY ber, drop, insert (probabilities), delay, jitter (ms), silence,
-    /// disconnect (START+DURATION s). Example: --fault sensor:ber=1e-4 --fault
-    /// maestro:disconnect=5+1
+    /// disconnect (START+DURATION s); device and application faults in windows: gnss:freeze,
+    /// gnss:loss, imu:stuck, loop:busy (with busy_ms), log:stall, log:full,
+    /// maestro:write_error. Example: --fault sensor:ber=1e-4 --fault maestro:disconnect=5+1
     #[arg(long = "fault", value_name = "LINK:KEY=VALUE")]
     pub faults: Vec<String>,
     /// With `--scenario soak`: random fault windows one after another (every kind of

@@ -438,7 +438,8 @@ pub struct GroundStats {
     pub last_status: Mutex<Option<(f64, v2::DisplayFrame)>>,
     /// Samples of the model: time and state, once per 100 ms.
     pub truth: Mutex<Vec<VehicleState>>,
-    /// Count only: keep no model samples (a long run's memory stays flat).
+    /// Count only: keep no model samples and no list of commands (a long run's memory
+    /// stays flat).
     pub counts_only: bool,
 }
 
@@ -638,9 +639,11 @@ pub fn spawn_ground(
                             .frames_sent
                             .fetch_add(frames.len() as u64, Ordering::Relaxed);
                         *lock(&stats.last_sent_s) = Some(sent_at);
-                        let mut log = lock(&stats.commands);
-                        for c in frames.iter().filter_map(|(c, _)| *c) {
-                            log.push((sent_at, c));
+                        if !stats.counts_only {
+                            let mut log = lock(&stats.commands);
+                            for c in frames.iter().filter_map(|(c, _)| *c) {
+                                log.push((sent_at, c));
+                            }
                         }
                     }
                 }

@@ -164,6 +164,17 @@ impl SensorFaults {
     }
 }
 
+/// Faults inside the application: its log disk and its writes to the Maestro.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct AppFaults {
+    /// `log:stall`: the logger thread stops draining the loop's record ring.
+    pub log_stalls: Vec<Window>,
+    /// `log:full`: every write to the log file fails with ENOSPC.
+    pub log_full: Vec<Window>,
+    /// `maestro:write_error`: the application's writes to the Maestro fail (an I/O error).
+    pub maestro_write_errors: Vec<Window>,
+}
+
 /// `loop:busy`: extra work inside every realtime cycle of the application during a window.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LoopBusy {
@@ -186,6 +197,8 @@ pub struct Faults {
     pub sensors: SensorFaults,
     /// Overload of the application's realtime loop.
     pub loop_busy: Option<LoopBusy>,
+    /// Log disk and Maestro writes inside the application.
+    pub app: AppFaults,
 }
 
 impl Faults {
@@ -203,18 +216,22 @@ impl Faults {
     pub fn apply_arg(&mut self, arg: &str) -> Result<(), FaultParseError> {
         let (link, settings) = arg.split_once(':').ok_or_else(|| {
             FaultParseError(format!(
-                "`{arg}`: expected LINK:KEY=VALUE (sensor, ground, maestro, gnss, imu, loop)"
+                "`{arg}`: expected LINK:KEY=VALUE (sensor, ground, maestro, gnss, imu, loop, log)"
             ))
         })?;
         let link = match link.trim() {
             "sensor" => Link::Sensor,
             "ground" | "xbee" => Link::Ground,
+            "maestro" if settings.trim_start().starts_with("write_error") => {
+                return self.apply_write_error(settings)
+            }
             "maestro" => Link::Maestro,
             "gnss" | "imu" => return self.apply_sensor_fault(link.trim(), settings),
             "loop" => return self.apply_loop_fault(settings),
+            "log" => return self.apply_log_fault(settings),
             other => {
                 return Err(FaultParseError(format!(
-                    "unknown link `{other}` (sensor, ground, maestro, gnss, imu, loop)"
+                    "unknown link `{other}` (sensor, ground, maestro, gnss, imu, loop, log)"
                 )))
             }
         };
@@ -246,6 +263,41 @@ impl Faults {
                 (_, other) => {
                     return Err(FaultParseError(format!(
                         "unknown imu fault `{other}` (stuck)"
+                    )))
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `log:stall=W`, `log:full=W` (windows `START+DURATION`).
+    fn apply_log_fault(&mut self, settings: &str) -> Result<(), FaultParseError> {
+        for setting in settings.split(',').filter(|s| !s.trim().is_empty()) {
+            let (key, value) = setting
+                .split_once('=')
+                .ok_or_else(|| FaultParseError(format!("`{setting}`: expected KEY=VALUE")))?;
+            let window: Window = value.parse()?;
+            match key.trim() {
+                "stall" => self.app.log_stalls.push(window),
+                "full" => self.app.log_full.push(window),
+                other => {
+                    return Err(FaultParseError(format!(
+                        "unknown log fault `{other}` (stall, full)"
+                    )))
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// `maestro:write_error=W`.
+    fn apply_write_error(&mut self, settings: &str) -> Result<(), FaultParseError> {
+        for setting in settings.split(',').filter(|s| !s.trim().is_empty()) {
+            match setting.split_once('=').map(|(k, v)| (k.trim(), v)) {
+                Some(("write_error", v)) => self.app.maestro_write_errors.push(v.parse()?),
+                _ => {
+                    return Err(FaultParseError(format!(
+                        "`{setting}`: expected write_error=START+DURATION"
                     )))
                 }
             }
@@ -307,11 +359,17 @@ pub enum FaultKind {
     ImuStuck,
     /// `loop:busy`: 6 ms of extra work in every cycle (at most once per run).
     LoopBusy,
+    /// `log:stall`: the logger stops draining its ring.
+    LogStall,
+    /// `log:full`: log writes fail as on a full disk.
+    LogFull,
+    /// `maestro:write_error`: writes to the Maestro fail.
+    MaestroWriteError,
 }
 
 impl FaultKind {
     /// Every kind, in the order the draw indexes them.
-    pub const ALL: [FaultKind; 8] = [
+    pub const ALL: [FaultKind; 11] = [
         FaultKind::SensorSilence,
         FaultKind::SensorDisconnect,
         FaultKind::GroundSilence,
@@ -320,6 +378,9 @@ impl FaultKind {
         FaultKind::GnssLoss,
         FaultKind::ImuStuck,
         FaultKind::LoopBusy,
+        FaultKind::LogStall,
+        FaultKind::LogFull,
+        FaultKind::MaestroWriteError,
     ];
 
     /// The `--fault` form of this kind in `window`, e.g. `sensor:silence=12.5+1.2`.
@@ -334,6 +395,9 @@ impl FaultKind {
             FaultKind::GnssLoss => format!("gnss:loss={w}"),
             FaultKind::ImuStuck => format!("imu:stuck={w}"),
             FaultKind::LoopBusy => format!("loop:busy={w},busy_ms=6"),
+            FaultKind::LogStall => format!("log:stall={w}"),
+            FaultKind::LogFull => format!("log:full={w}"),
+            FaultKind::MaestroWriteError => format!("maestro:write_error={w}"),
         }
     }
 }
@@ -529,6 +593,13 @@ mod tests {
         f.apply_arg("gnss:loss=1+0.5").unwrap();
         f.apply_arg("imu:stuck=3+4").unwrap();
         f.apply_arg("loop:busy=2+1,busy_ms=6").unwrap();
+        f.apply_arg("log:stall=1+5").unwrap();
+        f.apply_arg("log:full=2+3,full=9+1").unwrap();
+        f.apply_arg("maestro:write_error=4+2").unwrap();
+        assert_eq!(f.app.log_stalls.len(), 1);
+        assert_eq!(f.app.log_full.len(), 2);
+        assert!(f.app.maestro_write_errors[0].contains(5.9));
+        assert!(f.maestro.is_nominal());
         assert!(f.sensors.gnss_frozen_at(6.9) && !f.sensors.gnss_frozen_at(7.0));
         assert!(f.sensors.gnss_lost_at(1.2) && !f.sensors.gnss_lost_at(2.0));
         assert!(f.sensors.imu_stuck_at(3.0) && !f.sensors.imu_stuck_at(2.9));
@@ -550,6 +621,11 @@ mod tests {
             "loop:busy_ms=3",
             "loop:busy=1+1,busy_ms=0",
             "loop:busy=1+1,busy_ms=x",
+            "log:stall",
+            "log:slow=1+1",
+            "log:full=1",
+            "maestro:write_error=x",
+            "maestro:write_error=1+1,ber=0.1",
         ] {
             assert!(Faults::default().apply_arg(bad).is_err(), "{bad}");
         }

@@ -27,7 +27,7 @@ use crate::devices::{
     lock, spawn_board, spawn_ground, spawn_maestro, spawn_relay, BoardSetup, BoardStats,
     GroundProtocol, GroundStats, LinkPort, MaestroStats,
 };
-use crate::faults::{FaultWindow, Faults, LoopBusy};
+use crate::faults::{AppFaults, FaultWindow, Faults, LoopBusy};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
 use crate::pty::{LinePace, SimPty};
@@ -70,6 +70,8 @@ pub struct AppLaunch {
     pub request: RequestPin,
     /// Extra work inside the realtime cycle (the `loop:busy` fault), from the loop's start.
     pub busy: Option<LoopBusy>,
+    /// The log disk and Maestro-write faults, windows from the start.
+    pub app_faults: AppFaults,
     /// Where the application reports its live state (optional: the status line shows what
     /// it gets).
     pub status: Arc<AppStatus>,
@@ -308,8 +310,8 @@ impl SimReport {
         );
         if self.evidence_bounded {
             s.push_str(&format!(
-                "soak: {} fault windows, {} failsafe(s), {} revive(s), {} cycles, {} log records dropped\n",
-                self.random_faults, c.failsafes, self.revives, c.cycles, c.log_dropped
+                "soak: {} fault windows, {} failsafe(s), {} revive(s), {} cycles, {} missed periods, {} log records dropped\n",
+                self.random_faults, c.failsafes, self.revives, c.cycles, c.missed_periods, c.log_dropped
             ));
         }
         if let Some(o) = d.final_outputs_us {
@@ -564,6 +566,7 @@ where
         config,
         request: RequestPin::new(line),
         busy: o.faults.loop_busy,
+        app_faults: o.faults.app.clone(),
         status: app_status.clone(),
         stop: stop_app.clone(),
     };

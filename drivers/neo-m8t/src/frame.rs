@@ -298,8 +298,7 @@ impl<const N: usize> UbxFramer<N> {
     /// Moves the pending bytes down to `buf[len..]`.
     fn compact_pending(&mut self) {
         let count = self.pend_end - self.pend_start;
-        self.buf
-            .copy_within(self.pend_start..self.pend_end, self.len);
+        move_down(&mut self.buf, self.pend_start..self.pend_end, self.len);
         self.pend_start = self.len;
         self.pend_end = self.len + count;
     }
@@ -367,11 +366,23 @@ impl<const N: usize> UbxFramer<N> {
         let rest = self.len - 1;
         let pending = self.pend_end - self.pend_start;
         // Close the gap between the candidate and the pending bytes, then drop byte 0.
-        self.buf
-            .copy_within(self.pend_start..self.pend_end, self.len);
-        self.buf.copy_within(1..self.len + pending, 0);
+        move_down(&mut self.buf, self.pend_start..self.pend_end, self.len);
+        move_down(&mut self.buf, 1..self.len + pending, 0);
         self.len = 0;
         self.pend_start = 0;
         self.pend_end = rest + pending;
+    }
+}
+
+/// Moves `buf[from]` down to start at `dest` (`dest <= from.start`), one byte at a time, first
+/// byte first: right for overlapping ranges moving down. `copy_within` would do the same
+/// through `memmove`, which costs a flash-constrained board about 1.5 KiB.
+fn move_down(buf: &mut [u8], from: core::ops::Range<usize>, dest: usize) {
+    for (offset, source) in from.enumerate() {
+        if let Some(&byte) = buf.get(source) {
+            if let Some(slot) = buf.get_mut(dest + offset) {
+                *slot = byte;
+            }
+        }
     }
 }

@@ -4,8 +4,10 @@
 //! builds for the STM32 (where the firmware in `../src` drives it from interrupts) and for the
 //! host, where `cargo test-logic` runs its unit tests:
 //!
-//! - [`request`]: what to do with a request edge (send the latest packet, append an info
-//!   frame, or skip and count because a transfer is still running);
+//! - [`request`]: what to do with a request edge (send the latest packet, restart the info
+//!   snapshot, or skip and count because a transfer is still running);
+//! - [`link`]: the transmit side over a DMA stream ([`TxDma`]): buffer rotation, a piece
+//!   behind each packet, skips, DMA errors;
 //! - [`schedule`]: which sensor to read on which sampling tick (accelerometer and gyroscope
 //!   every tick, magnetometer in forced mode with data-ready polling, BMP280 in normal mode);
 //! - [`latest`]: the front half of the packet double buffer, the latest complete packet;
@@ -27,6 +29,7 @@ pub mod crc_check;
 pub mod dima;
 pub mod gnss_setup;
 pub mod latest;
+pub mod link;
 pub mod request;
 pub mod reset_record;
 pub mod schedule;
@@ -36,6 +39,7 @@ pub mod supervisor;
 pub use crc_check::{CheckedCrc, NibbleCrc};
 pub use gnss_setup::{Outcome as GnssSetupOutcome, ReplyPort, ReplyTap, SetupStatus};
 pub use latest::LatestPacket;
+pub use link::{TxDma, TxLink};
 pub use request::{AfterTransfer, Answer, RequestHandler, INFO_GAP_MS};
 pub use schedule::{MagAction, Schedule, ScheduleConfig, TickPlan};
 pub use sensors::{BootReport, Sensors};

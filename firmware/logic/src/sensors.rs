@@ -481,6 +481,51 @@ mod tests {
     }
 
     #[test]
+    fn spi_errors_are_counted_for_the_die_that_fails() {
+        // Each die in turn fails every transfer after boot; only its own counter grows.
+        let boot = {
+            let (sensors, _) = Sensors::init(accel(), gyro(), mag(), baro(), &mut NoDelay);
+            let (a, g, m, b) = sensors.release();
+            [
+                a.transactions,
+                g.transactions,
+                m.transactions,
+                b.transactions,
+            ]
+        };
+        for die in 0..4 {
+            let mut dies = [accel(), gyro(), mag(), baro()];
+            dies[die].fail_from = boot[die];
+            let [a, g, m, b] = dies;
+            let (mut sensors, report) = Sensors::init(a, g, m, b, &mut NoDelay);
+            assert_eq!(
+                report.status.bits() & 0x0F,
+                0x0F,
+                "die {die}: all up at boot"
+            );
+            let mut schedule = Schedule::new(ScheduleConfig::DEFAULT);
+            let mut packet = PacketBuilder::new();
+            for _ in 0..20 {
+                let plan = schedule.next_tick();
+                sensors.tick(plan, &mut schedule, &mut packet);
+            }
+            let errors = sensors.errors();
+            for (other, &count) in errors.iter().enumerate() {
+                if other == die {
+                    assert!(count > 0, "die {die}: its failures counted ({errors:?})");
+                } else {
+                    assert_eq!(count, 0, "die {die}: die {other} untouched ({errors:?})");
+                }
+            }
+            assert_eq!(
+                sensors.ages_ms(1000)[die],
+                u16::MAX,
+                "die {die}: never read"
+            );
+        }
+    }
+
+    #[test]
     fn dies_never_read_report_the_largest_age() {
         let (sensors, _) = Sensors::init(
             FakeDie::dead(),

@@ -20,7 +20,7 @@ use crate::devices::sensor::{open_hardware_sensor, SensorDevice};
 use crate::devices::serial::{LineSettings, SerialPort};
 use crate::devices::servo::{ServoBoard, ServoOutput};
 use crate::devices::{device_link, spawn_supervisors, Opener};
-use crate::logging::{spawn_logger, LoggerSettings, McapLog};
+use crate::logging::{spawn_logger, LogFaults, LoggerSettings, McapLog};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport};
 use crate::telemetry::{
@@ -78,6 +78,8 @@ pub struct RunOptions {
     pub observer: Option<Observer>,
     /// Extra work inside the realtime cycle (a simulation's `loop:busy` fault).
     pub busy: Option<BusyFault>,
+    /// A stalled or full log disk (a simulation's `log:stall` and `log:full` faults).
+    pub log_faults: LogFaults,
 }
 
 /// What a run did.
@@ -183,14 +185,17 @@ where
     } else {
         None
     };
+    let header = vec![(
+        schema::METADATA_DIMA.to_owned(),
+        vec![
+            ("version", env!("CARGO_PKG_VERSION").to_owned()),
+            ("config", toml::to_string(config)?),
+        ],
+    )];
     if let Some(l) = log.as_mut() {
-        l.metadata(
-            schema::METADATA_DIMA,
-            &[
-                ("version", env!("CARGO_PKG_VERSION").to_owned()),
-                ("config", toml::to_string(config)?),
-            ],
-        )?;
+        for (name, pairs) in &header {
+            l.metadata(name, pairs)?;
+        }
     }
     let (report_tx, report_rx) = mpsc::channel();
     let logger_stop = Arc::new(AtomicBool::new(false));
@@ -201,6 +206,8 @@ where
         LoggerSettings {
             flush_interval: Duration::from_millis(u64::from(config.log.flush_interval_ms)),
             decoded_every: u64::from(config.log.decoded_every),
+            header,
+            faults: options.log_faults,
         },
         Arc::clone(&logger_stop),
         options.observer,

@@ -6,6 +6,7 @@ pub mod info;
 pub mod inspect;
 pub mod plot;
 pub mod read;
+pub mod records;
 pub mod replay;
 
 use std::io::{Read, Write};

@@ -9,10 +9,9 @@ use anyhow::Context;
 use dima_core::config::Config;
 use dima_core::schema::{self, CycleMessage, SensorInfoMessage, StateMessage, SummaryRecord};
 use dima_sensorboard::PACKET_LEN;
+use mcap::records::Record;
 
-/// The longest record read from a log, bytes (a decompressed record inside a chunk included).
-/// `dima` writes records of a few KB; a longer length field is damage, not data.
-pub const MAX_RECORD_LEN: usize = 64 << 20;
+use super::records::{for_each_record, Scope};
 
 /// A message with its log time (Unix-epoch ns).
 #[derive(Debug, Clone, PartialEq)]
@@ -60,40 +59,37 @@ impl LoggedRun {
 
     /// Parses the bytes of an MCAP file written by `dima`.
     ///
-    /// Any bytes give a result or an error: no record longer than [`MAX_RECORD_LEN`] is read,
-    /// so a damaged length field cannot size an allocation.
+    /// Any bytes give a result or an error: no length field in the file can size an allocation
+    /// (see [`records`](super::records)).
     pub fn from_bytes(bytes: &[u8]) -> anyhow::Result<LoggedRun> {
         let mut run = LoggedRun::default();
-        let mut reader = mcap::sans_io::MessageReader::new_with_options(
-            mcap::sans_io::LinearReaderOptions::default()
-                .with_skip_end_magic(true)
-                .with_record_length_limit(MAX_RECORD_LEN),
-        );
-        let mut rest = bytes;
+        let mut topics = BTreeMap::new();
         let mut messages = 0u64;
-        while let Some(event) = reader.next_event() {
-            match event {
-                Ok(mcap::sans_io::MessageReadEvent::ReadRequest(need)) => {
-                    let (now, later) = rest.split_at(need.min(rest.len()));
-                    reader.insert(now.len()).copy_from_slice(now);
-                    reader.notify_read(now.len());
-                    rest = later;
+        let read = for_each_record(bytes, Scope::InsideChunks, |record| {
+            match record {
+                Record::Channel(channel) => {
+                    topics.insert(channel.id, channel.topic);
                 }
-                Ok(mcap::sans_io::MessageReadEvent::Message(m)) => {
+                Record::Message { header, data } => {
+                    let topic = topics.get(&header.channel_id).with_context(|| {
+                        format!(
+                            "message on channel {} before its channel",
+                            header.channel_id
+                        )
+                    })?;
                     messages += 1;
-                    if let Err(e) = run.add_message(m.channel.topic.as_str(), m.log_time, &m.data) {
-                        run.warnings.push(format!(
-                            "{} message at {}: {e}",
-                            m.channel.topic, m.log_time
-                        ));
+                    if let Err(e) = run.add_message(topic, header.log_time, &data) {
+                        run.warnings
+                            .push(format!("{topic} message at {}: {e}", header.log_time));
                     }
                 }
-                Err(e) => {
-                    run.warnings
-                        .push(format!("read up to message {messages}, then: {e}"));
-                    break;
-                }
+                _ => {}
             }
+            Ok(())
+        });
+        if let Err(e) = read {
+            run.warnings
+                .push(format!("read up to message {messages}, then: {e:#}"));
         }
         run.read_records(bytes);
         if messages == 0 && run.config.is_none() {
@@ -129,26 +125,21 @@ impl LoggedRun {
     }
 
     /// Metadata and attachments, from the records themselves (a cut file has no summary
-    /// section to index them).
-    /// `mcap::read::LinearReader` bounds every record by the length of `bytes` and yields
-    /// chunks whole, without decompressing them.
+    /// section to index them). Chunks are skipped without decompressing them, so a damaged
+    /// chunk does not hide the metadata after it.
     fn read_records(&mut self, bytes: &[u8]) {
-        let options = mcap::read::Options::IgnoreEndMagic.into();
-        let Ok(reader) = mcap::read::LinearReader::new_with_options(bytes, options) else {
-            return;
-        };
-        for record in reader {
-            let Ok(record) = record else { break };
+        let _ = for_each_record(bytes, Scope::TopLevel, |record| {
             match record {
-                mcap::records::Record::Metadata(m) => self.add_metadata(&m.name, &m.metadata),
-                mcap::records::Record::Attachment { header, data, .. }
+                Record::Metadata(m) => self.add_metadata(&m.name, &m.metadata),
+                Record::Attachment { header, data, .. }
                     if header.name == schema::ATTACHMENT_HISTOGRAM =>
                 {
                     self.histogram = Some(String::from_utf8_lossy(&data).into_owned());
                 }
                 _ => {}
             }
-        }
+            Ok(())
+        });
     }
 
     fn add_metadata(&mut self, name: &str, pairs: &BTreeMap<String, String>) {
