@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Parser;
+use dima_groundlink::v2::LinkKey;
 
 /// The DIMA ground station: drive the robot, kill and revive it, watch its sensors and GNSS,
 /// and record the session.
@@ -15,6 +16,12 @@ pub struct Cli {
     /// Connect to this serial port (or pty) at start.
     #[arg(long, value_name = "PATH", conflicts_with = "sim")]
     pub port: Option<PathBuf>,
+    /// The link key (one line of 32 hexadecimal characters, readable by its owner only, as
+    /// `dima keygen` writes it): the station speaks ground link v2, authenticated. Without
+    /// it the station speaks version 1, unauthenticated (robots with `[xbee] require_auth =
+    /// false` only). With --sim a fresh key is made for the simulated robot unless this is given.
+    #[arg(long, value_name = "PATH")]
+    pub key_file: Option<PathBuf>,
     /// Baud rate of the XBee link.
     #[arg(long, default_value_t = 9600, value_name = "N")]
     pub baud: u32,
@@ -77,6 +84,19 @@ fn parse_size(text: &str) -> Result<(f32, f32), String> {
 }
 
 impl Cli {
+    /// The link key of `--key-file` (ground link v2) and a note for the window; `None` and
+    /// "not authenticated (v1)" without it. A key file its group or others can read is refused
+    /// with the loader's error, which names the file and the `chmod` that fixes it.
+    pub fn link_key(&self) -> anyhow::Result<(Option<LinkKey>, String)> {
+        Ok(match &self.key_file {
+            Some(path) => (
+                Some(dima_groundlink::key_file::load(path)?),
+                format!("ground link v2, authenticated (key {})", path.display()),
+            ),
+            None => (None, "not authenticated (v1)".to_owned()),
+        })
+    }
+
     /// Checks what clap cannot.
     pub fn validate(&self) -> anyhow::Result<()> {
         if !(self.after.is_finite() && self.after >= 0.0) {
@@ -104,6 +124,7 @@ mod tests {
             .unwrap();
         assert_eq!(c.port, Some(PathBuf::from("/dev/pts/4")));
         assert_eq!(c.baud, 115_200);
+        assert_eq!(c.key_file, None);
         assert_eq!(c.log_dir, PathBuf::from("./dima-ground-logs"));
         assert_eq!(c.key_step, 20);
         assert_eq!(c.window_size, (1400.0, 900.0));
@@ -124,10 +145,37 @@ mod tests {
         assert_eq!(c.after, 7.0);
         assert_eq!(c.window_size, (800.0, 600.0));
 
+        let c = Cli::try_parse_from(["dima-ground", "--key-file", "/etc/dima/link.key"]).unwrap();
+        assert_eq!(c.key_file, Some(PathBuf::from("/etc/dima/link.key")));
         assert!(Cli::try_parse_from(["dima-ground", "--sim", "--port", "/dev/x"]).is_err());
         assert!(Cli::try_parse_from(["dima-ground", "--key-step", "0"]).is_err());
         assert!(Cli::try_parse_from(["dima-ground", "--window-size", "big"]).is_err());
         let bad = Cli::try_parse_from(["dima-ground", "--baud", "1234"]).unwrap();
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn a_key_file_others_can_read_is_refused() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("dima-ground-key-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("link.key");
+        let key = dima_groundlink::key_file::create(&path).unwrap();
+        let cli =
+            Cli::try_parse_from(["dima-ground", "--key-file", path.to_str().unwrap()]).unwrap();
+        let (loaded, note) = cli.link_key().unwrap();
+        assert_eq!(loaded, Some(key));
+        assert!(note.contains("v2"), "{note}");
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o644)).unwrap();
+        let error = format!("{:#}", cli.link_key().unwrap_err());
+        assert!(error.contains("chmod 600"), "{error}");
+        assert!(error.contains(path.to_str().unwrap()), "{error}");
+        let v1 = Cli::try_parse_from(["dima-ground"])
+            .unwrap()
+            .link_key()
+            .unwrap();
+        assert_eq!(v1, (None, "not authenticated (v1)".to_owned()));
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -6,6 +6,8 @@
 //!   the ports a robot's XBee could be on;
 //! - [`scheduler`]: which command frames go out when: a heartbeat every 100 ms, a pending
 //!   command in its place, held values repeated, a kill at once and repeated for 1 s;
+//! - [`uplink`]: ground link v2's station side: the robot's session, sequence numbers, and
+//!   requested commands repeated until the robot acknowledges them;
 //! - [`link`]: the link thread that owns the port: sends what the scheduler says, decodes
 //!   display frames, counts everything, reconnects, and never blocks the user interface;
 //! - [`keys`]: the keyboard contract (arrows/WASD, Q/E, Space kills, R held 1 s revives) as a
@@ -39,3 +41,4 @@ pub mod sim;
 pub mod telemetry;
 pub mod ui;
 pub mod units;
+pub mod uplink;

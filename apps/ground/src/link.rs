@@ -1,6 +1,11 @@
 //! The link thread: owns the serial port, sends what the [`CommandScheduler`] says, decodes
 //! display frames, counts everything, records the session and reconnects.
 //!
+//! With a link key it speaks ground link v2: the scheduler's slots are numbered by the
+//! [`Uplink`] and tagged with the key, and only display frames v2 with a valid tag are
+//! decoded (a frame whose tag does not match is counted and never shown). Without a key it
+//! speaks version 1, unauthenticated.
+//!
 //! The user interface talks to it only through a channel ([`LinkControl`]), reads a snapshot
 //! of its state ([`LinkStatus`], a short lock) and takes decoded frames from another channel
 //! ([`LinkEvent`]): nothing the port does can block the interface. The thread wakes at least
@@ -16,13 +21,17 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use dima_groundlink::v2::{self, FailsafeCause, Health, LinkKey, ReviveRefusal, RobotMode};
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 
-use crate::recording::{now_ns, DisplayRecord, LinkRecord, RecordEvent};
+use crate::recording::{
+    now_ns, CommandRecord, DeliveryRecord, DisplayRecord, LinkRecord, RecordEvent, RobotRecord,
+};
 use crate::scheduler::{CommandScheduler, ManualChannel};
 use crate::serial::open_port;
 use crate::units::{Physical, SensorCalibration};
+use crate::uplink::{CommandStatus, DownlinkVerdict, Uplink, UplinkStats};
 
 /// The longest the thread sleeps between looks at the user interface's requests.
 pub const MAX_WAIT: Duration = Duration::from_millis(10);
@@ -65,9 +74,84 @@ pub enum LinkState {
     Connected,
 }
 
+/// The robot's own report, from the last authenticated display frame (ground link v2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RobotReport {
+    /// When the frame arrived.
+    pub at: Instant,
+    /// The robot's mode.
+    pub mode: RobotMode,
+    /// Why it is (or last was) in FAILSAFE.
+    pub failsafe_cause: Option<FailsafeCause>,
+    /// Why it refused the last revive.
+    pub revive_refusal: Option<ReviveRefusal>,
+    /// Its session id.
+    pub session: u32,
+    /// Downlink sequence number of the frame.
+    pub seq: u32,
+    /// The last command sequence number it accepted.
+    pub ack_seq: u32,
+    /// Its health and link rejection counters.
+    pub health: Health,
+}
+
+impl RobotReport {
+    fn new(at: Instant, frame: &v2::DisplayFrame) -> RobotReport {
+        RobotReport {
+            at,
+            mode: frame.mode,
+            failsafe_cause: frame.failsafe_cause,
+            revive_refusal: frame.revive_refusal,
+            session: frame.session,
+            seq: frame.seq,
+            ack_seq: frame.ack_seq,
+            health: frame.health,
+        }
+    }
+}
+
+/// The station's side of ground link v2, for the user interface.
+#[derive(Debug, Clone, Default)]
+pub struct UplinkView {
+    /// The robot's session id, once known.
+    pub session: Option<u32>,
+    /// The sequence number of the next frame.
+    pub next_seq: u32,
+    /// The robot's last acknowledgement.
+    pub last_ack: Option<u32>,
+    /// The latest command asked for and what became of it.
+    pub last_command: Option<CommandStatus>,
+    /// Requested commands waiting for their acknowledgement.
+    pub pending: Vec<CommandStatus>,
+    /// Counters.
+    pub stats: UplinkStats,
+}
+
+impl UplinkView {
+    fn of(uplink: &Uplink) -> UplinkView {
+        UplinkView {
+            session: uplink.session(),
+            next_seq: uplink.next_seq(),
+            last_ack: uplink.last_ack(),
+            last_command: uplink.last_command().cloned(),
+            pending: uplink.pending().cloned().collect(),
+            stats: uplink.stats(),
+        }
+    }
+}
+
 /// A snapshot of the link for the user interface.
 #[derive(Debug, Clone, Default)]
 pub struct LinkStatus {
+    /// Ground link v2 (authenticated, with a key); version 1 otherwise.
+    pub authenticated: bool,
+    /// v2: the robot's report from the last authenticated display frame.
+    pub robot: Option<RobotReport>,
+    /// v2: session, numbering and acknowledgements.
+    pub uplink: Option<UplinkView>,
+    /// v2: candidate display frames whose tag did not match (forged, corrupt, another key);
+    /// never shown.
+    pub bad_tag: u64,
     /// Port state.
     pub state: LinkState,
     /// The chosen port.
@@ -90,12 +174,12 @@ pub struct LinkStatus {
     pub write_errors: u64,
     /// Valid display frames.
     pub frames_in: u64,
-    /// Frames lost to a CRC mismatch: each run of bytes the decoder had to slide past counts
+    /// v1: frames lost to a CRC mismatch: each run of bytes the decoder had to slide past counts
     /// once (a damaged frame, a lost or inserted byte, or the tail of a frame at connect).
     pub crc_errors: u64,
     /// Bytes slid past while resynchronising.
     pub skipped_bytes: u64,
-    /// CRC-valid frames with impossible values.
+    /// CRC-valid (v1) or authentic (v2) frames with impossible values or a wrong length.
     pub out_of_range: u64,
     /// Display frames per second over the last [`RATE_WINDOW`].
     pub frames_per_s: f64,
@@ -131,19 +215,37 @@ pub struct LinkHandle {
 
 impl LinkHandle {
     /// Starts the thread. `recorder` receives every byte and frame; `calibration` converts the
-    /// recorded display frames to physical units.
+    /// recorded display frames to physical units; with `key` the link speaks version 2.
     pub fn spawn(
         recorder: Option<Sender<RecordEvent>>,
         calibration: Option<SensorCalibration>,
+        key: Option<LinkKey>,
     ) -> std::io::Result<LinkHandle> {
         let (control, control_rx) = mpsc::channel();
         let (events_tx, events) = mpsc::channel();
         let status = Arc::new(Mutex::new(LinkStatus {
             auto_reconnect: true,
+            authenticated: key.is_some(),
             ..LinkStatus::default()
         }));
-        let mut worker =
-            LinkWorker::new(control_rx, events_tx, status.clone(), recorder, calibration);
+        let protocol = match key {
+            Some(key) => Protocol::V2 {
+                decoder: v2::DisplayDecoder::new(key.clone()),
+                key,
+                uplink: Box::default(),
+            },
+            None => Protocol::V1 {
+                decoder: DisplayDecoder::new(),
+            },
+        };
+        let mut worker = LinkWorker::new(
+            control_rx,
+            events_tx,
+            status.clone(),
+            recorder,
+            calibration,
+            protocol,
+        );
         let thread = std::thread::Builder::new()
             .name("ground-link".into())
             .spawn(move || worker.run())?;
@@ -192,6 +294,24 @@ fn lock(status: &Mutex<LinkStatus>) -> MutexGuard<'_, LinkStatus> {
     status.lock().unwrap_or_else(|e| e.into_inner())
 }
 
+/// The version the link speaks, with its state.
+enum Protocol {
+    /// Version 1: unauthenticated.
+    V1 {
+        /// Display frames v1.
+        decoder: DisplayDecoder,
+    },
+    /// Version 2: authenticated, numbered, acknowledged.
+    V2 {
+        /// The link key.
+        key: LinkKey,
+        /// Display frames v2 under the key.
+        decoder: v2::DisplayDecoder,
+        /// Session, numbering, acknowledgements.
+        uplink: Box<Uplink>,
+    },
+}
+
 /// The thread's state.
 struct LinkWorker {
     control: Receiver<LinkControl>,
@@ -201,7 +321,7 @@ struct LinkWorker {
     calibration: Option<SensorCalibration>,
     status: LinkStatus,
     scheduler: CommandScheduler,
-    decoder: DisplayDecoder,
+    protocol: Protocol,
     port: Option<File>,
     next_attempt: Option<Instant>,
     resyncing: bool,
@@ -216,6 +336,7 @@ impl LinkWorker {
         shared: Arc<Mutex<LinkStatus>>,
         recorder: Option<Sender<RecordEvent>>,
         calibration: Option<SensorCalibration>,
+        protocol: Protocol,
     ) -> LinkWorker {
         let status = lock(&shared).clone();
         LinkWorker {
@@ -226,7 +347,7 @@ impl LinkWorker {
             calibration,
             status,
             scheduler: CommandScheduler::default(),
-            decoder: DisplayDecoder::new(),
+            protocol,
             port: None,
             next_attempt: None,
             resyncing: false,
@@ -317,7 +438,10 @@ impl LinkWorker {
                 self.status.state = LinkState::Connected;
                 self.status.opens += 1;
                 self.status.last_error = None;
-                self.decoder.reset();
+                match &mut self.protocol {
+                    Protocol::V1 { decoder } => decoder.reset(),
+                    Protocol::V2 { decoder, .. } => decoder.reset(),
+                }
                 self.resyncing = false;
                 self.scheduler.restart();
                 self.connected_at = Some(now);
@@ -357,9 +481,35 @@ impl LinkWorker {
         if self.port.is_none() {
             return;
         }
+        let slot = self.scheduler.poll_slot(now);
+        let (frames, settled): (Vec<(Command, Vec<u8>, CommandRecord)>, _) =
+            match &mut self.protocol {
+                Protocol::V1 { .. } => (
+                    slot.iter()
+                        .map(|s| {
+                            let bytes = s.command.encode().to_vec();
+                            (s.command, bytes, CommandRecord::new(s.command))
+                        })
+                        .collect(),
+                    Vec::new(),
+                ),
+                Protocol::V2 { key, uplink, .. } => {
+                    let frames = uplink
+                        .frames(&slot, now)
+                        .iter()
+                        .map(|f| {
+                            let bytes = f.encode(key);
+                            (f.command, bytes.to_vec(), CommandRecord::v2(f, &bytes))
+                        })
+                        .collect();
+                    (frames, uplink.take_settled())
+                }
+            };
+        for s in settled {
+            self.record(RecordEvent::Delivery(now_ns(), DeliveryRecord::new(&s)));
+        }
         let mut failure = None;
-        for command in self.scheduler.poll(now) {
-            let frame = command.encode();
+        for (command, frame, record) in frames {
             let Some(port) = self.port.as_mut() else {
                 break;
             };
@@ -368,7 +518,7 @@ impl LinkWorker {
                     self.status.bytes_out += frame.len() as u64;
                     self.status.frames_out += 1;
                     self.status.last_sent[command.command_type() as usize] = Some((now, command));
-                    self.record(RecordEvent::Sent(now_ns(), command));
+                    self.record(RecordEvent::Sent(now_ns(), record));
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => {
                     // Nobody reads the other end: count it, try again next slot.
@@ -446,33 +596,91 @@ impl LinkWorker {
         let t_ns = now_ns();
         self.status.bytes_in += bytes.len() as u64;
         self.record(RecordEvent::Received(t_ns, bytes.to_vec()));
+        if matches!(self.protocol, Protocol::V1 { .. }) {
+            self.take_bytes_v1(bytes, now, t_ns);
+        } else {
+            self.take_bytes_v2(bytes, now, t_ns);
+        }
+    }
+
+    fn take_bytes_v1(&mut self, bytes: &[u8], now: Instant, t_ns: u64) {
+        let Protocol::V1 { decoder } = &mut self.protocol else {
+            return;
+        };
+        let mut frames = Vec::new();
         for &b in bytes {
-            let skipped_before = self.decoder.stats().skipped_bytes;
-            let result = self.decoder.push(b);
-            if self.decoder.stats().skipped_bytes > skipped_before && !self.resyncing {
+            let skipped_before = decoder.stats().skipped_bytes;
+            let result = decoder.push(b);
+            if decoder.stats().skipped_bytes > skipped_before && !self.resyncing {
                 self.resyncing = true;
                 self.status.crc_errors += 1;
             }
             match result {
                 Some(Ok(frame)) => {
                     self.resyncing = false;
-                    self.status.frames_in += 1;
-                    self.status.last_frame_at = Some(now);
-                    self.recent_frames.push_back(now);
-                    let physical = Physical::from_frame(&frame, self.calibration.as_ref());
-                    self.record(RecordEvent::Display(
-                        t_ns,
-                        Box::new(DisplayRecord::new(&frame, &physical)),
-                    ));
-                    let _ = self.events.send(LinkEvent::Frame(now, frame));
+                    frames.push(frame);
                 }
                 Some(Err(_)) => self.resyncing = false,
                 None => {}
             }
         }
-        let stats = self.decoder.stats();
+        let stats = decoder.stats();
         self.status.skipped_bytes = u64::from(stats.skipped_bytes);
         self.status.out_of_range = u64::from(stats.out_of_range);
+        for frame in frames {
+            self.deliver(now, t_ns, frame, None);
+        }
+    }
+
+    fn take_bytes_v2(&mut self, bytes: &[u8], now: Instant, t_ns: u64) {
+        let Protocol::V2 {
+            decoder, uplink, ..
+        } = &mut self.protocol
+        else {
+            return;
+        };
+        let mut frames = Vec::new();
+        for &b in bytes {
+            // A rejected candidate is counted by the decoder; the content of a frame whose tag
+            // does not match is never looked at.
+            if let Some(Ok(frame)) = decoder.push(b) {
+                if uplink.on_display(&frame, now) != DownlinkVerdict::Old {
+                    frames.push(frame);
+                }
+            }
+        }
+        let stats = decoder.stats();
+        self.status.bad_tag = u64::from(stats.bad_tag);
+        self.status.skipped_bytes = u64::from(stats.skipped_bytes);
+        self.status.out_of_range = u64::from(stats.malformed);
+        let settled = uplink.take_settled();
+        for s in settled {
+            self.record(RecordEvent::Delivery(t_ns, DeliveryRecord::new(&s)));
+        }
+        for frame in frames {
+            let report = RobotReport::new(now, &frame);
+            self.status.robot = Some(report);
+            let record = RobotRecord::new(&frame, self.status.bad_tag);
+            self.deliver(now, t_ns, frame.sensors, Some(record));
+        }
+    }
+
+    /// A valid display frame: counted, recorded and handed to the user interface.
+    fn deliver(
+        &mut self,
+        now: Instant,
+        t_ns: u64,
+        frame: DisplayFrame,
+        robot: Option<RobotRecord>,
+    ) {
+        self.status.frames_in += 1;
+        self.status.last_frame_at = Some(now);
+        self.recent_frames.push_back(now);
+        let physical = Physical::from_frame(&frame, self.calibration.as_ref());
+        let mut record = DisplayRecord::new(&frame, &physical);
+        record.robot = robot;
+        self.record(RecordEvent::Display(t_ns, Box::new(record)));
+        let _ = self.events.send(LinkEvent::Frame(now, frame));
     }
 
     fn publish(&mut self, now: Instant) {
@@ -488,6 +696,9 @@ impl LinkWorker {
             .map_or(RATE_WINDOW, |t| now.saturating_duration_since(t))
             .clamp(Duration::from_secs(1), RATE_WINDOW);
         self.status.frames_per_s = self.recent_frames.len() as f64 / span.as_secs_f64();
+        if let Protocol::V2 { uplink, .. } = &self.protocol {
+            self.status.uplink = Some(UplinkView::of(uplink));
+        }
         *lock(&self.shared) = self.status.clone();
     }
 }
@@ -562,7 +773,7 @@ mod tests {
     #[test]
     fn heartbeats_commands_and_kill_reach_the_robot() {
         let (mut robot, path, _slave) = robot_end();
-        let link = LinkHandle::spawn(None, None).unwrap();
+        let link = LinkHandle::spawn(None, None, None).unwrap();
         link.send(LinkControl::Connect { path, baud: 9600 });
         let heartbeats = read_commands(&mut robot, Duration::from_millis(1_050));
         let n = heartbeats.len();
@@ -614,7 +825,7 @@ mod tests {
     #[test]
     fn display_frames_are_decoded_counted_and_timed() {
         let (mut robot, path, _slave) = robot_end();
-        let link = LinkHandle::spawn(None, None).unwrap();
+        let link = LinkHandle::spawn(None, None, None).unwrap();
         link.send(LinkControl::Connect { path, baud: 9600 });
         wait_for("connected", || link.status().state == LinkState::Connected);
         let frame = DisplayFrame {
@@ -648,6 +859,150 @@ mod tests {
         assert_eq!(frames, vec![frame, frame]);
     }
 
+    const KEY: LinkKey = LinkKey::from_bytes([
+        0x0f, 0x1e, 0x2d, 0x3c, 0x4b, 0x5a, 0x69, 0x78, 0x87, 0x96, 0xa5, 0xb4, 0xc3, 0xd2, 0xe1,
+        0xf0,
+    ]);
+    const SESSION: u32 = 0x5EED_2026;
+
+    /// Command frames v2 through the robot's gate for `d`: what it accepted, with the frames'
+    /// sessions and sequence numbers as decoded independently.
+    fn gate_commands(
+        robot: &mut File,
+        gate: &mut v2::CommandGate,
+        d: Duration,
+    ) -> Vec<(Command, u32, u32)> {
+        let mut decoder = v2::CommandDecoder::new(KEY);
+        let mut out = Vec::new();
+        let end = Instant::now() + d;
+        let mut buf = [0u8; 256];
+        while Instant::now() < end {
+            let left = end.saturating_duration_since(Instant::now());
+            let mut fds = [PollFd::new(robot.as_fd(), PollFlags::POLLIN)];
+            let ms = PollTimeout::from(left.as_millis().min(50) as u16);
+            if poll(&mut fds, ms).unwrap() > 0 {
+                let n = robot.read(&mut buf).unwrap();
+                let frames: Vec<v2::CommandFrame> =
+                    decoder.feed(&buf[..n]).map(|f| f.unwrap()).collect();
+                let verdicts: Vec<_> = gate.feed(&buf[..n]).collect();
+                assert_eq!(frames.len(), verdicts.len());
+                for (f, v) in frames.iter().zip(verdicts) {
+                    assert_eq!(v, Ok(f.command), "the gate accepts {f:?}");
+                    out.push((f.command, f.session, f.seq));
+                }
+            }
+        }
+        out
+    }
+
+    fn robot_frame(seq: u32, ack_seq: u32, mode: RobotMode) -> v2::DisplayFrame {
+        v2::DisplayFrame {
+            mode,
+            session: SESSION,
+            seq,
+            ack_seq,
+            sensors: DisplayFrame {
+                g_speed_mm_s: 1_234,
+                ..DisplayFrame::default()
+            },
+            ..v2::DisplayFrame::default()
+        }
+    }
+
+    #[test]
+    fn v2_learns_the_session_numbers_every_frame_and_repeats_a_revive_until_acknowledged() {
+        let (mut robot, path, _slave) = robot_end();
+        let mut gate = v2::CommandGate::new(KEY, SESSION);
+        let link = LinkHandle::spawn(None, None, Some(KEY)).unwrap();
+        link.send(LinkControl::Connect { path, baud: 9600 });
+        wait_for("connected", || link.status().state == LinkState::Connected);
+        // No session yet: nothing but a kill may go out, with session 0.
+        assert!(gate_commands(&mut robot, &mut gate, Duration::from_millis(350)).is_empty());
+        let pressed = Instant::now();
+        link.send(LinkControl::Request(Command::Kill));
+        let mut fds = [PollFd::new(robot.as_fd(), PollFlags::POLLIN)];
+        assert_eq!(poll(&mut fds, PollTimeout::from(500u16)).unwrap(), 1);
+        let first = pressed.elapsed();
+        // At once, without a session (the scheduler's tests pin the timing exactly; here with
+        // room for a loaded machine, but less than a slot).
+        assert!(first < Duration::from_millis(90), "kill after {first:?}");
+        let kills = gate_commands(&mut robot, &mut gate, Duration::from_millis(250));
+        assert!(!kills.is_empty());
+        assert!(kills
+            .iter()
+            .all(|&(c, session, _)| c == Command::Kill && session == 0));
+
+        // A display frame under another key: counted, never shown.
+        let forged = robot_frame(1, 0, RobotMode::Manual).encode(&LinkKey::from_bytes([9; 16]));
+        robot.write_all(&forged).unwrap();
+        wait_for("bad tag counted", || link.status().bad_tag == 1);
+        let s = link.status();
+        assert!(s.robot.is_none() && s.frames_in == 0);
+        assert!(link.drain_events().is_empty());
+
+        // The robot's real frame: the session is known, and heartbeats follow in it.
+        std::thread::sleep(Duration::from_millis(1_000)); // the kill repetition ends
+        let repeated = gate_commands(&mut robot, &mut gate, Duration::from_millis(100));
+        assert!(repeated.iter().all(|&(c, _, _)| c == Command::Kill));
+        robot
+            .write_all(&robot_frame(2, gate.last_accepted(), RobotMode::Killed).encode(&KEY))
+            .unwrap();
+        wait_for("session", || {
+            link.status().uplink.and_then(|u| u.session) == Some(SESSION)
+        });
+        assert_eq!(link.status().robot.unwrap().mode, RobotMode::Killed);
+        let beats = gate_commands(&mut robot, &mut gate, Duration::from_millis(350));
+        assert!(beats.len() >= 2, "{beats:?}");
+        assert!(
+            beats
+                .iter()
+                .all(|&(c, session, _)| c == Command::Heartbeat && session == SESSION),
+            "{beats:?}"
+        );
+
+        // A revive is repeated, every frame with a new number, until the robot reports
+        // MANUAL with an acknowledgement of one of them.
+        link.send(LinkControl::Request(Command::Revive));
+        let revives = gate_commands(&mut robot, &mut gate, Duration::from_millis(350));
+        assert!(revives.len() >= 2, "{revives:?}");
+        assert!(revives.iter().all(|&(c, _, _)| c == Command::Revive));
+        let seqs: Vec<u32> = kills
+            .iter()
+            .chain(&repeated)
+            .chain(&beats)
+            .chain(&revives)
+            .map(|&(_, _, seq)| seq)
+            .collect();
+        assert!(
+            seqs.windows(2).all(|w| w[1] > w[0]),
+            "never reused: {seqs:?}"
+        );
+        robot
+            .write_all(&robot_frame(3, gate.last_accepted(), RobotMode::Manual).encode(&KEY))
+            .unwrap();
+        wait_for("acknowledged", || {
+            link.status()
+                .uplink
+                .and_then(|u| u.last_command)
+                .is_some_and(|c| matches!(c.delivery, crate::uplink::Delivery::Acknowledged { .. }))
+        });
+        let after = gate_commands(&mut robot, &mut gate, Duration::from_millis(250));
+        assert!(
+            after.iter().all(|&(c, _, _)| c == Command::Heartbeat),
+            "{after:?}"
+        );
+        let s = link.status();
+        assert_eq!(s.robot.unwrap().mode, RobotMode::Manual);
+        assert_eq!(s.frames_in, 2);
+        assert!(s.authenticated);
+        let speeds: Vec<i32> = link
+            .drain_events()
+            .into_iter()
+            .map(|LinkEvent::Frame(_, f)| f.g_speed_mm_s)
+            .collect();
+        assert_eq!(speeds, vec![1_234, 1_234]);
+    }
+
     #[test]
     fn a_lost_port_is_reopened() {
         let dir = std::env::temp_dir().join(format!("dima-ground-link-{}", std::process::id()));
@@ -661,7 +1016,7 @@ mod tests {
         };
         let (robot, first, slave) = robot_end();
         point(&first);
-        let link = LinkHandle::spawn(None, None).unwrap();
+        let link = LinkHandle::spawn(None, None, None).unwrap();
         link.send(LinkControl::Connect {
             path: link_path.clone(),
             baud: 9600,

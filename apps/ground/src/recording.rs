@@ -3,8 +3,9 @@
 //!
 //! | topic | encoding | content |
 //! |---|---|---|
-//! | `/ground/command` | json ([`CommandRecord`]) | every command frame sent |
-//! | `/ground/display` | json ([`DisplayRecord`]) | every valid display frame, raw fields and SI |
+//! | `/ground/command` | json ([`CommandRecord`]) | every command frame sent (v2: session and sequence number) |
+//! | `/ground/display` | json ([`DisplayRecord`]) | every valid display frame, raw fields and SI (v2: the robot's mode, acknowledgement and counters) |
+//! | `/ground/ack` | json ([`DeliveryRecord`]) | v2: what became of each requested command (acknowledged, given up, dropped) |
 //! | `/ground/rx_bytes` | `dima-ground-bytes` | every chunk of bytes read, as read (replayable) |
 //! | `/ground/link` | json ([`LinkRecord`]) | connects, disconnects, errors |
 //!
@@ -21,11 +22,13 @@ use std::thread::JoinHandle;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
+use dima_groundlink::v2::{self, CommandFrame, FailsafeCause, ReviveRefusal, RobotMode};
 use dima_groundlink::{Command, DisplayFrame};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::units::{Baro, MagField, Physical};
+use crate::uplink::{Delivery, Settled};
 
 /// Topic of the commands sent.
 pub const TOPIC_COMMAND: &str = "/ground/command";
@@ -35,6 +38,8 @@ pub const TOPIC_DISPLAY: &str = "/ground/display";
 pub const TOPIC_RX_BYTES: &str = "/ground/rx_bytes";
 /// Topic of link events.
 pub const TOPIC_LINK: &str = "/ground/link";
+/// Topic of command deliveries (v2).
+pub const TOPIC_ACK: &str = "/ground/ack";
 
 /// One command frame as sent.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -47,19 +52,192 @@ pub struct CommandRecord {
     pub name: String,
     /// The data field (percent, mm/s or 1e-5 degrees).
     pub data: i32,
-    /// The 10-byte frame, hexadecimal.
+    /// The frame as sent, hexadecimal (v1: 10 bytes, v2: 24 bytes).
     pub frame_hex: String,
+    /// v2: the session id the frame carries (0 before the station knew it); null for v1.
+    #[serde(default)]
+    pub session: Option<u32>,
+    /// v2: the frame's sequence number; null for v1.
+    #[serde(default)]
+    pub seq: Option<u32>,
 }
 
 impl CommandRecord {
-    /// The record of `command`.
+    /// The record of a v1 `command`.
     pub fn new(command: Command) -> CommandRecord {
         CommandRecord {
             kind: command.command_type() as u8,
             name: format!("{:?}", command.command_type()),
             data: command.data(),
             frame_hex: hex(&command.encode()),
+            session: None,
+            seq: None,
         }
+    }
+
+    /// The record of a v2 `frame`, sent as `bytes`.
+    pub fn v2(frame: &CommandFrame, bytes: &[u8]) -> CommandRecord {
+        CommandRecord {
+            frame_hex: hex(bytes),
+            session: Some(frame.session),
+            seq: Some(frame.seq),
+            ..CommandRecord::new(frame.command)
+        }
+    }
+}
+
+/// What became of a requested command (v2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima_ground.Delivery")]
+pub struct DeliveryRecord {
+    /// Command type.
+    pub kind: u8,
+    /// The type's name.
+    pub name: String,
+    /// The data field.
+    pub data: i32,
+    /// `acknowledged`, `unacknowledged` (given up), `superseded`, `cancelled` (by a kill) or
+    /// `robot_restarted`.
+    pub outcome: String,
+    /// The acknowledged sequence number (null unless acknowledged).
+    pub ack_seq: Option<u32>,
+    /// Frames sent with the command.
+    pub transmissions: u32,
+    /// Sequence numbers of its first and latest frame (null before it went out).
+    pub first_seq: Option<u32>,
+    /// Sequence number of its latest frame.
+    pub last_seq: Option<u32>,
+    /// From the request to the outcome, ms.
+    pub latency_ms: f64,
+    /// A revive the robot accepted while it still reported KILLED or FAILSAFE (refused then).
+    pub accepted_but_refused: bool,
+}
+
+impl DeliveryRecord {
+    /// The record of a settled command.
+    pub fn new(settled: &Settled) -> DeliveryRecord {
+        let s = &settled.status;
+        let (outcome, ack_seq) = match s.delivery {
+            Delivery::Acknowledged { seq } => ("acknowledged", Some(seq)),
+            Delivery::Pending => ("pending", None),
+            Delivery::Unacknowledged => ("unacknowledged", None),
+            Delivery::Superseded => ("superseded", None),
+            Delivery::Cancelled => ("cancelled", None),
+            Delivery::RobotRestarted => ("robot_restarted", None),
+        };
+        DeliveryRecord {
+            kind: s.command.command_type() as u8,
+            name: format!("{:?}", s.command.command_type()),
+            data: s.command.data(),
+            outcome: outcome.into(),
+            ack_seq,
+            transmissions: s.transmissions,
+            first_seq: s.first_seq,
+            last_seq: s.last_seq,
+            latency_ms: settled
+                .at
+                .saturating_duration_since(s.requested_at)
+                .as_secs_f64()
+                * 1e3,
+            accepted_but_refused: s.accepted_but_refused,
+        }
+    }
+}
+
+/// The robot's own report in a display frame v2.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[schemars(title = "dima_ground.Robot")]
+pub struct RobotRecord {
+    /// `KILLED`, `MANUAL`, `AUTO` or `FAILSAFE`.
+    pub mode: String,
+    /// Why it is (or last was) in FAILSAFE (null: not since the last revive).
+    pub failsafe_cause: Option<String>,
+    /// Why it refused the last revive (null: it did not).
+    pub revive_refusal: Option<String>,
+    /// Its session id.
+    pub session: u32,
+    /// The frame's downlink sequence number.
+    pub seq: u32,
+    /// The last command sequence number it accepted (the acknowledgement).
+    pub ack_seq: u32,
+    /// Loop periods missed.
+    pub missed_periods: u32,
+    /// Sensor packets rejected.
+    pub sensor_bad: u32,
+    /// Cycles without a sensor packet.
+    pub sensor_missing: u32,
+    /// Commands it accepted.
+    pub commands: u32,
+    /// Command frames it rejected: tag did not match.
+    pub rejected_bad_tag: u32,
+    /// Command frames it rejected: sequence number not newer than the last accepted one.
+    pub rejected_replayed: u32,
+    /// Command frames it rejected: another session.
+    pub rejected_stale_session: u32,
+    /// Command frames it rejected: malformed.
+    pub rejected_malformed: u32,
+    /// Version 1 command frames it ignored.
+    pub v1_ignored: u32,
+    /// Display frames the station rejected so far for a bad tag.
+    pub station_bad_tag: u64,
+}
+
+impl RobotRecord {
+    /// The record of `frame`; `station_bad_tag` is the station's own count.
+    pub fn new(frame: &v2::DisplayFrame, station_bad_tag: u64) -> RobotRecord {
+        let h = frame.health;
+        RobotRecord {
+            mode: mode_name(frame.mode).into(),
+            failsafe_cause: frame.failsafe_cause.map(cause_name),
+            revive_refusal: frame.revive_refusal.map(refusal_name),
+            session: frame.session,
+            seq: frame.seq,
+            ack_seq: frame.ack_seq,
+            missed_periods: h.missed_periods,
+            sensor_bad: h.sensor_bad,
+            sensor_missing: h.sensor_missing,
+            commands: h.commands,
+            rejected_bad_tag: h.bad_tag,
+            rejected_replayed: h.replayed,
+            rejected_stale_session: h.stale_session,
+            rejected_malformed: h.malformed,
+            v1_ignored: h.v1_ignored,
+            station_bad_tag,
+        }
+    }
+}
+
+/// The robot's name for `mode`.
+pub fn mode_name(mode: RobotMode) -> &'static str {
+    match mode {
+        RobotMode::Killed => "KILLED",
+        RobotMode::Manual => "MANUAL",
+        RobotMode::Auto => "AUTO",
+        RobotMode::Failsafe => "FAILSAFE",
+    }
+}
+
+/// A failsafe cause in words.
+pub fn cause_name(cause: FailsafeCause) -> String {
+    match cause {
+        FailsafeCause::CommsLoss => "comms loss".into(),
+        FailsafeCause::SensorLoss => "sensor loss".into(),
+        FailsafeCause::ImuStuck => "IMU stuck".into(),
+        FailsafeCause::Overrun => "loop overruns".into(),
+        FailsafeCause::GnssStale => "GNSS stale".into(),
+        FailsafeCause::Other(code) => format!("cause {code}"),
+    }
+}
+
+/// A revive refusal in words.
+pub fn refusal_name(refusal: ReviveRefusal) -> String {
+    match refusal {
+        ReviveRefusal::SensorLoss => "sensor loss".into(),
+        ReviveRefusal::ImuStuck => "IMU stuck".into(),
+        ReviveRefusal::Overrun => "loop overruns".into(),
+        ReviveRefusal::RealtimeSetup => "realtime setup failed".into(),
+        ReviveRefusal::TooSoon => "too soon after a kill or revive".into(),
+        ReviveRefusal::Other(code) => format!("refusal {code}"),
     }
 }
 
@@ -103,6 +281,9 @@ pub struct DisplayRecord {
     pub ground_speed_m_s: f64,
     /// Heading of motion, degrees.
     pub heading_deg: f64,
+    /// v2: the robot's mode, acknowledgement and counters (null for v1).
+    #[serde(default)]
+    pub robot: Option<RobotRecord>,
 }
 
 impl DisplayRecord {
@@ -137,6 +318,7 @@ impl DisplayRecord {
             h_msl_m: physical.h_msl_m,
             ground_speed_m_s: physical.ground_speed_m_s,
             heading_deg: physical.heading_deg,
+            robot: None,
         }
     }
 }
@@ -159,7 +341,9 @@ pub struct LinkRecord {
 #[derive(Debug, Clone)]
 pub enum RecordEvent {
     /// A command frame was written.
-    Sent(u64, Command),
+    Sent(u64, CommandRecord),
+    /// A requested command was settled (v2).
+    Delivery(u64, DeliveryRecord),
     /// Bytes were read.
     Received(u64, Vec<u8>),
     /// A display frame was decoded from them.
@@ -190,6 +374,7 @@ struct SessionFile {
     display: u16,
     rx_bytes: u16,
     link: u16,
+    ack: u16,
     sequence: u32,
 }
 
@@ -218,6 +403,11 @@ impl SessionFile {
             TOPIC_DISPLAY,
         )?;
         let link = json("dima_ground.Link", json_schema::<LinkRecord>(), TOPIC_LINK)?;
+        let ack = json(
+            "dima_ground.Delivery",
+            json_schema::<DeliveryRecord>(),
+            TOPIC_ACK,
+        )?;
         let rx_bytes = writer.add_channel(0, TOPIC_RX_BYTES, "dima-ground-bytes", &none)?;
         Ok(SessionFile {
             writer,
@@ -225,6 +415,7 @@ impl SessionFile {
             display,
             rx_bytes,
             link,
+            ack,
             sequence: 0,
         })
     }
@@ -246,8 +437,12 @@ impl SessionFile {
     fn record(&mut self, event: &RecordEvent) -> anyhow::Result<()> {
         match event {
             RecordEvent::Sent(t, c) => {
-                let json = serde_json::to_vec(&CommandRecord::new(*c))?;
+                let json = serde_json::to_vec(c)?;
                 self.write(self.command, *t, &json)
+            }
+            RecordEvent::Delivery(t, d) => {
+                let json = serde_json::to_vec(d)?;
+                self.write(self.ack, *t, &json)
             }
             RecordEvent::Received(t, bytes) => self.write(self.rx_bytes, *t, bytes),
             RecordEvent::Display(t, d) => {
@@ -385,7 +580,7 @@ mod tests {
         .unwrap();
         tx.send(RecordEvent::Sent(
             20,
-            Command::Throttle(Percent::new(70).unwrap()),
+            CommandRecord::new(Command::Throttle(Percent::new(70).unwrap())),
         ))
         .unwrap();
         tx.send(RecordEvent::Received(30, frame.encode().to_vec()))
@@ -395,8 +590,44 @@ mod tests {
             Box::new(DisplayRecord::new(&frame, &physical)),
         ))
         .unwrap();
+        // Version 2: the robot's report inside the display record, and a delivery.
+        let report = v2::DisplayFrame {
+            mode: RobotMode::Failsafe,
+            failsafe_cause: Some(FailsafeCause::CommsLoss),
+            session: 0xABCD,
+            seq: 9,
+            ack_seq: 77,
+            health: dima_groundlink::v2::Health {
+                replayed: 3,
+                ..Default::default()
+            },
+            sensors: frame,
+            ..v2::DisplayFrame::default()
+        };
+        let mut record = DisplayRecord::new(&frame, &physical);
+        record.robot = Some(RobotRecord::new(&report, 2));
+        tx.send(RecordEvent::Display(40, Box::new(record))).unwrap();
+        let t = std::time::Instant::now();
+        let status = crate::uplink::CommandStatus {
+            command: Command::Revive,
+            requested_at: t,
+            transmissions: 4,
+            first_seq: Some(74),
+            last_seq: Some(77),
+            settled_at: None,
+            delivery: Delivery::Acknowledged { seq: 77 },
+            accepted_but_refused: true,
+        };
+        tx.send(RecordEvent::Delivery(
+            50,
+            DeliveryRecord::new(&Settled {
+                status,
+                at: t + Duration::from_millis(420),
+            }),
+        ))
+        .unwrap();
         drop(tx);
-        assert_eq!(recorder.finish().unwrap(), 4);
+        assert_eq!(recorder.finish().unwrap(), 6);
 
         let bytes = std::fs::read(&path).unwrap();
         let mut seen = Vec::new();
@@ -413,11 +644,24 @@ mod tests {
                 TOPIC_DISPLAY => {
                     let d: DisplayRecord = serde_json::from_slice(&m.data).unwrap();
                     assert_eq!(d.acc, [1, -2, 1000]);
+                    if let Some(r) = d.robot {
+                        assert_eq!(r.mode, "FAILSAFE");
+                        assert_eq!(r.failsafe_cause.as_deref(), Some("comms loss"));
+                        assert_eq!((r.session, r.seq, r.ack_seq), (0xABCD, 9, 77));
+                        assert_eq!((r.rejected_replayed, r.station_bad_tag), (3, 2));
+                    }
                     assert!((d.lat_deg - 47.3769).abs() < 1e-9);
                     assert_eq!(d.pressure_pa, None);
                 }
                 TOPIC_RX_BYTES => assert_eq!(m.data.as_ref(), frame.encode().as_slice()),
                 TOPIC_LINK => assert!(String::from_utf8_lossy(&m.data).contains("connected")),
+                TOPIC_ACK => {
+                    let d: DeliveryRecord = serde_json::from_slice(&m.data).unwrap();
+                    assert_eq!((d.kind, d.outcome.as_str()), (2, "acknowledged"));
+                    assert_eq!((d.ack_seq, d.transmissions), (Some(77), 4));
+                    assert!((d.latency_ms - 420.0).abs() < 1e-6);
+                    assert!(d.accepted_but_refused);
+                }
                 other => panic!("unexpected topic {other}"),
             }
             let schema = m.channel.schema.as_ref();
@@ -426,7 +670,7 @@ mod tests {
                 assert_eq!(s.encoding, "jsonschema");
             }
         }
-        assert_eq!(seen.len(), 4, "{seen:?}");
+        assert_eq!(seen.len(), 6, "{seen:?}");
         assert_eq!(seen[1], (TOPIC_COMMAND.to_string(), 20));
         let _ = std::fs::remove_dir_all(&dir);
     }

@@ -8,7 +8,14 @@
 //!   [`KILL_REPEAT`], ahead of everything else. Pending and held manual values are dropped
 //!   when a kill is requested: the robot ignores them when KILLED and the operator should not
 //!   find a stale throttle waiting after a revive.
-//! - A revive ends the repetition of an earlier kill (the operator's latest decision wins).
+//! - A revive ends the repetition of an earlier kill (the operator's latest decision wins),
+//!   and goes out no sooner than [`REVIVE_AFTER_KILL`] after the last kill frame: the robot
+//!   refuses a revive that follows a kill too closely (`safety.revive_min_interval_ms`,
+//!   250 ms by default), so a revive right after the kill's repetition would be refused.
+//!
+//! [`poll_slot`](CommandScheduler::poll_slot) says where each frame comes from
+//! ([`Origin`]): ground link v2 repeats a requested command until the robot acknowledges
+//! it (see [`crate::uplink`]), and needs to tell it from a held value or a heartbeat.
 //!
 //! Time is an input ([`Instant`] arguments), so every rule is tested without sleeping.
 
@@ -20,6 +27,31 @@ use dima_groundlink::{Command, CommandType};
 pub const HEARTBEAT_PERIOD: Duration = Duration::from_millis(100);
 /// How long a kill is repeated after it was requested.
 pub const KILL_REPEAT: Duration = Duration::from_secs(1);
+/// The shortest time between the last kill frame and a revive (longer than the robot's
+/// default `safety.revive_min_interval_ms`, 250 ms).
+pub const REVIVE_AFTER_KILL: Duration = Duration::from_millis(300);
+
+/// Why a frame is in a slot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Origin {
+    /// A kill: at once, then repeated for [`KILL_REPEAT`].
+    Kill,
+    /// A requested command (revive, a one-off manual value, a setpoint), once.
+    Request,
+    /// A value the operator holds, repeated in every slot.
+    Held,
+    /// Nothing else to say.
+    Heartbeat,
+}
+
+/// One frame of a slot and why it is there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Scheduled {
+    /// The command.
+    pub command: Command,
+    /// Why it goes out.
+    pub origin: Origin,
+}
 
 /// The manual channels an operator can hold.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -70,6 +102,8 @@ pub struct CommandScheduler {
     next_slot: Option<Instant>,
     kill_until: Option<Instant>,
     kill_now: bool,
+    /// When the last kill frame went out.
+    last_kill: Option<Instant>,
     /// Pending commands in request order, at most one per type.
     pending: Vec<Command>,
     held: [Option<Command>; 3],
@@ -89,6 +123,7 @@ impl CommandScheduler {
             next_slot: None,
             kill_until: None,
             kill_now: false,
+            last_kill: None,
             pending: Vec::new(),
             held: [None; 3],
         }
@@ -142,9 +177,19 @@ impl CommandScheduler {
 
     /// The frames due at `now`, in the order to send them (empty between slots).
     pub fn poll(&mut self, now: Instant) -> Vec<Command> {
+        self.poll_slot(now).into_iter().map(|s| s.command).collect()
+    }
+
+    /// The frames due at `now` with their [`Origin`], in the order to send them.
+    pub fn poll_slot(&mut self, now: Instant) -> Vec<Scheduled> {
         let mut out = Vec::new();
+        let kill = Scheduled {
+            command: Command::Kill,
+            origin: Origin::Kill,
+        };
         if std::mem::take(&mut self.kill_now) {
-            out.push(Command::Kill);
+            out.push(kill);
+            self.last_kill = Some(now);
             // The immediate kill counts as this slot's frame; the rhythm restarts from it.
             self.next_slot = Some(now + self.period);
             return out;
@@ -158,18 +203,39 @@ impl CommandScheduler {
         let next = slot + self.period;
         self.next_slot = Some(if next <= now { now + self.period } else { next });
         if self.killing(now) {
-            out.push(Command::Kill);
+            out.push(kill);
+            self.last_kill = Some(now);
             return out;
         }
-        out.append(&mut self.pending);
+        let revive_waits = self
+            .last_kill
+            .is_some_and(|k| now.saturating_duration_since(k) < REVIVE_AFTER_KILL);
+        let mut waiting = Vec::new();
+        for command in self.pending.drain(..) {
+            if command == Command::Revive && revive_waits {
+                waiting.push(command);
+            } else {
+                out.push(Scheduled {
+                    command,
+                    origin: Origin::Request,
+                });
+            }
+        }
+        self.pending = waiting;
         for held in self.held.iter().flatten() {
             let kind: CommandType = held.command_type();
-            if !out.iter().any(|c| c.command_type() == kind) {
-                out.push(*held);
+            if !out.iter().any(|s| s.command.command_type() == kind) {
+                out.push(Scheduled {
+                    command: *held,
+                    origin: Origin::Held,
+                });
             }
         }
         if out.is_empty() {
-            out.push(Command::Heartbeat);
+            out.push(Scheduled {
+                command: Command::Heartbeat,
+                origin: Origin::Heartbeat,
+            });
         }
         out
     }
@@ -286,8 +352,47 @@ mod tests {
         assert_eq!(s.poll(ms(t0, 100)), vec![Command::Kill]);
         s.request(Command::Revive, ms(t0, 150));
         assert!(!s.killing(ms(t0, 150)));
-        assert_eq!(s.poll(ms(t0, 200)), vec![Command::Revive]);
+        let sent: Vec<Command> = (151..=1_500).flat_map(|t| s.poll(ms(t0, t))).collect();
+        assert!(!sent.contains(&Command::Kill), "{sent:?}");
+        assert_eq!(sent.iter().filter(|c| **c == Command::Revive).count(), 1);
+    }
+
+    #[test]
+    fn a_revive_waits_until_the_kill_is_old_enough() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        s.request(Command::Kill, t0);
+        assert_eq!(s.poll(t0), vec![Command::Kill]);
+        assert_eq!(s.poll(ms(t0, 100)), vec![Command::Kill]);
+        // R held: the revive ends the repetition, but the last kill left 50 ms ago.
+        s.request(Command::Revive, ms(t0, 150));
+        assert_eq!(s.poll(ms(t0, 200)), vec![Command::Heartbeat]);
         assert_eq!(s.poll(ms(t0, 300)), vec![Command::Heartbeat]);
+        assert!(s.poll(ms(t0, 399)).is_empty());
+        assert_eq!(
+            s.poll_slot(ms(t0, 400)),
+            vec![Scheduled {
+                command: Command::Revive,
+                origin: Origin::Request
+            }],
+            "300 ms after the last kill frame"
+        );
+        assert_eq!(s.poll(ms(t0, 500)), vec![Command::Heartbeat]);
+    }
+
+    #[test]
+    fn slots_say_where_each_frame_comes_from() {
+        let t0 = Instant::now();
+        let mut s = CommandScheduler::default();
+        s.hold(ManualChannel::Steering, Some(Command::Steering(pct(30))));
+        s.request(Command::SpeedSetpoint { mm_s: 800 }, t0);
+        let origins: Vec<Origin> = s.poll_slot(t0).iter().map(|f| f.origin).collect();
+        assert_eq!(origins, vec![Origin::Request, Origin::Held]);
+        s.hold(ManualChannel::Steering, None);
+        assert_eq!(s.poll_slot(ms(t0, 100))[0].origin, Origin::Heartbeat);
+        s.request(Command::Kill, ms(t0, 150));
+        assert_eq!(s.poll_slot(ms(t0, 150))[0].origin, Origin::Kill);
+        assert_eq!(s.poll_slot(ms(t0, 250))[0].origin, Origin::Kill);
     }
 
     #[test]

@@ -6,6 +6,11 @@
 //! application writes its safe outputs and closes its MCAP log. The child re-runs this binary
 //! with the hidden first argument [`SIM_ROBOT_ARG`], so nothing else needs to be built. It
 //! also asks the kernel for a SIGTERM should the station die first.
+//!
+//! The two speak ground link v2: the station writes a fresh key into the simulation's run
+//! directory ([`LINK_KEY_FILE`], created with mode 0600; or uses the one it was given), the robot
+//! runs with that key and `require_auth = true`, and the run directory goes away with the
+//! robot.
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitCode};
@@ -21,6 +26,8 @@ use nix::unistd::Pid;
 pub const SIM_ROBOT_ARG: &str = "sim-robot";
 /// Name of the ground-station pty link in the simulation's run directory.
 pub const GROUND_PTY_LINK: &str = "ground-station";
+/// Name of the link key the station makes in the simulation's run directory.
+pub const LINK_KEY_FILE: &str = "link.key";
 
 /// Flags of the simulated robot (the child process).
 #[derive(Debug, Parser)]
@@ -46,12 +53,15 @@ pub struct SimLaunch {
     pub robot_config: Option<PathBuf>,
     /// Stop after this many seconds (None: until the station exits).
     pub duration_s: Option<f64>,
+    /// The link key file to use (None: a fresh key in the run directory).
+    pub key_file: Option<PathBuf>,
 }
 
 /// The running simulated robot.
 pub struct SimRobot {
     child: Child,
     run_dir: PathBuf,
+    key_file: PathBuf,
 }
 
 impl SimRobot {
@@ -61,11 +71,17 @@ impl SimRobot {
         let exe = std::env::current_exe()
             .map_err(|e| anyhow::anyhow!("--sim: cannot find this program's path: {e}"))?;
         let run_dir = std::env::temp_dir().join(format!("dima-ground-sim-{}", std::process::id()));
+        let key_file = match &launch.key_file {
+            Some(path) => path.clone(),
+            None => fresh_key(&run_dir)?,
+        };
         let mut command = Command::new(exe);
         command
             .arg(SIM_ROBOT_ARG)
             .arg("--run-dir")
             .arg(&run_dir)
+            .arg("--key-file")
+            .arg(&key_file)
             .arg("--ground-pty")
             .arg("--quiet")
             .arg("--log-dir")
@@ -79,7 +95,16 @@ impl SimRobot {
         let child = command
             .spawn()
             .map_err(|e| anyhow::anyhow!("--sim: cannot start the simulated robot: {e}"))?;
-        Ok(SimRobot { child, run_dir })
+        Ok(SimRobot {
+            child,
+            run_dir,
+            key_file,
+        })
+    }
+
+    /// The link key file the robot uses (the station must use the same key).
+    pub fn key_file(&self) -> &Path {
+        &self.key_file
     }
 
     /// The path of the robot's ground-station pty (a stable link to `/dev/pts/N`).
@@ -124,6 +149,21 @@ impl Drop for SimRobot {
     }
 }
 
+/// A fresh link key in `<run_dir>/link.key` (the directory created owner-only if missing; a
+/// key left there by an earlier run with this process id is replaced).
+fn fresh_key(run_dir: &Path) -> anyhow::Result<PathBuf> {
+    use std::os::unix::fs::DirBuilderExt;
+    std::fs::DirBuilder::new()
+        .recursive(true)
+        .mode(0o700)
+        .create(run_dir)
+        .map_err(|e| anyhow::anyhow!("--sim: cannot create {}: {e}", run_dir.display()))?;
+    let path = run_dir.join(LINK_KEY_FILE);
+    let _ = std::fs::remove_file(&path);
+    dima_groundlink::key_file::create(&path).map_err(|e| anyhow::anyhow!("--sim: {e}"))?;
+    Ok(path)
+}
+
 /// The child process: `dima sim --ground-pty` with the run directory the station chose.
 pub fn run_robot(args: &[String]) -> ExitCode {
     let args = match SimRobotArgs::try_parse_from(args) {
@@ -144,8 +184,8 @@ pub fn run_robot(args: &[String]) -> ExitCode {
         }
     };
     options.ground_pty = true;
-    // This station speaks ground link v1.
-    options.require_auth = Some(false);
+    // The station speaks ground link v2 with the key it gave us (`--key-file`).
+    options.require_auth = Some(true);
     options.run_dir = args.run_dir.clone();
     options.status = StatusMode::Quiet;
     let result = run_simulation(&options, |launch| {
@@ -187,6 +227,8 @@ mod tests {
             SIM_ROBOT_ARG,
             "--run-dir",
             "/tmp/x",
+            "--key-file",
+            "/tmp/x/link.key",
             "--ground-pty",
             "--quiet",
             "--log-dir",
@@ -201,5 +243,23 @@ mod tests {
         assert_eq!(o.log_dir, PathBuf::from("/tmp/logs"));
         assert_eq!(o.run_length_s(), Some(2.5));
         assert_eq!(o.scenario.name, "default");
+        assert_eq!(o.key_file, Some(PathBuf::from("/tmp/x/link.key")));
+    }
+
+    #[test]
+    fn the_fresh_key_is_owner_only_and_replaces_a_stale_one() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("dima-ground-simkey-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let first = fresh_key(&dir).unwrap();
+        let key = dima_groundlink::key_file::load(&first).unwrap();
+        let mode = std::fs::metadata(&first).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o600);
+        let dir_mode = std::fs::metadata(&dir).unwrap().permissions().mode();
+        assert_eq!(dir_mode & 0o077, 0);
+        let second = fresh_key(&dir).unwrap();
+        assert_eq!(first, second);
+        assert_ne!(dima_groundlink::key_file::load(&second).unwrap(), key);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

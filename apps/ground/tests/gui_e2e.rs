@@ -1,8 +1,12 @@
-//! End to end under X: `dima-ground --sim` (the simulated robot of `dima sim --ground-pty`),
-//! driven with real key events (XTEST through `xdotool`): R held to revive, Up held to drive,
-//! Space to kill. The robot's own MCAP log must show MANUAL, a throttle target above neutral
-//! while Up was held, and KILLED within 0.5 s of Space; the station's session recording and
-//! its `--screenshot` must exist and hold what happened.
+//! End to end under X: `dima-ground --sim` (the simulated robot of `dima sim --ground-pty`,
+//! requiring ground link v2 with the key the station made for it), driven with real key events
+//! (XTEST through `xdotool`): R held to revive, Up held to drive, Space to kill while R is held
+//! again (a revive due while the kill is still being repeated, which the robot would refuse
+//! within `safety.revive_min_interval_ms` of a kill frame), Space again. The robot's own MCAP log must show
+//! MANUAL, a throttle target above neutral while Up was held, KILLED within 0.5 s of each Space,
+//! MANUAL again after the second revive, the commands it accepted and only authenticated ones;
+//! the station's session recording must show the robot's acknowledged mode and acknowledged
+//! revives; its `--screenshot` must exist.
 //!
 //! Needs an X display (`xvfb-run`, with `LIBGL_ALWAYS_SOFTWARE=1` for Mesa's software GL) and
 //! `xdotool`. Without them the test says why and passes, except under `CI=true`, where it
@@ -12,9 +16,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use dima_core::schema::{CycleMessage, CYCLE};
-use dima_core::Mode;
-use dima_ground::recording::{CommandRecord, TOPIC_COMMAND};
+use dima_core::schema::{CycleMessage, StateMessage, CYCLE, STATE};
+use dima_core::{Mode, ReviveRefusal};
+use dima_ground::recording::{
+    CommandRecord, DeliveryRecord, DisplayRecord, TOPIC_ACK, TOPIC_COMMAND, TOPIC_DISPLAY,
+};
 
 /// The throttle's neutral pulse width in the robot's (default) channel table, µs.
 const THROTTLE_NEUTRAL_US: u16 = 1500;
@@ -72,6 +78,8 @@ struct Timeline {
     up_pressed: u64,
     up_released: u64,
     space: u64,
+    second_r_down: u64,
+    second_space: u64,
 }
 
 fn newest_mcap(dir: &Path) -> PathBuf {
@@ -108,7 +116,7 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
         .arg(&robot_config)
         .arg("--screenshot")
         .arg(&screenshot)
-        .args(["--after", "20", "--window-size", "1400x900"])
+        .args(["--after", "24", "--window-size", "1400x900"])
         .env("LIBGL_ALWAYS_SOFTWARE", "1")
         .spawn()
         .expect("dima-ground starts");
@@ -145,13 +153,25 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
     std::thread::sleep(Duration::from_millis(2_500));
     xdotool(&["keyup", "Up"]);
     let up_released = now_ns();
-    std::thread::sleep(Duration::from_millis(700));
+    std::thread::sleep(Duration::from_millis(400));
+    // Kill, and revive right away: R goes down just before Space and is held, so the revive
+    // comes due 0.7 s after the kill, while the station still repeats the kill.
+    let second_r_down = now_ns();
+    xdotool(&["keydown", "r"]);
+    std::thread::sleep(Duration::from_millis(300));
     let space = now_ns();
+    xdotool(&["key", "space"]);
+    std::thread::sleep(Duration::from_millis(1_000));
+    xdotool(&["keyup", "r"]);
+    std::thread::sleep(Duration::from_millis(2_500));
+    let second_space = now_ns();
     xdotool(&["key", "space"]);
     let timeline = Timeline {
         up_pressed,
         up_released,
         space,
+        second_r_down,
+        second_space,
     };
 
     // The station takes its screenshot and exits 0, stopping the robot.
@@ -174,22 +194,63 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// The robot's cycles, as (log time ns, mode, throttle target µs).
-fn robot_cycles(path: &Path) -> Vec<(u64, Mode, u16)> {
+/// What the robot logged: its cycles and what it did with the commands.
+struct RobotLog {
+    /// (log time ns, mode, throttle target µs) per cycle.
+    cycles: Vec<(u64, Mode, u16)>,
+    /// Commands accepted over the run, per type byte.
+    accepted: [u32; 8],
+    /// Its ground-link counters at the end.
+    link: serde_json::Value,
+    /// The revive refusals it logged.
+    refusals: Vec<ReviveRefusal>,
+}
+
+fn robot_log(path: &Path) -> RobotLog {
     let bytes = std::fs::read(path).unwrap();
     let mut cycles = Vec::new();
+    let mut accepted = [0u32; 8];
+    let mut link = serde_json::Value::Null;
+    let mut refusals = Vec::new();
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
+        if m.channel.topic == STATE.topic {
+            let s: StateMessage = serde_json::from_slice(&m.data).unwrap();
+            refusals.extend(s.refused);
+        }
         if m.channel.topic == CYCLE.topic {
             let c: CycleMessage = serde_json::from_slice(&m.data).unwrap();
             cycles.push((m.log_time, c.mode, c.targets_us[0]));
+            for command in &c.commands {
+                accepted[usize::from(command.kind).min(7)] += 1;
+            }
+            let raw: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            link = raw["link"].clone();
         }
     }
+    RobotLog {
+        cycles,
+        accepted,
+        link,
+        refusals,
+    }
+}
+
+/// The first cycle at or after `from` in `mode`, and how long after `from` it came, ms.
+fn first_in(cycles: &[(u64, Mode, u16)], from: u64, mode: Mode) -> Option<f64> {
     cycles
+        .iter()
+        .find(|c| c.0 >= from && c.1 == mode)
+        .map(|c| (c.0 - from) as f64 / 1e6)
 }
 
 fn check_robot_log(path: &Path, t: &Timeline) {
-    let cycles = robot_cycles(path);
+    let RobotLog {
+        cycles,
+        accepted,
+        link,
+        refusals,
+    } = robot_log(path);
     assert!(
         cycles.len() > 1_000,
         "{} cycles in {}",
@@ -215,38 +276,126 @@ fn check_robot_log(path: &Path, t: &Timeline) {
     // MANUAL until Space, KILLED within 0.5 s after it.
     let before = cycles.iter().rev().find(|c| c.0 < t.space).unwrap();
     assert_eq!(before.1, Mode::Manual, "the mode when Space was pressed");
-    let killed = cycles
+    let after_ms = first_in(&cycles, t.space, Mode::Killed).expect("KILLED after Space");
+    assert!(after_ms < 500.0, "KILLED {after_ms:.1} ms after Space");
+    // R held right after the kill: the revive still works (MANUAL again before the second
+    // Space), and the second Space kills within 0.5 s too.
+    let killed_at = t.space + (after_ms * 1e6) as u64;
+    let revived_at = cycles
         .iter()
-        .find(|c| c.0 >= t.space && c.1 == Mode::Killed)
-        .expect("KILLED after Space");
-    let after_ms = (killed.0 - t.space) as f64 / 1e6;
+        .find(|c| c.0 >= killed_at && c.1 == Mode::Manual)
+        .expect("MANUAL again after the second revive")
+        .0;
+    let revived_ms = (revived_at as f64 - t.second_r_down as f64) / 1e6;
+    assert!(
+        (1_000.0..3_000.0).contains(&revived_ms),
+        "MANUAL {revived_ms:.0} ms after R went down (held 1 s to revive)"
+    );
+    let before = cycles.iter().rev().find(|c| c.0 < t.second_space).unwrap();
+    assert_eq!(
+        before.1,
+        Mode::Manual,
+        "the mode when Space was pressed again"
+    );
+    let second_ms =
+        first_in(&cycles, t.second_space, Mode::Killed).expect("KILLED after the second Space");
+    assert!(
+        second_ms < 500.0,
+        "KILLED {second_ms:.1} ms after the second Space"
+    );
     eprintln!(
         "robot: MANUAL for {} cycles, throttle up to {max_while_up} µs while Up was held, \
-         KILLED {after_ms:.1} ms after Space",
+         KILLED {after_ms:.1} ms after Space, MANUAL {revived_ms:.0} ms after R went down \
+         again, KILLED {second_ms:.1} ms after the second Space; accepted per type {accepted:?}; \
+         revive refusals {refusals:?}; link {link}",
         manual.len()
     );
-    assert!(after_ms < 500.0, "KILLED {after_ms:.1} ms after Space");
+    // The station waited long enough after the kill (a revive sooner than
+    // safety.revive_min_interval_ms after it is refused).
+    assert!(
+        !refusals.contains(&ReviveRefusal::TooSoon),
+        "revive refusals: {refusals:?}"
+    );
+    // The commands the robot accepted, all of them authenticated.
+    assert!(accepted[1] >= 2, "kills accepted: {accepted:?}");
+    assert!(accepted[2] >= 2, "revives accepted: {accepted:?}");
+    assert!(accepted[3] >= 10, "throttle frames accepted: {accepted:?}");
+    let count = |k: &str| {
+        link[k]
+            .as_u64()
+            .unwrap_or_else(|| panic!("link.{k} in {link}"))
+    };
+    assert!(count("v2_accepted") > 50, "{link}");
+    assert_eq!(count("v1_accepted"), 0, "{link}");
+    // Every frame has a new number in the robot's session (kills before the session was known
+    // count as kills outside the window, not as stale). Bad tags are not checked: the
+    // simulation's radio drops what the robot does not read in time, which tears frames on a
+    // loaded machine.
+    assert_eq!(count("replayed"), 0, "{link}");
+    assert_eq!(count("stale_session"), 0, "{link}");
 }
 
 fn check_session_recording(path: &Path) {
     let bytes = std::fs::read(path).unwrap();
     let mut kinds = [0u32; 8];
     let mut throttle_up = 0;
+    let mut last_seq = 0;
+    let mut modes: Vec<String> = Vec::new();
+    let mut max_ack = 0;
+    let mut revives_acknowledged = 0;
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
-        if m.channel.topic == TOPIC_COMMAND {
-            let c: CommandRecord = serde_json::from_slice(&m.data).unwrap();
-            kinds[usize::from(c.kind)] += 1;
-            throttle_up += u32::from(c.kind == 3 && c.data > 50);
+        match m.channel.topic.as_str() {
+            TOPIC_COMMAND => {
+                let c: CommandRecord = serde_json::from_slice(&m.data).unwrap();
+                kinds[usize::from(c.kind)] += 1;
+                throttle_up += u32::from(c.kind == 3 && c.data > 50);
+                // Ground link v2: 24-byte frames, every one with a new sequence number, and a
+                // session (0 only for a kill before the robot's first frame).
+                assert_eq!(c.frame_hex.len(), 48, "{c:?}");
+                let seq = c.seq.expect("v2 frames have a sequence number");
+                assert!(seq > last_seq, "sequence {seq} after {last_seq}");
+                last_seq = seq;
+                assert!(c.session.is_some_and(|s| s != 0 || c.kind == 1), "{c:?}");
+            }
+            TOPIC_DISPLAY => {
+                let d: DisplayRecord = serde_json::from_slice(&m.data).unwrap();
+                let robot = d.robot.expect("v2 display frames carry the robot's report");
+                max_ack = max_ack.max(robot.ack_seq);
+                if modes.last() != Some(&robot.mode) {
+                    modes.push(robot.mode);
+                }
+            }
+            TOPIC_ACK => {
+                let a: DeliveryRecord = serde_json::from_slice(&m.data).unwrap();
+                revives_acknowledged += u32::from(a.kind == 2 && a.outcome == "acknowledged");
+            }
+            _ => {}
         }
     }
+    eprintln!(
+        "station: sent per type {kinds:?}, the robot's modes {modes:?}, acknowledged up to \
+         {max_ack} of {last_seq}, revives acknowledged {revives_acknowledged}"
+    );
+    let modes: Vec<&str> = modes.iter().map(String::as_str).collect();
+    assert!(
+        modes
+            .windows(4)
+            .any(|w| w == ["MANUAL", "KILLED", "MANUAL", "KILLED"]),
+        "the robot's reported modes: {modes:?}"
+    );
+    assert!(
+        max_ack > 0 && max_ack <= last_seq,
+        "{max_ack} of {last_seq}"
+    );
+    assert_eq!(revives_acknowledged, 2);
     assert!(kinds[0] > 20, "heartbeats {kinds:?}");
-    assert!(kinds[2] >= 1, "revive {kinds:?}");
+    assert!(kinds[2] >= 2, "revives {kinds:?}");
     assert!(
         throttle_up >= 10,
         "throttle held over 2.5 s: {throttle_up} frames"
     );
-    assert!(kinds[1] >= 9, "kill repeated for a second: {kinds:?}");
+    assert!(kinds[1] >= 10, "kills repeated: {kinds:?}");
 
     // The independent reader (the `mcap` Python package) sees the same commands.
     let python = std::env::var("DIMA_PYTHON").unwrap_or_else(|_| "python3".into());
@@ -298,6 +447,7 @@ print(" ".join(map(str, kinds)), ",".join(sorted(topics)))
     );
     let topics = words.next().unwrap_or_default();
     for t in [
+        "/ground/ack",
         "/ground/command",
         "/ground/display",
         "/ground/link",

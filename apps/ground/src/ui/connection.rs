@@ -115,6 +115,9 @@ pub fn top_bar(ui: &mut egui::Ui, app: &mut GroundApp) {
             ui.label(RichText::new(text).color(colour));
         });
         ui.horizontal_wrapped(|ui| {
+            let colour = if app.status.authenticated { GOOD } else { WARN };
+            ui.small(RichText::new(&app.link_note).color(colour));
+            ui.separator();
             ui.small(&app.recording_note);
             if let Some(note) = &app.sim_note {
                 ui.separator();

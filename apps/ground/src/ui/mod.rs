@@ -66,6 +66,8 @@ pub struct GroundApp {
     status: LinkStatus,
     recorder: Option<Recorder>,
     recording_note: String,
+    /// Which ground link version, and the key file.
+    link_note: String,
     sim: Option<SimRobot>,
     sim_note: Option<String>,
     table: ChannelTable,
@@ -90,6 +92,8 @@ pub struct GroundApp {
 impl GroundApp {
     /// Sets everything up from the command line (starting the simulated robot with --sim).
     fn new(cli: &Cli, screenshot_result: ScreenshotResult) -> anyhow::Result<GroundApp> {
+        // A key given on the command line is checked before anything starts.
+        let (mut key, mut link_note) = cli.link_key()?;
         let (table, table_source) = match &cli.robot_config {
             Some(path) => (
                 ChannelTable::from_robot_config(path)?,
@@ -109,16 +113,28 @@ impl GroundApp {
             let note = format!("recording to {}", r.path().display());
             (Some(r), note)
         };
-        let link = LinkHandle::spawn(recorder.as_ref().map(Recorder::sender), calibration.clone())?;
         let sim = if cli.sim {
-            Some(SimRobot::start(&SimLaunch {
+            let robot = SimRobot::start(&SimLaunch {
                 log_dir: cli.sim_log_dir.clone(),
                 robot_config: cli.robot_config.clone(),
                 duration_s: cli.sim_duration,
-            })?)
+                key_file: cli.key_file.clone(),
+            })?;
+            // The simulated robot requires ground link v2 with this key.
+            key = Some(dima_groundlink::key_file::load(robot.key_file())?);
+            link_note = format!(
+                "ground link v2, authenticated (key {})",
+                robot.key_file().display()
+            );
+            Some(robot)
         } else {
             None
         };
+        let link = LinkHandle::spawn(
+            recorder.as_ref().map(Recorder::sender),
+            calibration.clone(),
+            key,
+        )?;
         let port = sim.as_ref().map(SimRobot::ground_pty).or(cli.port.clone());
         if let Some(path) = &port {
             link.send(LinkControl::Connect {
@@ -138,6 +154,7 @@ impl GroundApp {
             link,
             recorder,
             recording_note,
+            link_note,
             sim_note: sim.as_ref().map(|s| {
                 format!(
                     "simulated robot (pid {}), its log in {}",

@@ -1,16 +1,24 @@
-//! Link health, the robot's state as the station knows it, and the onboard values in
-//! physical units.
+//! Link health, the robot's state (v2: as the robot reports it; v1: as the commands sent imply
+//! it), and the onboard values in physical units.
 
 use std::time::{Duration, Instant};
 
+use dima_groundlink::v2::RobotMode;
 use dima_groundlink::CommandType;
-use eframe::egui::{self, RichText};
+use eframe::egui::{self, Color32, RichText};
 
 use super::connection::{BAD, GOOD, WARN};
 use super::GroundApp;
-use crate::link::LinkState;
+use crate::link::{LinkState, LinkStatus, RobotReport, UplinkView};
+use crate::recording::{cause_name, mode_name, refusal_name};
 use crate::robot_view::{expected_mode, ExpectedMode};
 use crate::units::{Baro, MagField};
+use crate::uplink::{CommandStatus, Delivery};
+
+/// Colour of AUTO (the controllers drive).
+const AUTO: Color32 = Color32::from_rgb(70, 130, 230);
+/// Colour of FAILSAFE.
+const FAILSAFE: Color32 = Color32::from_rgb(235, 110, 20);
 
 /// A display frame older than this is shown in red.
 const STALE: Duration = Duration::from_secs(1);
@@ -20,12 +28,43 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
         ui.horizontal(|ui| {
             let now = Instant::now();
             let s = &app.status;
-            let mode = expected_mode(&s.last_sent);
-            ui.label(
-                RichText::new(format!("robot: {} (as sent)", mode.label()))
-                    .strong()
-                    .color(mode_colour(mode)),
-            );
+            match (s.authenticated, &s.robot) {
+                (true, Some(r)) => {
+                    ui.label(
+                        RichText::new(format!("robot: {}", mode_name(r.mode)))
+                            .strong()
+                            .color(robot_mode_colour(r.mode)),
+                    );
+                    if let Some(last) = s.uplink.as_ref().and_then(|u| u.last_command.as_ref()) {
+                        ui.separator();
+                        ui.label(
+                            RichText::new(format!(
+                                "{}: {}",
+                                describe_command(last.command),
+                                last.delivery.label()
+                            ))
+                            .color(delivery_colour(last.delivery)),
+                        );
+                    }
+                }
+                (true, None) => {
+                    ui.label(
+                        RichText::new("robot: unknown (no authenticated frame yet)")
+                            .strong()
+                            .color(WARN),
+                    );
+                }
+                (false, _) => {
+                    let mode = expected_mode(&s.last_sent);
+                    ui.label(
+                        RichText::new(format!("robot: {} (as sent)", mode.label()))
+                            .strong()
+                            .color(mode_colour(mode)),
+                    );
+                    ui.separator();
+                    ui.label(RichText::new("not authenticated (v1)").color(WARN));
+                }
+            }
             ui.separator();
             match s.frame_age(now) {
                 Some(age) => ui.label(
@@ -38,6 +77,24 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
             ui.label(format!("{:.1} frames/s", s.frames_per_s));
         });
     });
+}
+
+fn robot_mode_colour(mode: RobotMode) -> Color32 {
+    match mode {
+        RobotMode::Killed => BAD,
+        RobotMode::Manual => GOOD,
+        RobotMode::Auto => AUTO,
+        RobotMode::Failsafe => FAILSAFE,
+    }
+}
+
+fn delivery_colour(delivery: Delivery) -> Color32 {
+    match delivery {
+        Delivery::Acknowledged { .. } => GOOD,
+        Delivery::Pending => WARN,
+        Delivery::Unacknowledged | Delivery::RobotRestarted => BAD,
+        Delivery::Superseded | Delivery::Cancelled => Color32::GRAY,
+    }
 }
 
 fn mode_colour(mode: ExpectedMode) -> egui::Color32 {
@@ -56,7 +113,11 @@ pub fn right_panel(ui: &mut egui::Ui, app: &GroundApp) {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 link_health(ui, app);
                 ui.separator();
-                robot_state(ui, app);
+                if app.status.authenticated {
+                    robot_report(ui, &app.status);
+                } else {
+                    robot_state(ui, app);
+                }
                 ui.separator();
                 onboard(ui, app);
             });
@@ -82,6 +143,15 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
                 LinkState::Disconnected => RichText::new("disconnected").color(BAD),
             };
             row(ui, "state", state);
+            row(
+                ui,
+                "protocol",
+                if s.authenticated {
+                    RichText::new("v2, authenticated").color(GOOD)
+                } else {
+                    RichText::new("not authenticated (v1)").color(WARN)
+                },
+            );
             let age =
                 match s.frame_age(now) {
                     Some(a) => RichText::new(format!("{:.2} s", a.as_secs_f64()))
@@ -96,7 +166,11 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
             );
             row(ui, "display frames", RichText::new(s.frames_in.to_string()));
             let bad = |n: u64| RichText::new(n.to_string()).color(if n > 0 { WARN } else { GOOD });
-            row(ui, "CRC errors", bad(s.crc_errors));
+            if s.authenticated {
+                row(ui, "frames rejected (bad tag)", bad(s.bad_tag));
+            } else {
+                row(ui, "CRC errors", bad(s.crc_errors));
+            }
             row(ui, "bytes skipped (resync)", bad(s.skipped_bytes));
             row(ui, "out-of-range frames", bad(s.out_of_range));
             row(
@@ -118,6 +192,9 @@ fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
     let s = &app.status;
     let now = Instant::now();
     ui.heading("Robot state");
+    ui.label(
+        RichText::new("not authenticated (v1): no mode or acknowledgement comes back").color(WARN),
+    );
     let mode = expected_mode(&s.last_sent);
     ui.label(
         RichText::new(format!("{} as sent", mode.label()))
@@ -125,7 +202,7 @@ fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
             .strong()
             .color(mode_colour(mode)),
     );
-    ui.small("v1 downlink has no mode or acknowledgement: this follows from what was sent.");
+    ui.small("This follows from what was sent (--key-file for ground link v2).");
     egui::Grid::new("sent")
         .num_columns(2)
         .striped(true)
@@ -159,6 +236,181 @@ fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
         )),
         None => ui.label(RichText::new("nothing yet").color(WARN)),
     };
+}
+
+/// The robot's report (v2): mode, causes, acknowledgements, health and rejections.
+fn robot_report(ui: &mut egui::Ui, s: &LinkStatus) {
+    let now = Instant::now();
+    ui.heading("Robot");
+    let Some(r) = &s.robot else {
+        ui.label(
+            RichText::new("no authenticated display frame yet: only Kill can be sent")
+                .strong()
+                .color(WARN),
+        );
+        if let Some(u) = &s.uplink {
+            last_command(ui, u, now);
+        }
+        return;
+    };
+    mode_badge(ui, r, now);
+    if let Some(cause) = r.failsafe_cause {
+        ui.label(RichText::new(format!("failsafe cause: {}", cause_name(cause))).color(FAILSAFE));
+    }
+    if let Some(refusal) = r.revive_refusal {
+        ui.label(
+            RichText::new(format!("last revive refused: {}", refusal_name(refusal))).color(WARN),
+        );
+    }
+    if let Some(u) = &s.uplink {
+        last_command(ui, u, now);
+        let rows = [
+            [
+                ("session", format!("{:08X}", r.session)),
+                ("ack seq", r.ack_seq.to_string()),
+            ],
+            [
+                ("next seq", u.next_seq.to_string()),
+                ("re-sends", u.stats.resends.to_string()),
+            ],
+            [
+                ("acknowledged", u.stats.acknowledged.to_string()),
+                ("given up", u.stats.unacknowledged.to_string()),
+            ],
+            [
+                ("held back", u.stats.held_back.to_string()),
+                ("old frames", u.stats.old_display_frames.to_string()),
+            ],
+        ];
+        egui::Grid::new("uplink")
+            .num_columns(4)
+            .striped(true)
+            .show(ui, |ui| {
+                for row in rows {
+                    for (k, v) in row {
+                        ui.label(k);
+                        ui.label(RichText::new(v).monospace());
+                    }
+                    ui.end_row();
+                }
+            });
+    }
+    ui.label(RichText::new("health").strong());
+    let h = r.health;
+    counters(
+        ui,
+        "health",
+        &[
+            ("missed periods", h.missed_periods),
+            ("commands accepted", h.commands),
+            ("sensor bad", h.sensor_bad),
+            ("sensor missing", h.sensor_missing),
+        ],
+        &["commands accepted"],
+    );
+    ui.label(RichText::new("command frames the robot rejected").strong());
+    counters(
+        ui,
+        "rejections",
+        &[
+            ("bad tag", h.bad_tag),
+            ("replayed", h.replayed),
+            ("stale session", h.stale_session),
+            ("malformed", h.malformed),
+            ("v1 ignored", h.v1_ignored),
+        ],
+        &[],
+    );
+}
+
+/// The mode, large, on its colour.
+fn mode_badge(ui: &mut egui::Ui, r: &RobotReport, now: Instant) {
+    ui.horizontal(|ui| {
+        let text = RichText::new(format!(" {} ", mode_name(r.mode)))
+            .size(24.0)
+            .strong()
+            .color(Color32::WHITE)
+            .background_color(robot_mode_colour(r.mode));
+        ui.label(text);
+        let age = now.saturating_duration_since(r.at);
+        ui.label(
+            RichText::new(format!("reported {:.1} s ago", age.as_secs_f64()))
+                .color(if age > STALE { BAD } else { GOOD }),
+        );
+    });
+}
+
+/// The latest command and what became of it, and what else waits.
+fn last_command(ui: &mut egui::Ui, u: &UplinkView, now: Instant) {
+    let Some(last) = &u.last_command else {
+        ui.label("no command sent yet");
+        return;
+    };
+    ui.label(RichText::new(command_line(last, now)).color(delivery_colour(last.delivery)));
+    for p in u
+        .pending
+        .iter()
+        .filter(|p| p.requested_at != last.requested_at)
+    {
+        ui.label(RichText::new(command_line(p, now)).color(delivery_colour(p.delivery)));
+    }
+}
+
+fn command_line(c: &CommandStatus, now: Instant) -> String {
+    let what = describe_command(c.command);
+    let sent = match c.transmissions {
+        0 => "not sent yet".to_owned(),
+        1 => "sent once".to_owned(),
+        n => format!("sent {n}×"),
+    };
+    let refused = if c.accepted_but_refused {
+        ", accepted but refused"
+    } else {
+        ""
+    };
+    match c.delivery {
+        Delivery::Acknowledged { seq } => format!("{what}: acknowledged, seq {seq} ({sent})"),
+        Delivery::Pending => format!(
+            "{what}: pending {:.1} s ({sent}{refused})",
+            now.saturating_duration_since(c.requested_at).as_secs_f64()
+        ),
+        other => format!("{what}: {} ({sent}{refused})", other.label()),
+    }
+}
+
+/// Counters in two columns of name and value; nonzero ones stand out unless listed in `plain`.
+fn counters(ui: &mut egui::Ui, id: &str, items: &[(&str, u32)], plain: &[&str]) {
+    egui::Grid::new(id)
+        .num_columns(4)
+        .striped(true)
+        .show(ui, |ui| {
+            for pair in items.chunks(2) {
+                for (k, v) in pair {
+                    ui.label(*k);
+                    let colour = if *v == 0 || plain.contains(k) {
+                        ui.visuals().text_color()
+                    } else {
+                        WARN
+                    };
+                    ui.label(RichText::new(v.to_string()).monospace().color(colour));
+                }
+                ui.end_row();
+            }
+        });
+}
+
+fn describe_command(c: dima_groundlink::Command) -> String {
+    use dima_groundlink::Command as C;
+    match c {
+        C::Heartbeat => "heartbeat".into(),
+        C::Kill => "kill".into(),
+        C::Revive => "revive".into(),
+        C::Throttle(p) => format!("throttle {} %", p.get()),
+        C::Steering(p) => format!("steering {} %", p.get()),
+        C::Tail(p) => format!("tail {} %", p.get()),
+        C::SpeedSetpoint { mm_s } => format!("speed {:.2} m/s", f64::from(mm_s) / 1000.0),
+        C::HeadingSetpoint { deg_e5 } => format!("heading {:.1}°", f64::from(deg_e5) / 1e5),
+    }
 }
 
 fn describe_data(c: dima_groundlink::Command) -> String {
