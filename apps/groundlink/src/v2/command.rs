@@ -10,7 +10,7 @@
 //! | 12-15 | sequence number, u32 big-endian (starts at 1, increases by one per frame) |
 //! | 16-23 | SipHash-2-4 tag over bytes 0-15 |
 
-use super::scanner::Scanner;
+use super::decoder::{AuthenticFrame, FrameDecoder, StreamStats};
 use super::{be_u32, check_envelope, seal, FrameError, LinkKey};
 use crate::command::{Command, CommandType};
 
@@ -63,100 +63,20 @@ impl CommandFrame {
 }
 
 /// What a [`CommandDecoder`] has seen since it was created.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct CommandStats {
-    /// Authentic, valid frames delivered.
-    pub frames: u32,
-    /// Candidate frames whose tag did not match (forged, corrupt, other key).
-    pub bad_tag: u32,
-    /// Start tokens with a wrong length byte, and authentic frames with an unknown type or
-    /// out-of-range data.
-    pub malformed: u32,
-    /// Bytes dropped: outside any frame, the first byte of each rejected candidate, and
-    /// authentic frames with invalid content. Bytes fed = 24 x `frames` + `skipped_bytes` +
-    /// pending bytes.
-    pub skipped_bytes: u32,
-}
+pub type CommandStats = StreamStats;
 
-/// Finds authentic command frames v2 in a byte stream, whatever the read boundaries are.
-///
-/// Total: any byte sequence is accepted. A candidate (start token and length byte) whose tag
-/// does not match costs only its first byte: the search resumes inside it, so garbage or a
-/// forged frame never hides a good frame that follows.
-#[derive(Debug, Clone)]
-pub struct CommandDecoder {
-    key: LinkKey,
-    scanner: Scanner<COMMAND_FRAME_LEN>,
-    frames: u32,
-    bad_tag: u32,
-    malformed: u32,
-}
+/// Finds authentic command frames v2 in a byte stream, whatever the read boundaries are
+/// (see [`FrameDecoder`] for how it resynchronises and what it counts).
+pub type CommandDecoder = FrameDecoder<CommandFrame, COMMAND_FRAME_LEN>;
 
-impl CommandDecoder {
-    /// An empty decoder that checks tags with `key`.
-    pub const fn new(key: LinkKey) -> CommandDecoder {
-        CommandDecoder {
-            key,
-            scanner: Scanner::new(COMMAND_START),
-            frames: 0,
-            bad_tag: 0,
-            malformed: 0,
-        }
-    }
+impl AuthenticFrame<COMMAND_FRAME_LEN> for CommandFrame {
+    const START: [u8; 2] = COMMAND_START;
 
-    /// Counters since creation.
-    pub fn stats(&self) -> CommandStats {
-        CommandStats {
-            frames: self.frames,
-            bad_tag: self.bad_tag,
-            malformed: self.malformed.saturating_add(self.scanner.bad_length()),
-            skipped_bytes: self.scanner.skipped(),
-        }
-    }
-
-    /// Bytes held while waiting for the rest of a frame.
-    pub fn pending(&self) -> usize {
-        self.scanner.pending()
-    }
-
-    /// Forgets a partial frame (e.g. after the port was reopened); its bytes count as skipped.
-    pub fn reset(&mut self) {
-        self.scanner.reset();
-    }
-
-    /// Feeds one byte. `Some(Ok(_))` for an authentic valid frame, `Some(Err(BadTag))` for a
-    /// candidate whose tag does not match, `Some(Err(Command(_)))` for an authentic frame with
-    /// invalid content. Wrong length bytes are only counted.
-    pub fn push(&mut self, byte: u8) -> Option<Result<CommandFrame, FrameError>> {
-        if !self.scanner.push(byte) {
-            return None;
-        }
-        match CommandFrame::decode(self.scanner.frame(), &self.key) {
-            Ok(frame) => {
-                self.scanner.consume();
-                self.frames = self.frames.saturating_add(1);
-                Some(Ok(frame))
-            }
-            Err(FrameError::BadTag) => {
-                self.scanner.reject();
-                self.bad_tag = self.bad_tag.saturating_add(1);
-                Some(Err(FrameError::BadTag))
-            }
-            Err(error) => {
-                self.scanner.discard();
-                self.malformed = self.malformed.saturating_add(1);
-                Some(Err(error))
-            }
-        }
-    }
-
-    /// Feeds a chunk of bytes, yielding what [`push`](Self::push) yields for each of them.
-    pub fn feed<'a>(
-        &'a mut self,
-        bytes: &'a [u8],
-    ) -> impl Iterator<Item = Result<CommandFrame, FrameError>> + 'a {
-        bytes.iter().filter_map(move |&b| self.push(b))
+    fn decode_frame(
+        frame: &[u8; COMMAND_FRAME_LEN],
+        key: &LinkKey,
+    ) -> Result<CommandFrame, FrameError> {
+        CommandFrame::decode(frame, key)
     }
 }
 

@@ -17,7 +17,7 @@
 //! | 54-117 | version 1 display payload (bytes 0-63 of a version 1 display frame: sensor values and GNSS) |
 //! | 118-125 | SipHash-2-4 tag over bytes 0-117 |
 
-use super::scanner::Scanner;
+use super::decoder::{AuthenticFrame, FrameDecoder, StreamStats};
 use super::{be_u32, check_envelope, seal, FrameError, LinkKey};
 use crate::display::{DisplayFrame as SensorPayload, PAYLOAD_LEN};
 
@@ -276,96 +276,20 @@ impl DisplayFrame {
 }
 
 /// What a [`DisplayDecoder`] has seen since it was created.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct DisplayStats {
-    /// Authentic, valid frames delivered.
-    pub frames: u32,
-    /// Candidate frames whose tag did not match.
-    pub bad_tag: u32,
-    /// Start tokens with a wrong length byte, and authentic frames with an unknown mode or
-    /// out-of-range sensor values.
-    pub malformed: u32,
-    /// Bytes dropped. Bytes fed = 126 x `frames` + `skipped_bytes` + pending bytes.
-    pub skipped_bytes: u32,
-}
+pub type DisplayStats = StreamStats;
 
-/// Finds authentic display frames v2 in a byte stream, whatever the read boundaries are.
-///
-/// Total, and resynchronising like [`CommandDecoder`](super::CommandDecoder): a candidate whose
-/// tag does not match costs only its first byte.
-#[derive(Debug, Clone)]
-pub struct DisplayDecoder {
-    key: LinkKey,
-    scanner: Scanner<DISPLAY_FRAME_LEN>,
-    frames: u32,
-    bad_tag: u32,
-    malformed: u32,
-}
+/// Finds authentic display frames v2 in a byte stream, whatever the read boundaries are
+/// (see [`FrameDecoder`] for how it resynchronises and what it counts).
+pub type DisplayDecoder = FrameDecoder<DisplayFrame, DISPLAY_FRAME_LEN>;
 
-impl DisplayDecoder {
-    /// An empty decoder that checks tags with `key`.
-    pub const fn new(key: LinkKey) -> DisplayDecoder {
-        DisplayDecoder {
-            key,
-            scanner: Scanner::new(DISPLAY_START),
-            frames: 0,
-            bad_tag: 0,
-            malformed: 0,
-        }
-    }
+impl AuthenticFrame<DISPLAY_FRAME_LEN> for DisplayFrame {
+    const START: [u8; 2] = DISPLAY_START;
 
-    /// Counters since creation.
-    pub fn stats(&self) -> DisplayStats {
-        DisplayStats {
-            frames: self.frames,
-            bad_tag: self.bad_tag,
-            malformed: self.malformed.saturating_add(self.scanner.bad_length()),
-            skipped_bytes: self.scanner.skipped(),
-        }
-    }
-
-    /// Bytes held while waiting for the rest of a frame.
-    pub fn pending(&self) -> usize {
-        self.scanner.pending()
-    }
-
-    /// Forgets a partial frame; its bytes count as skipped.
-    pub fn reset(&mut self) {
-        self.scanner.reset();
-    }
-
-    /// Feeds one byte. `Some(Ok(_))` for an authentic valid frame, `Some(Err(_))` for a
-    /// candidate with a bad tag or an authentic frame with invalid content.
-    pub fn push(&mut self, byte: u8) -> Option<Result<DisplayFrame, FrameError>> {
-        if !self.scanner.push(byte) {
-            return None;
-        }
-        match DisplayFrame::decode(self.scanner.frame(), &self.key) {
-            Ok(frame) => {
-                self.scanner.consume();
-                self.frames = self.frames.saturating_add(1);
-                Some(Ok(frame))
-            }
-            Err(FrameError::BadTag) => {
-                self.scanner.reject();
-                self.bad_tag = self.bad_tag.saturating_add(1);
-                Some(Err(FrameError::BadTag))
-            }
-            Err(error) => {
-                self.scanner.discard();
-                self.malformed = self.malformed.saturating_add(1);
-                Some(Err(error))
-            }
-        }
-    }
-
-    /// Feeds a chunk of bytes, yielding what [`push`](Self::push) yields for each of them.
-    pub fn feed<'a>(
-        &'a mut self,
-        bytes: &'a [u8],
-    ) -> impl Iterator<Item = Result<DisplayFrame, FrameError>> + 'a {
-        bytes.iter().filter_map(move |&b| self.push(b))
+    fn decode_frame(
+        frame: &[u8; DISPLAY_FRAME_LEN],
+        key: &LinkKey,
+    ) -> Result<DisplayFrame, FrameError> {
+        DisplayFrame::decode(frame, key)
     }
 }
 

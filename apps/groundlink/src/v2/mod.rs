@@ -56,11 +56,13 @@ use crate::command::CommandError;
 use crate::display::DisplayError;
 
 mod command;
+mod decoder;
 mod display;
 mod gate;
 mod scanner;
 
 pub use command::{CommandDecoder, CommandFrame, CommandStats, COMMAND_FRAME_LEN, COMMAND_START};
+pub use decoder::{AuthenticFrame, FrameDecoder, StreamStats};
 pub use display::{
     DisplayDecoder, DisplayFrame, DisplayStats, FailsafeCause, Health, ReviveRefusal, RobotMode,
     DISPLAY_FRAME_LEN, DISPLAY_START,
