@@ -1,5 +1,6 @@
 //! End-to-end tests of faults the robot must survive without stopping: a stalled log disk, a
-//! full log disk, failing writes to the Maestro, and a wall clock that jumps. The real
+//! full log disk, failing writes to the Maestro, and a wall clock that jumps; and a run longer
+//! than the longest log file, split into complete files. The real
 //! application runs against the simulated devices on pseudo-terminals (`dima sim --fault`),
 //! and every test reads what an outside observer sees: the outputs at the simulated Maestro,
 //! the application's counters and messages, and its MCAP files (also with the Python `mcap`
