@@ -2,7 +2,7 @@
 # Soak: the whole application against the simulation for M minutes with random faults, and its
 # memory watched from the outside.
 #
-#   scripts/soak.sh --minutes M [--seed N]
+#   scripts/soak.sh --minutes M [--seed N] [--config FILE]
 #
 # Builds `dima` (release), runs `dima sim --scenario soak --random-faults` for M minutes (fault
 # windows drawn from the seed, the scripted ground station revives after each one), samples
@@ -16,20 +16,25 @@
 # expectation of the scenario held (after every fault window the car drives again) is
 # printed beside the missed periods: on a loaded machine an overrunning loop keeps the robot
 # in FAILSAFE (revives refused while it overruns), which is the robot being right.
+# --config FILE runs the application with that configuration (`dima sim --config`), e.g. a
+# `[log] max_file_duration_s = 60` to see the log split within a short soak. The run's log
+# files (`NAME.mcap`, `NAME-1.mcap`, ...) are counted and each must read back.
 #
 # Environment: DIMA (a prebuilt binary: skips the build), OUT (keep the run's files there;
 # default a temporary directory, removed on success).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-usage() { echo "usage: $0 --minutes M [--seed N]" >&2; exit 2; }
+usage() { echo "usage: $0 --minutes M [--seed N] [--config FILE]" >&2; exit 2; }
 minutes=""
 seed=1
+config_args=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --minutes) minutes="${2:-}"; shift 2 || usage ;;
     --seed) seed="${2:-}"; shift 2 || usage ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --config) [ -n "${2:-}" ] || usage; config_args=(--config "$2"); shift 2 ;;
+    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) usage ;;
   esac
 done
@@ -60,7 +65,7 @@ samples="$OUT/rss.tsv"
 echo "soak: $minutes min, seed $seed, files in $OUT"
 
 "$DIMA" sim --scenario soak --random-faults --duration "$duration_s" --seed "$seed" --quiet \
-  --log-dir "$OUT/logs" >"$stdout" 2>"$stderr" &
+  --log-dir "$OUT/logs" "${config_args[@]}" >"$stdout" 2>"$stderr" &
 pid=$!
 t0=$SECONDS
 printf 't_s\trss_kib\n' >"$samples"
@@ -99,6 +104,23 @@ if [ -z "$mcap_log" ] || ! "$DIMA" log info "$mcap_log" >"$OUT/log-info.txt" 2>&
   crashes=$((crashes + 1))
   crash_reasons+=("no readable MCAP log (${mcap_log:-none named})")
 fi
+# Every file of the run (split by duration or resumed after a disk fault) reads back.
+log_files=0
+first_log=$(find "$OUT/logs" -maxdepth 1 -name 'dima-*.mcap' ! -name 'dima-*-*.mcap' | sort | head -1)
+if [ -n "$first_log" ]; then
+  stem="${first_log%.mcap}"
+  n=0
+  f="$first_log"
+  while [ -f "$f" ]; do
+    log_files=$((log_files + 1))
+    if ! "$DIMA" log info "$f" >"$OUT/log-info-$n.txt" 2>&1; then
+      crashes=$((crashes + 1))
+      crash_reasons+=("unreadable MCAP log $f")
+    fi
+    n=$((n + 1))
+    f="$stem-$n.mcap"
+  done
+fi
 
 soak_line=$(grep '^soak: ' "$stdout" | tail -1 || true)
 field() { sed -n "s/.* \([0-9][0-9]*\) $1.*/\1/p" <<<"$soak_line"; }
@@ -129,6 +151,7 @@ echo "fault windows:      ${windows:-?}"
 echo "failsafes:          ${failsafes:-?}"
 echo "revives:            ${revives:-?}"
 echo "log records dropped: ${dropped:-?}"
+echo "log files:          $log_files"
 echo "crashes:            $crashes${crash_reasons[*]:+ (${crash_reasons[*]})}"
 echo "checks:             $checks"
 echo "RSS start:          ${rss_start:-?} KiB (first sample after ${warmup_s} s)"

@@ -1,5 +1,6 @@
 //! End-to-end tests of faults the robot must survive without stopping: a stalled log disk, a
-//! full log disk, failing writes to the Maestro, and a wall clock that jumps. The real
+//! full log disk, failing writes to the Maestro, and a wall clock that jumps; and a run longer
+//! than the longest log file, split into complete files. The real
 //! application runs against the simulated devices on pseudo-terminals (`dima sim --fault`),
 //! and every test reads what an outside observer sees: the outputs at the simulated Maestro,
 //! the application's counters and messages, and its MCAP files (also with the Python `mcap`
@@ -333,4 +334,83 @@ fn a_wall_clock_jump_trips_no_failsafe() {
     assert_eq!(out.status.code(), Some(0), "{stdout}");
     assert!(stdout.contains("0 failsafe(s)"), "{stdout}");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_run_longer_than_max_file_duration_continues_in_numbered_complete_files() {
+    let mut s = Scenario::custom("log-split", 23.0);
+    drive(&mut s);
+    s.checks = vec![
+        Check::OutputsReach {
+            from_s: 1.0,
+            to_s: 2.0,
+            targets_us: manual_us(60, 40, 50),
+        },
+        // Driving on across both splits.
+        Check::NeverSafe {
+            from_s: 1.5,
+            to_s: 22.5,
+        },
+    ];
+    let mut config = small_ring_config();
+    config.realtime.log_ring_records = 4_096;
+    config.log.max_file_duration_s = 10;
+    let r = simulate_with("log-split", s, &[], 23, Some(&config));
+    assert_passed(&r);
+    assert_eq!(
+        r.app.counters.log_dropped, 0,
+        "records dropped: not a split test"
+    );
+    let last = r.app.log_path.clone().expect("a log");
+    let last_name = last.file_name().unwrap().to_string_lossy().into_owned();
+    // 23 s in files of 10 s: NAME.mcap, NAME-1.mcap and NAME-2.mcap, the last one open at
+    // the end (the summary goes there).
+    let stem = last_name
+        .strip_suffix("-2.mcap")
+        .unwrap_or_else(|| panic!("last file {last_name}, expected NAME-2.mcap"));
+    let files: Vec<PathBuf> = ["".to_owned(), "-1".to_owned(), "-2".to_owned()]
+        .iter()
+        .map(|n| last.with_file_name(format!("{stem}{n}.mcap")))
+        .collect();
+    let mut cycles = Vec::new();
+    let mut counts = Vec::new();
+    for (k, path) in files.iter().enumerate() {
+        let (messages, metadata) = read_mcap(path);
+        // Complete and indexed: the summary section is there.
+        let bytes = std::fs::read(path).unwrap();
+        let summary = mcap::Summary::read(&bytes).unwrap();
+        assert!(summary.is_some(), "{}: no summary", path.display());
+        assert_eq!(metadata[0], "dima", "{}: {metadata:?}", path.display());
+        if k > 0 {
+            assert_eq!(
+                metadata[1],
+                "log_continued",
+                "{}: {metadata:?}",
+                path.display()
+            );
+        }
+        counts.push(messages.len() as u64);
+        for (topic, data) in &messages {
+            if topic == "/dima/cycle" {
+                let v: serde_json::Value = serde_json::from_slice(data).unwrap();
+                cycles.push(v["cycle"].as_u64().unwrap());
+            }
+        }
+    }
+    // Every cycle logged once, in order, across the files.
+    let first = cycles[0];
+    let expected: Vec<u64> = (first..first + cycles.len() as u64).collect();
+    assert!(
+        cycles == expected,
+        "cycle numbers lost or repeated at a split"
+    );
+    assert!(
+        cycles.len() as u64 + 5 >= r.app.counters.cycles,
+        "{}",
+        cycles.len()
+    );
+    if let Some(python) = python_counts(&files) {
+        assert_eq!(python, counts);
+    }
+    let _ = std::fs::remove_dir_all(last.parent().unwrap().parent().unwrap());
 }

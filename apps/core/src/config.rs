@@ -624,6 +624,11 @@ pub struct LogConfig {
     pub flush_interval_ms: u32,
     /// Decoded values are logged every n-th cycle (raw packets and timings every cycle).
     pub decoded_every: u32,
+    /// Longest time one file covers, in seconds: the logger then finishes the file (summary
+    /// and index written) and the run continues in `NAME-1.mcap`, `NAME-2.mcap`, ... The
+    /// writer holds an index entry per chunk until its file is finished, so this bounds the
+    /// logger's memory on a long run. 0 never splits; else 10..=86400.
+    pub max_file_duration_s: u32,
 }
 
 impl Default for LogConfig {
@@ -633,9 +638,15 @@ impl Default for LogConfig {
             directory: "/var/log/dima".into(),
             flush_interval_ms: 1_000,
             decoded_every: 1,
+            max_file_duration_s: 600,
         }
     }
 }
+
+/// Shortest `log.max_file_duration_s` other than 0 (never split), s.
+pub const MIN_FILE_DURATION_S: u32 = 10;
+/// Longest `log.max_file_duration_s`, s (a day).
+pub const MAX_FILE_DURATION_S: u32 = 86_400;
 
 /// The commented default configuration file.
 pub const DEFAULT_TOML: &str = include_str!("default-config.toml");
@@ -758,7 +769,22 @@ impl Config {
         self.validate_channels()?;
         self.validate_control()?;
         self.validate_estimator()?;
-        within("log.decoded_every", self.log.decoded_every, 1..=u32::MAX)
+        self.validate_log()
+    }
+
+    fn validate_log(&self) -> Result<(), ConfigError> {
+        within("log.decoded_every", self.log.decoded_every, 1..=u32::MAX)?;
+        let split = self.log.max_file_duration_s;
+        if split != 0 && !(MIN_FILE_DURATION_S..=MAX_FILE_DURATION_S).contains(&split) {
+            return Err(invalid(
+                "log.max_file_duration_s",
+                split,
+                &format!(
+                    "expected 0 (never split) or {MIN_FILE_DURATION_S}..={MAX_FILE_DURATION_S}"
+                ),
+            ));
+        }
+        Ok(())
     }
 
     fn validate_realtime(&self) -> Result<(), ConfigError> {
@@ -1220,6 +1246,8 @@ mod tests {
                 "channels.throttle.allow_off = true",
             ),
             ("[sensor]\npacket_deadline_us = 3000", "sensor.packet_deadline_us", "on the wire"),
+            ("[log]\nmax_file_duration_s = 9", "log.max_file_duration_s", "0 (never split) or 10..=86400"),
+            ("[log]\nmax_file_duration_s = 86401", "log.max_file_duration_s", "10..=86400"),
             (
                 "[maestro]\nwrite_budget_us = 400",
                 "sensor.packet_deadline_us",
@@ -1251,6 +1279,21 @@ mod tests {
         // Nothing is chained below it that would print the same text again.
         let parse = Config::from_toml("x = 1", "t").unwrap_err();
         assert!(std::error::Error::source(&parse).is_none());
+    }
+
+    #[test]
+    fn log_files_split_after_ten_minutes_by_default_or_never_with_zero() {
+        assert_eq!(Config::default().log.max_file_duration_s, 600);
+        for ok in [0, 10, 60, 86_400] {
+            let c = Config::from_toml(&format!("[log]\nmax_file_duration_s = {ok}"), "t")
+                .unwrap_or_else(|e| panic!("{ok}: {e}"));
+            assert_eq!(c.log.max_file_duration_s, ok);
+        }
+        for bad in [1, 9, 86_401, u32::MAX] {
+            let mut c = Config::default();
+            c.log.max_file_duration_s = bad;
+            assert!(c.validate().is_err(), "{bad} accepted");
+        }
     }
 
     #[test]

@@ -21,6 +21,14 @@
 //! one beside it (`NAME-1.mcap`, `NAME-2.mcap`, ...) that starts with the `dima` metadata and
 //! a `log_resumed` note.
 //!
+//! A run is also split by duration (`max_file_duration_s`, as rosbag2's `max_bag_duration`):
+//! when the current file is older than that, the logger finishes it (summary and index
+//! written: a complete, indexed MCAP file) and continues in the next file of the same
+//! numbering, which starts with the same metadata and a `log_continued` note. The MCAP writer
+//! keeps one chunk index per flushed chunk in memory until its file is finished, so this is
+//! what keeps a long run's memory flat. Every record goes to exactly one file: the old file's
+//! last chunk is flushed before the next file takes the following records.
+//!
 //! For the simulation, [`LogFaults`] stalls the thread (it stops draining the ring) or makes
 //! every write fail with ENOSPC during time windows; the fault sits in the file wrapper
 //! [`LogFile`], so the code above it is the production path.
@@ -120,6 +128,8 @@ pub struct McapLog {
     state: u16,
     info: u16,
     sequence: u32,
+    /// When the file was created (for the split by duration).
+    opened: Instant,
     /// Added to CLOCK_MONOTONIC to get wall-clock ns for log times.
     epoch_offset_ns: i128,
 }
@@ -201,6 +211,7 @@ impl McapLog {
             state,
             info,
             sequence: 0,
+            opened: Instant::now(),
             epoch_offset_ns: wall - i128::from(monotonic_ns()),
         };
         // The header, schemas and channels on the disk at once: a file that fails later can
@@ -295,9 +306,14 @@ impl McapLog {
         Ok(())
     }
 
-    /// Writes the summary and index and closes the file.
+    /// Writes the summary and index and closes the file; an error when any of it did not
+    /// reach the file.
     pub fn finish(mut self) -> anyhow::Result<PathBuf> {
         self.writer.finish()?;
+        self.writer
+            .into_inner()
+            .flush()
+            .with_context(|| format!("log: finishing {}", self.path.display()))?;
         Ok(self.path)
     }
 }
@@ -320,6 +336,9 @@ pub struct LoggerSettings {
     /// Metadata records a resumed file starts with (the `dima` record: version and
     /// configuration).
     pub header: Vec<(String, Vec<(&'static str, String)>)>,
+    /// Longest time one file covers before the run continues in the next file (`None`:
+    /// never split).
+    pub max_file_duration: Option<Duration>,
     /// Injected disk faults (the simulation's; none on the robot).
     pub faults: LogFaults,
 }
@@ -330,6 +349,7 @@ impl Default for LoggerSettings {
             flush_interval: Duration::from_secs(1),
             decoded_every: 1,
             header: Vec::new(),
+            max_file_duration: Some(Duration::from_secs(600)),
             faults: LogFaults::default(),
         }
     }
@@ -339,7 +359,11 @@ impl Default for LoggerSettings {
 /// `records_not_logged`.
 pub const METADATA_LOG_RESUMED: &str = "log_resumed";
 
-/// How often a failed log is retried.
+/// Metadata record at the start of a file that continues the previous one after the split by
+/// duration: `previous_file`.
+pub const METADATA_LOG_CONTINUED: &str = "log_continued";
+
+/// How often a failed log, or a split that could not open the next file, is retried.
 const LOG_RETRY: Duration = Duration::from_secs(1);
 
 /// The MCAP end of a file cut at `len` bytes (a complete record boundary): Data End and a
@@ -385,19 +409,32 @@ struct FailedLog {
     not_logged: u64,
 }
 
-/// Logging of one run, across failed and resumed files.
+/// Logging of one run, across failed, resumed and continued files.
 struct LogState {
     log: Option<McapLog>,
     failed: Option<FailedLog>,
-    /// The run's first file (resumed files are named after it).
+    /// The run's first file (the following files are named after it).
     first: Option<PathBuf>,
-    resumed: u32,
+    /// Files after the first so far, whatever the reason (a disk fault or the split by
+    /// duration): one numbering for the run.
+    numbered: u32,
     disk_full: Arc<AtomicBool>,
     header: Vec<(String, Vec<(&'static str, String)>)>,
+    /// Split the run into files of at most this duration.
+    max_file_duration: Option<Duration>,
+    /// A split that could not open the next file waits until then (the current file goes on).
+    next_split_try: Option<Instant>,
+    /// A file that could not be finished at a split, with its length at its last flush: it is
+    /// ended there as soon as the disk allows.
+    unfinished: Option<(PathBuf, u64)>,
 }
 
 impl LogState {
-    fn new(log: Option<McapLog>, header: Vec<(String, Vec<(&'static str, String)>)>) -> LogState {
+    fn new(
+        log: Option<McapLog>,
+        header: Vec<(String, Vec<(&'static str, String)>)>,
+        max_file_duration: Option<Duration>,
+    ) -> LogState {
         LogState {
             first: log.as_ref().map(|l| l.path().to_owned()),
             disk_full: log.as_ref().map_or_else(
@@ -406,9 +443,41 @@ impl LogState {
             ),
             log,
             failed: None,
-            resumed: 0,
+            numbered: 0,
             header,
+            max_file_duration: max_file_duration.filter(|d| !d.is_zero()),
+            next_split_try: None,
+            unfinished: None,
         }
+    }
+
+    /// Opens the run's next file (`NAME-n.mcap`): the header metadata, then `note`, flushed.
+    /// A file that cannot be started is removed again.
+    fn open_next(
+        &self,
+        note: &str,
+        pairs: &[(&str, String)],
+    ) -> (PathBuf, anyhow::Result<McapLog>) {
+        let Some(first) = &self.first else {
+            return (
+                PathBuf::new(),
+                Err(anyhow::anyhow!("log: no file to continue")),
+            );
+        };
+        let path = resumed_name(first, self.numbered + 1);
+        let next =
+            McapLog::create_file_with(&path, Arc::clone(&self.disk_full)).and_then(|mut l| {
+                for (name, pairs) in &self.header {
+                    l.metadata(name, pairs)?;
+                }
+                l.metadata(note, pairs)?;
+                l.flush()?;
+                Ok(l)
+            });
+        if next.is_err() {
+            let _ = std::fs::remove_file(&path);
+        }
+        (path, next)
     }
 
     /// A write failed: logging stops with one message, the file is kept for closing.
@@ -435,51 +504,121 @@ impl LogState {
     }
 
     /// While failed: counts a record that could not be logged, and every second tries to
-    /// close the failed file and resume in a new one.
+    /// close the failed file and resume in a new one. Also ends a file a split could not
+    /// finish.
     fn retry(&mut self, now: Instant) {
-        let Some(failed) = self.failed.as_mut() else {
+        self.end_unfinished();
+        let Some(failed) = self.failed.as_ref() else {
             return;
         };
         if now < failed.next_try {
             return;
         }
-        failed.next_try = now + LOG_RETRY;
+        if let Some(f) = self.failed.as_mut() {
+            f.next_try = now + LOG_RETRY;
+        }
+        let Some(failed) = self.failed.as_ref() else {
+            return;
+        };
         if close_failed_file(&failed.path, failed.flushed_len, &self.disk_full).is_err() {
             return;
         }
-        let Some(first) = &self.first else { return };
-        let path = resumed_name(first, self.resumed + 1);
-        let resumed =
-            McapLog::create_file_with(&path, Arc::clone(&self.disk_full)).and_then(|mut l| {
-                for (name, pairs) in &self.header {
-                    l.metadata(name, pairs)?;
-                }
-                l.metadata(
-                    METADATA_LOG_RESUMED,
-                    &[
-                        ("previous_file", failed.path.display().to_string()),
-                        ("error", failed.error.clone()),
-                        ("records_not_logged", failed.not_logged.to_string()),
-                    ],
-                )?;
-                l.flush()?;
-                Ok(l)
-            });
-        match resumed {
-            Ok(l) => {
-                tracing::warn!(
-                    "log: logging resumed in {} ({} records not logged; {} ends at its last \
-                     complete chunk)",
-                    path.display(),
-                    failed.not_logged,
-                    failed.path.display()
-                );
-                self.resumed += 1;
-                self.failed = None;
-                self.log = Some(l);
+        let (path, resumed) = self.open_next(
+            METADATA_LOG_RESUMED,
+            &[
+                ("previous_file", failed.path.display().to_string()),
+                ("error", failed.error.clone()),
+                ("records_not_logged", failed.not_logged.to_string()),
+            ],
+        );
+        if let Ok(l) = resumed {
+            tracing::warn!(
+                "log: logging resumed in {} ({} records not logged; {} ends at its last \
+                 complete chunk)",
+                path.display(),
+                failed.not_logged,
+                failed.path.display()
+            );
+            self.numbered += 1;
+            self.failed = None;
+            self.log = Some(l);
+        }
+    }
+
+    /// Whether the current file is due to be split at `now`.
+    fn split_due(&self, now: Instant) -> bool {
+        match (&self.log, self.max_file_duration) {
+            (Some(l), Some(max)) => {
+                now.saturating_duration_since(l.opened) >= max
+                    && self.next_split_try.is_none_or(|t| now >= t)
             }
-            Err(_) => {
-                let _ = std::fs::remove_file(&path);
+            _ => false,
+        }
+    }
+
+    /// When the current file is older than the longest file duration: flushes its last
+    /// chunk, opens the next file with the header and a `log_continued` note, and finishes
+    /// the old file (summary and index). The records go on in exactly one file: all before
+    /// the split in the old one, all after it in the new one. When the next file cannot be
+    /// opened, the current one goes on and the split is tried again a second later.
+    fn split(&mut self, now: Instant) {
+        if !self.split_due(now) {
+            return;
+        }
+        let Some(log) = self.log.as_mut() else { return };
+        if let Err(e) = log.flush() {
+            self.fail(&e);
+            return;
+        }
+        let previous = log.path.clone();
+        let (path, next) = self.open_next(
+            METADATA_LOG_CONTINUED,
+            &[("previous_file", previous.display().to_string())],
+        );
+        let next = match next {
+            Ok(l) => l,
+            Err(e) => {
+                tracing::warn!(
+                    "log: cannot start {} ({e:#}); {} goes on, trying again in {} s",
+                    path.display(),
+                    previous.display(),
+                    LOG_RETRY.as_secs()
+                );
+                self.next_split_try = Some(now + LOG_RETRY);
+                return;
+            }
+        };
+        self.next_split_try = None;
+        self.numbered += 1;
+        let Some(old) = self.log.replace(next) else {
+            return;
+        };
+        let flushed_len = old.flushed_len;
+        match old.finish() {
+            Ok(_) => tracing::info!(
+                "log: {} finished, the run continues in {}",
+                previous.display(),
+                path.display()
+            ),
+            Err(e) => {
+                tracing::warn!(
+                    "log: finishing {} failed ({e:#}); it will end at its last complete chunk, \
+                     the run continues in {}",
+                    previous.display(),
+                    path.display()
+                );
+                self.unfinished = Some((previous, flushed_len));
+                self.end_unfinished();
+            }
+        }
+    }
+
+    /// Ends a file that a split could not finish at its last complete chunk, once the disk
+    /// allows (all its records are in that chunk: it was flushed before the split).
+    fn end_unfinished(&mut self) {
+        if let Some((path, len)) = &self.unfinished {
+            if close_failed_file(path, *len, &self.disk_full).is_ok() {
+                self.unfinished = None;
             }
         }
     }
@@ -487,6 +626,7 @@ impl LogState {
     /// At the end of the run: a file still failed is closed at its last complete chunk if
     /// the disk allows.
     fn finish(mut self) -> Option<McapLog> {
+        self.end_unfinished();
         if let Some(failed) = self.failed.take() {
             if close_failed_file(&failed.path, failed.flushed_len, &self.disk_full).is_ok() {
                 tracing::warn!(
@@ -544,7 +684,7 @@ pub fn spawn_logger(
     std::thread::Builder::new()
         .name("dima-logger".into())
         .spawn(move || {
-            let mut state = LogState::new(log, settings.header);
+            let mut state = LogState::new(log, settings.header, settings.max_file_duration);
             let faults = settings.faults;
             let started_ns = monotonic_ns();
             let mut written = 0u64;
@@ -579,6 +719,7 @@ pub fn spawn_logger(
                     }
                 }
                 state.retry(Instant::now());
+                state.split(Instant::now());
                 let mut n = 0;
                 while let Ok(r) = records.pop() {
                     report_events(&r, &mut last_mode);
@@ -631,5 +772,213 @@ mod tests {
         assert_eq!(log_file_name(UNIX_EPOCH), "dima-19700101T000000Z.mcap");
         let leap = UNIX_EPOCH + Duration::from_secs(951_825_600); // 2000-02-29 12:00:00
         assert_eq!(log_file_name(leap), "dima-20000229T120000Z.mcap");
+    }
+
+    use dima_core::config::Config;
+    use dima_core::step::{CycleInputs, SensorInput};
+    use dima_core::{Command, Core, CoreState};
+
+    use crate::app::rt_loop::MAX_COMMANDS_PER_CYCLE;
+    use crate::rt::Tick;
+
+    /// A record of cycle `cycle` at `now_ns`, from the real control step (no sensor).
+    fn record(core: &mut Core, state: &mut CoreState, cycle: u64) -> CycleRecord {
+        let now_ns = monotonic_ns();
+        let outputs = core.step(
+            state,
+            &CycleInputs {
+                missed_periods: 0,
+                commands: &[],
+                sensor: SensorInput::DeviceError,
+                stale_packets: 0,
+            },
+            now_ns,
+        );
+        CycleRecord {
+            cycle,
+            tick: Tick {
+                deadline_ns: now_ns,
+                wake_ns: now_ns,
+                latency_ns: 0,
+                missed: 0,
+            },
+            t_request_ns: 0,
+            t_packet_ns: 0,
+            t_compute_ns: now_ns,
+            t_write_ns: 0,
+            raw: None,
+            info: None,
+            outputs,
+            setpoints: state.safety.setpoints,
+            commands: [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE],
+            n_commands: 0,
+            stale_passed: 0,
+            counters: state.counters,
+            link: Default::default(),
+            events: 0,
+        }
+    }
+
+    /// A fresh directory for one test.
+    fn test_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("dima-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// Runs the logger on `dir/run.mcap`, files of at most `max_file`, flushing every 20 ms,
+    /// over `n` records 2 ms apart; `during(i)` runs before record `i`. Returns the run's
+    /// files in order (`run.mcap`, `run-1.mcap`, ...).
+    fn log_run(
+        dir: &Path,
+        max_file: Duration,
+        n: u64,
+        mut during: impl FnMut(u64),
+    ) -> Vec<PathBuf> {
+        let first = dir.join("run.mcap");
+        let mut log = McapLog::create_file(&first).unwrap();
+        let header = vec![("dima".to_owned(), vec![("version", "test".to_owned())])];
+        for (name, pairs) in &header {
+            log.metadata(name, pairs).unwrap();
+        }
+        let (mut tx, rx) = rtrb::RingBuffer::new(64);
+        let (_reports, report_rx) = mpsc::channel();
+        let stop = Arc::new(AtomicBool::new(false));
+        let logger = spawn_logger(
+            Some(log),
+            rx,
+            report_rx,
+            LoggerSettings {
+                flush_interval: Duration::from_millis(20),
+                decoded_every: 1,
+                header,
+                max_file_duration: Some(max_file),
+                faults: LogFaults::default(),
+            },
+            Arc::clone(&stop),
+            None,
+        )
+        .unwrap();
+        let mut core = Core::new(&Config::default()).unwrap();
+        let mut state = CoreState::new();
+        for i in 0..n {
+            during(i);
+            let mut r = record(&mut core, &mut state, i);
+            while let Err(rtrb::PushError::Full(back)) = tx.push(r) {
+                r = back;
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        stop.store(true, Ordering::Release);
+        let outcome = logger.join().unwrap();
+        assert_eq!(outcome.records, n);
+        let last = outcome.log.unwrap().finish().unwrap();
+        let mut files = vec![first.clone()];
+        while resumed_name(&first, files.len() as u32).is_file() {
+            files.push(resumed_name(&first, files.len() as u32));
+        }
+        assert_eq!(
+            files.last(),
+            Some(&last),
+            "the last file is the one still open"
+        );
+        files
+    }
+
+    /// Metadata records in file order: name and pairs.
+    type MetadataRecords = Vec<(String, BTreeMap<String, String>)>;
+
+    /// The `/dima/cycle` numbers and the metadata records of a complete, indexed MCAP file,
+    /// and its number of chunks.
+    fn read_file(path: &Path) -> (Vec<u64>, MetadataRecords, usize) {
+        let bytes = std::fs::read(path).unwrap();
+        let summary = mcap::Summary::read(&bytes)
+            .unwrap()
+            .unwrap_or_else(|| panic!("{}: no summary", path.display()));
+        let mut cycles = Vec::new();
+        for m in mcap::MessageStream::new(&bytes).unwrap() {
+            let m = m.unwrap();
+            if m.channel.topic == "/dima/cycle" {
+                let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+                cycles.push(v["cycle"].as_u64().unwrap());
+            }
+        }
+        let stats = summary.stats.expect("statistics");
+        assert_eq!(
+            stats.message_count,
+            cycles.len() as u64,
+            "{}",
+            path.display()
+        );
+        let mut metadata = Vec::new();
+        for record in mcap::read::LinearReader::new(&bytes).unwrap() {
+            if let mcap::records::Record::Metadata(m) = record.unwrap() {
+                metadata.push((m.name, m.metadata));
+            }
+        }
+        (cycles, metadata, summary.chunk_indexes.len())
+    }
+
+    #[test]
+    fn a_run_split_by_duration_loses_and_repeats_no_record() {
+        let dir = test_dir("log-split");
+        let n = 700;
+        let files = log_run(&dir, Duration::from_millis(300), n, |_| {});
+        // About 1.5 s or more of records in files of 0.3 s.
+        assert!(files.len() >= 4, "{files:?}");
+        let mut all = Vec::new();
+        let mut total_chunks = 0;
+        for (k, path) in files.iter().enumerate() {
+            let (cycles, metadata, chunks) = read_file(path);
+            assert!(!cycles.is_empty(), "{}", path.display());
+            all.extend(cycles);
+            total_chunks += chunks;
+            // What the writer holds until a file is finished stays bounded: a file's chunks
+            // (one per 20 ms flush, over 0.3 s and the time a loaded machine adds), not the
+            // run's.
+            assert!(chunks <= 40, "{}: {chunks} chunks", path.display());
+            assert_eq!(metadata[0].0, "dima", "{}", path.display());
+            if k > 0 {
+                assert_eq!(metadata[1].0, METADATA_LOG_CONTINUED);
+                assert_eq!(
+                    metadata[1].1.get("previous_file"),
+                    Some(&files[k - 1].display().to_string())
+                );
+            }
+        }
+        assert!(total_chunks > 40, "{total_chunks} chunks in the run");
+        assert_eq!(all, (0..n).collect::<Vec<_>>(), "records lost or repeated");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_split_that_cannot_open_the_next_file_goes_on_in_the_current_one() {
+        let dir = test_dir("log-split-blocked");
+        // A directory where the next file should go: it cannot be created until it is gone.
+        let blocker = dir.join("run-1.mcap");
+        std::fs::create_dir(&blocker).unwrap();
+        let files = log_run(&dir, Duration::from_millis(200), 600, |i| {
+            if i == 150 {
+                std::fs::remove_dir(&blocker).unwrap();
+            }
+        });
+        assert!(files.len() >= 2, "{files:?}");
+        let mut all = Vec::new();
+        for (k, path) in files.iter().enumerate() {
+            let (cycles, _, _) = read_file(path);
+            if k == 0 {
+                // The first file went on past 0.2 s until the next one could be opened.
+                assert!(cycles.len() > 150, "{} in the first file", cycles.len());
+            }
+            all.extend(cycles);
+        }
+        assert_eq!(
+            all,
+            (0..600).collect::<Vec<_>>(),
+            "records lost or repeated"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -207,6 +207,10 @@ where
             flush_interval: Duration::from_millis(u64::from(config.log.flush_interval_ms)),
             decoded_every: u64::from(config.log.decoded_every),
             header,
+            max_file_duration: match config.log.max_file_duration_s {
+                0 => None,
+                s => Some(Duration::from_secs(u64::from(s))),
+            },
             faults: options.log_faults,
         },
         Arc::clone(&logger_stop),
