@@ -2,7 +2,7 @@
 //! a run can be judged on what the application itself recorded (in its own clock).
 
 use std::collections::BTreeSet;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use dima_core::config::Config;
@@ -60,9 +60,27 @@ impl LogSummary {
     /// Reads a finished MCAP file: every message through the typed schema, the configuration
     /// from its metadata. A message that does not match its schema is an error.
     pub fn read(path: &Path) -> anyhow::Result<LogSummary> {
+        let mut out = LogSummary::default();
+        out.read_file(path)?;
+        Ok(out)
+    }
+
+    /// Reads every file of the run whose last file is `last`, in order: a run split by
+    /// `[log] max_file_duration_s` or resumed after a disk fault goes on in `NAME-1.mcap`,
+    /// `NAME-2.mcap`, ... A missing file of the run is an error.
+    pub fn read_run(last: &Path) -> anyhow::Result<LogSummary> {
+        let mut out = LogSummary::default();
+        for path in run_files(last) {
+            out.read_file(&path)?;
+        }
+        Ok(out)
+    }
+
+    /// Adds one file's messages, metadata and attachments to what was read before.
+    fn read_file(&mut self, path: &Path) -> anyhow::Result<()> {
         let bytes =
             std::fs::read(path).with_context(|| format!("reading the log {}", path.display()))?;
-        let mut out = LogSummary::default();
+        let out = self;
         let stream = mcap::MessageStream::new(&bytes)
             .with_context(|| format!("{}: not an MCAP file", path.display()))?;
         for message in stream {
@@ -95,25 +113,19 @@ impl LogSummary {
         for record in mcap::read::LinearReader::new(&bytes)? {
             if let mcap::records::Record::Metadata(m) = record? {
                 if m.name == schema::METADATA_DIMA {
-                    if let Some(text) = m.metadata.get("config") {
+                    if let (None, Some(text)) = (&out.config, m.metadata.get("config")) {
                         out.config = Some(Config::from_toml(text, "the log's config")?);
                     }
                 }
             }
         }
         if let Some(summary) = mcap::Summary::read(&bytes)? {
-            out.metadata = summary
-                .metadata_indexes
-                .iter()
-                .map(|m| m.name.clone())
-                .collect();
-            out.attachments = summary
-                .attachment_indexes
-                .iter()
-                .map(|a| a.name.clone())
-                .collect();
+            out.metadata
+                .extend(summary.metadata_indexes.iter().map(|m| m.name.clone()));
+            out.attachments
+                .extend(summary.attachment_indexes.iter().map(|a| a.name.clone()));
         }
-        Ok(out)
+        Ok(())
     }
 
     /// The mode in force at `t_ns` by the cycle records (`None` before the first).
@@ -169,6 +181,26 @@ impl LogSummary {
             count = Some(c.commands);
         }
         last
+    }
+}
+
+/// The files of the run whose last file is `last`, first to last: `NAME.mcap`, then
+/// `NAME-1.mcap` up to `last` when `last` is `NAME-N.mcap` (the application's log names end in
+/// a UTC time stamp, never in `-N`), else `last` alone.
+pub fn run_files(last: &Path) -> Vec<PathBuf> {
+    let stem = last
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let numbered = stem
+        .rsplit_once('-')
+        .filter(|(_, n)| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
+        .and_then(|(base, n)| Some((base.to_owned(), n.parse::<u32>().ok()?)));
+    match numbered {
+        Some((base, n)) => std::iter::once(last.with_file_name(format!("{base}.mcap")))
+            .chain((1..=n).map(|i| last.with_file_name(format!("{base}-{i}.mcap"))))
+            .collect(),
+        None => vec![last.to_path_buf()],
     }
 }
 
@@ -243,5 +275,29 @@ mod tests {
         std::fs::write(&p, b"not an mcap file").unwrap();
         assert!(LogSummary::read(&p).is_err());
         std::fs::remove_file(&p).unwrap();
+    }
+
+    #[test]
+    fn a_numbered_last_file_names_every_file_of_its_run() {
+        let dir = Path::new("/logs");
+        assert_eq!(
+            run_files(&dir.join("dima-20261126T170000Z.mcap")),
+            [dir.join("dima-20261126T170000Z.mcap")]
+        );
+        assert_eq!(
+            run_files(&dir.join("dima-20261126T170000Z-2.mcap")),
+            [
+                dir.join("dima-20261126T170000Z.mcap"),
+                dir.join("dima-20261126T170000Z-1.mcap"),
+                dir.join("dima-20261126T170000Z-2.mcap"),
+            ]
+        );
+        // A missing file of the run is an error, not a shorter run.
+        let e = LogSummary::read_run(Path::new("/nonexistent/dima-20261126T170000Z-1.mcap"))
+            .unwrap_err();
+        assert!(
+            format!("{e:#}").contains("dima-20261126T170000Z.mcap"),
+            "{e:#}"
+        );
     }
 }

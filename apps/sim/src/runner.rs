@@ -585,7 +585,7 @@ where
     let interrupted = !ended_by_runner.load(Ordering::Relaxed) && run_length.is_some();
 
     let log = match &app.log_path {
-        Some(p) => Some(LogSummary::read(p)?),
+        Some(p) => Some(LogSummary::read_run(p)?),
         None => None,
     };
     let (mut false_accepts, mut logged_intact) = (0, 0);
