@@ -140,6 +140,9 @@ fn check_v2(data: &[u8]) {
     assert_eq!(accepted, expected);
     assert_eq!(gate.last_accepted(), last_seq);
     assert_eq!(gate.stats().accepted as usize, accepted.len());
+    // The same bytes again, from a clean stream: without the reset, a frame whose start ends
+    // `data` and whose rest begins it would be whole for the first time, and rightly accepted.
+    gate.reset_stream();
     let again: Vec<Command> = gate.feed(data).filter_map(Result::ok).collect();
     assert!(
         again.iter().all(|c| *c == Command::Kill),
