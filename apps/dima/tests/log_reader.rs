@@ -126,6 +126,37 @@ fn a_huge_record_inside_a_compressed_chunk_is_an_error_not_an_allocation() {
 }
 
 #[test]
+fn a_record_longer_than_its_uncompressed_chunk_is_an_error() {
+    // Inside an uncompressed chunk of 9 record bytes: a Message record header announcing 16
+    // bytes, which lie beyond the chunk (found by fuzzing: the reader's bookkeeping overflowed).
+    let inner = [0x05, 16, 0, 0, 0, 0, 0, 0, 0];
+    let mut chunk = Vec::new();
+    chunk.extend(0u64.to_le_bytes()); // message start time
+    chunk.extend(0u64.to_le_bytes()); // message end time
+    chunk.extend((inner.len() as u64).to_le_bytes()); // uncompressed size
+    chunk.extend(0u32.to_le_bytes()); // uncompressed CRC (0: not checked)
+    chunk.extend(0u32.to_le_bytes()); // compression: none
+    chunk.extend((inner.len() as u64).to_le_bytes());
+    chunk.extend(inner);
+    let mut bytes = file_start();
+    bytes.extend(record(0x06, &chunk));
+    // Bytes after the chunk for the overlong record to run into.
+    bytes.extend(record(0x0F, &[0; 32]));
+    let text = error_text(&bytes);
+    assert!(text.contains("runs past the chunk's end"), "{text}");
+
+    // The same chunk cut short by the end of the file (its record says 100 more bytes follow),
+    // with the overlong record's 16 bytes the last ones of the file.
+    let mut cut = file_start();
+    cut.push(0x06);
+    cut.extend((chunk.len() as u64 + 100).to_le_bytes());
+    cut.extend(&chunk);
+    cut.extend([0u8; 16]);
+    let text = error_text(&cut);
+    assert!(text.contains("runs past the chunk's end"), "{text}");
+}
+
+#[test]
 fn a_string_length_beyond_its_record_does_not_size_an_allocation() {
     // A string's u32 length prefix says 3.75 GiB; four bytes follow.
     let mut huge_string = 0xF000_0000u32.to_le_bytes().to_vec();

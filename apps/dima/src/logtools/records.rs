@@ -4,8 +4,9 @@
 //! length (a chunk's records are decompressed into a buffer of that size), and the u32 length
 //! prefix of a string, which the `mcap` crate's parser reserves before reading the string. Here
 //! no record may be longer than [`MAX_RECORD_LEN`], every length prefix of the records the log
-//! tools read is checked against the record before it is parsed, and other records are never
-//! parsed at all.
+//! tools read is checked against the record before it is parsed, other records are never
+//! parsed at all, and every record inside an uncompressed chunk must fit the chunk before the
+//! reader descends into it (the `mcap` reader's bookkeeping overflows otherwise).
 
 use mcap::records::{op, Record};
 use mcap::sans_io::{LinearReadEvent, LinearReader, LinearReaderOptions};
@@ -43,10 +44,38 @@ pub fn for_each_record(
     scope: Scope,
     mut on_record: impl FnMut(Record<'_>) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
+    if scope == Scope::InsideChunks {
+        // Before the reader descends into the chunks: `mcap` 0.26's reader subtracts a record's
+        // length from what is left of its uncompressed chunk unchecked, and overflows when a
+        // damaged record is longer than the chunk.
+        uncompressed_chunks_fit(bytes)?;
+    }
+    walk(bytes, scope == Scope::TopLevel, |opcode, data| {
+        if !scope.reads(opcode) {
+            return Ok(());
+        }
+        if !length_prefixes_fit(opcode, data) {
+            anyhow::bail!(
+                "record {opcode:#04x} of {} bytes: a length field runs past its end",
+                data.len()
+            );
+        }
+        on_record(mcap::parse_record(opcode, data)?)
+    })
+}
+
+/// Hands each record's opcode and body to `on_record` in file order, up to the data end record
+/// or the end of a cut file; with `emit_chunks` chunks are records of their own, without it
+/// the records inside them are.
+fn walk(
+    bytes: &[u8],
+    emit_chunks: bool,
+    mut on_record: impl FnMut(u8, &[u8]) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default()
             .with_skip_end_magic(true)
-            .with_emit_chunks(scope == Scope::TopLevel)
+            .with_emit_chunks(emit_chunks)
             .with_record_length_limit(MAX_RECORD_LEN),
     );
     let mut rest = bytes;
@@ -62,21 +91,57 @@ pub fn for_each_record(
                 opcode: op::DATA_END,
                 ..
             } => break,
-            LinearReadEvent::Record { opcode, data } => {
-                if !scope.reads(opcode) {
-                    continue;
-                }
-                if !length_prefixes_fit(opcode, data) {
-                    anyhow::bail!(
-                        "record {opcode:#04x} of {} bytes: a length field runs past its end",
-                        data.len()
-                    );
-                }
-                on_record(mcap::parse_record(opcode, data)?)?;
-            }
+            LinearReadEvent::Record { opcode, data } => on_record(opcode, data)?,
         }
     }
     Ok(())
+}
+
+/// Whether every record inside each uncompressed chunk of the file lies within its chunk's
+/// declared records length (a compressed chunk's records are bounded by the reader's own checks
+/// of the decompressed size). Walks the top-level records by their length fields, as the reader
+/// does, and a chunk cut short by the end of the file as far as it goes.
+fn uncompressed_chunks_fit(bytes: &[u8]) -> anyhow::Result<()> {
+    const MAGIC_LEN: usize = 8;
+    let mut file = Body(bytes.get(MAGIC_LEN..).unwrap_or_default());
+    while let (Some(opcode), Some(len)) = (file.take(1), file.u64_len()) {
+        let body = file.take(len).unwrap_or_else(|| file.rest());
+        match opcode[0] {
+            op::DATA_END => break,
+            op::CHUNK if !chunk_records_fit(body) => {
+                anyhow::bail!("chunk of {len} bytes: a record inside it runs past the chunk's end")
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Whether the records of an uncompressed chunk (`chunk`: its body, maybe cut short) fit in its
+/// declared records length; `true` for a compressed chunk.
+fn chunk_records_fit(chunk: &[u8]) -> bool {
+    let mut body = Body(chunk);
+    // Message start and end time, uncompressed size, uncompressed CRC, then the compression.
+    if !body.skip(28) {
+        return true;
+    }
+    match body.prefixed() {
+        Some([]) => {}
+        _ => return true,
+    }
+    let Some(mut declared) = body.u64_len() else {
+        return true;
+    };
+    while let (Some(_opcode), Some(len)) = (body.take(1), body.u64_len()) {
+        match declared.checked_sub(len.saturating_add(9)) {
+            Some(left) => declared = left,
+            None => return false,
+        }
+        if declared == 0 || body.take(len).is_none() {
+            break;
+        }
+    }
+    true
 }
 
 /// Whether every length-prefixed string and map in the record's body lies within the body
@@ -107,6 +172,16 @@ impl<'a> Body<'a> {
 
     fn skip(&mut self, n: usize) -> bool {
         self.take(n).is_some()
+    }
+
+    /// Everything left.
+    fn rest(&mut self) -> &'a [u8] {
+        core::mem::take(&mut self.0)
+    }
+
+    /// A little-endian u64 length that fits a `usize`.
+    fn u64_len(&mut self) -> Option<usize> {
+        usize::try_from(u64::from_le_bytes(self.take(8)?.try_into().ok()?)).ok()
     }
 
     /// A u32 length prefix and that many bytes.
