@@ -62,7 +62,7 @@ pub struct SimArgs {
     #[arg(long)]
     pub quiet: bool,
     /// Ground-link key file (mode 0600, from `dima keygen`) for the robot and the scripted
-    /// ground station; default: the configuration's [xbee] key_file, else a fresh key in the
+    /// ground station; default: the configuration's `[xbee] key_file`, else a fresh key in the
     /// run directory.
     #[arg(long, value_name = "PATH")]
     pub key_file: Option<PathBuf>,
