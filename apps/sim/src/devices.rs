@@ -272,12 +272,17 @@ pub struct MaestroStats {
     pub commands: AtomicU64,
     /// Bytes the decoder could not use.
     pub dropped_bytes: AtomicU64,
-    /// Every change of the three DIMA channels, in order.
+    /// Every change of the three DIMA channels, in order (see
+    /// [`MaestroStats::safe_transitions_only`]).
     pub history: Mutex<Vec<OutputChange>>,
     /// Times the pty was (re)opened.
     pub opens: AtomicU64,
     /// Commands received since the last (re)open.
     pub commands_since_open: AtomicU64,
+    /// When set (the safe outputs, µs), `history` keeps only the changes from these outputs to
+    /// any others and back, so it stays small however long the run (a soak: its checks only
+    /// ask whether the car was safe or drove). `None`: every change.
+    pub safe_transitions_only: Option<[u16; 3]>,
 }
 
 impl Default for MaestroStats {
@@ -289,6 +294,7 @@ impl Default for MaestroStats {
             history: Mutex::new(Vec::new()),
             opens: AtomicU64::new(0),
             commands_since_open: AtomicU64::new(0),
+            safe_transitions_only: None,
         }
     }
 }
@@ -311,6 +317,22 @@ impl MaestroStats {
     /// A copy of the history.
     pub fn history(&self) -> Vec<OutputChange> {
         lock(&self.history).clone()
+    }
+
+    /// Adds a change of the outputs to the history (all of them, or with
+    /// [`MaestroStats::safe_transitions_only`] only those between safe and other outputs).
+    pub fn record(&self, change: OutputChange) {
+        let mut history = lock(&self.history);
+        if let Some(safe_us) = self.safe_transitions_only {
+            let is_safe = |targets_qus: [u16; 3]| targets_qus.map(|q| q / 4) == safe_us;
+            if history
+                .last()
+                .is_some_and(|last| is_safe(last.targets_qus) == is_safe(change.targets_qus))
+            {
+                return;
+            }
+        }
+        history.push(change);
     }
 }
 
@@ -387,7 +409,7 @@ pub fn spawn_maestro(
                 let now = stats.targets_of(channels);
                 if now != last && now.iter().all(|&q| q != 0xFFFF) {
                     last = now;
-                    lock(&stats.history).push(OutputChange {
+                    stats.record(OutputChange {
                         t_s: world.now_s(),
                         targets_qus: now,
                     });

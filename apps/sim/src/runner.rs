@@ -420,7 +420,10 @@ where
         counts_only: o.bounded_evidence,
         ..BoardStats::default()
     });
-    let maestro_stats = Arc::new(MaestroStats::default());
+    let maestro_stats = Arc::new(MaestroStats {
+        safe_transitions_only: o.bounded_evidence.then(|| outputs.safe().pulse_us),
+        ..MaestroStats::default()
+    });
     let ground_stats = Arc::new(GroundStats {
         counts_only: o.bounded_evidence,
         ..GroundStats::default()

@@ -741,6 +741,61 @@ mod tests {
     }
 
     #[test]
+    fn the_soak_checks_judge_a_history_of_safe_transitions_as_the_whole_history() {
+        use crate::devices::MaestroStats;
+        use crate::rng::SimRng;
+        let coarse = MaestroStats {
+            safe_transitions_only: Some(SAFE_US),
+            ..MaestroStats::default()
+        };
+        let mut full = Vec::new();
+        let mut rng = SimRng::new(5);
+        let mut t_s = 0.0;
+        // Stretches of safe outputs and of outputs changing every period (AUTO), of random
+        // lengths, with single odd periods in between.
+        while t_s < 10.0 {
+            let driving = rng.chance(0.5);
+            let periods = 1 + rng.below(100);
+            for _ in 0..periods {
+                t_s += 0.004;
+                let us = if driving {
+                    [
+                        1500 + rng.below(300) as u16,
+                        1400 + rng.below(300) as u16,
+                        1500,
+                    ]
+                } else {
+                    SAFE_US
+                };
+                let c = change(t_s, us);
+                coarse.record(c);
+                full.push(c);
+            }
+        }
+        let coarse = evidence(coarse.history());
+        let full = evidence(full);
+        assert!(coarse.outputs.len() * 10 < full.outputs.len());
+        let mut judged = [0usize; 2];
+        for _ in 0..2000 {
+            let from_s = rng.uniform() * 10.0;
+            let to_s = from_s + rng.uniform() * 2.0;
+            for check in [
+                Check::Drives { from_s, to_s },
+                Check::SafeThroughout { from_s, to_s },
+                Check::SafeHeld { from_s, to_s },
+            ] {
+                let verdict = |e: &Evidence| evaluate(&check, e).map(|r| r.is_ok());
+                assert_eq!(verdict(&coarse), verdict(&full), "{check:?}");
+                if let Some(ok) = verdict(&full) {
+                    judged[usize::from(ok)] += 1;
+                }
+            }
+        }
+        // Both verdicts were seen many times.
+        assert!(judged.iter().all(|&n| n > 500), "{judged:?}");
+    }
+
+    #[test]
     fn output_checks_follow_the_history() {
         let e = evidence(vec![
             change(0.1, SAFE_US),
