@@ -182,6 +182,11 @@ impl McapLog {
             .with_context(|| format!("log: cannot write {}", path.display()))?;
         let mut writer = mcap::WriteOptions::new()
             .compression(Some(mcap::Compression::Zstd))
+            // Compressed on the logger thread itself. `mcap` would otherwise start a zstd
+            // worker per CPU with buffers of about 40 MB, whose pages the process touches
+            // bit by bit over a long run; a few tens of KB a second need no workers, and on
+            // the robot they would compete with the control loop for the cores.
+            .compression_threads(0)
             .chunk_size(Some(4 * 1024 * 1024))
             .profile("")
             .create(BufWriter::new(file))
