@@ -163,11 +163,7 @@ fn v1_commands() -> Vec<u8> {
 }
 
 fn v2_command(command: Command, session: u32, seq: u32, key: &LinkKey) -> [u8; 24] {
-    CommandFrame {
-        command,
-        session,
-        seq,
-    }
+    CommandFrame::new(command, session, seq)
     .encode(key)
 }
 

@@ -16,7 +16,8 @@
 //!   frame ever gets through and none hides an authentic one; 24 bytes per frame, plus skipped
 //!   and pending bytes, add up to the input;
 //! - the gate accepts exactly what the rules say: an authentic frame of the current session
-//!   with a newer sequence number, or an authentic kill; fed the same bytes again, it accepts
+//!   with a newer sequence number (a revive of a request it already acted on as a
+//!   heartbeat), or an authentic kill; fed the same bytes again, it accepts
 //!   nothing but kills (a frame accepted once is never accepted again unless it is a kill);
 //! - an authentic frame with any one byte changed is refused.
 #![no_main]
@@ -128,11 +129,20 @@ fn check_v2(data: &[u8]) {
     let mut gate = CommandGate::new(key.clone(), SESSION);
     let accepted: Vec<Command> = gate.feed(data).filter_map(Result::ok).collect();
     let mut last_seq = 0;
+    let mut last_revive_request = 0;
     let mut expected = Vec::new();
     for frame in reference.iter().flatten() {
         if frame.session == SESSION && frame.seq > last_seq {
             last_seq = frame.seq;
-            expected.push(frame.command);
+            // A revive request is acted on once; its repetitions are heartbeats.
+            if frame.command == Command::Revive && frame.request <= last_revive_request {
+                expected.push(Command::Heartbeat);
+            } else {
+                if frame.command == Command::Revive {
+                    last_revive_request = frame.request;
+                }
+                expected.push(frame.command);
+            }
         } else if frame.command == Command::Kill {
             expected.push(Command::Kill);
         }

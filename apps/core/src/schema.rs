@@ -147,6 +147,9 @@ pub struct GroundLinkCounters {
     pub malformed: u64,
     /// Authentic v2 kills accepted from another session or with an old sequence number.
     pub kills_outside_window: u64,
+    /// v2 revives accepted but not acted on: repetitions of an operator request the robot
+    /// already acted on (taken as heartbeats; included in `v2_accepted`).
+    pub revive_repeats: u64,
     /// v1 commands accepted (only with `xbee.require_auth = false`).
     pub v1_accepted: u64,
     /// Valid v1 commands ignored because `xbee.require_auth = true`.

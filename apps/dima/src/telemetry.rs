@@ -164,7 +164,7 @@ impl LinkSecurity {
 /// consecutive publications.
 #[derive(Debug, Default)]
 pub struct LinkCounters {
-    counters: [AtomicU64; 10],
+    counters: [AtomicU64; 11],
 }
 
 impl LinkCounters {
@@ -182,6 +182,7 @@ impl LinkCounters {
             v1_ignored: c(7),
             v1_rejected: c(8),
             v1_crc_errors: c(9),
+            revive_repeats: c(10),
         }
     }
 
@@ -198,6 +199,7 @@ impl LinkCounters {
             counters.v1_ignored,
             counters.v1_rejected,
             counters.v1_crc_errors,
+            counters.revive_repeats,
         ];
         for (slot, value) in self.counters.iter().zip(values) {
             slot.store(value, Ordering::Relaxed);
@@ -287,6 +289,7 @@ impl CommandLink {
             stale_session: u64::from(v2.stale_session),
             malformed: u64::from(v2.malformed),
             kills_outside_window: u64::from(v2.kills_outside_window),
+            revive_repeats: u64::from(v2.revive_repeats),
             v1_accepted: self.v1_accepted,
             v1_ignored: self.v1_ignored,
             v1_rejected: u64::from(v1.unknown_type) + u64::from(v1.out_of_range),
@@ -639,12 +642,7 @@ mod tests {
 
         // With a key and require_auth = false, both versions act.
         let mut both = link(false, Some(key.clone()));
-        let v2 = v2::CommandFrame {
-            command: Command::Kill,
-            session: 77,
-            seq: 9,
-        }
-        .encode(&key);
+        let v2 = v2::CommandFrame::new(Command::Kill, 77, 9).encode(&key);
         let mut stream = v1.clone();
         stream.extend_from_slice(&v2);
         assert_eq!(fed(&mut both, &stream).len(), 3);

@@ -43,12 +43,7 @@ struct Wire {
 impl Wire {
     fn frame(&mut self, command: Command) -> [u8; v2::COMMAND_FRAME_LEN] {
         self.seq += 1;
-        CommandFrame {
-            command,
-            session: self.session.unwrap_or(0),
-            seq: self.seq,
-        }
-        .encode(&self.key)
+        CommandFrame::new(command, self.session.unwrap_or(0), self.seq).encode(&self.key)
     }
 }
 
@@ -137,15 +132,23 @@ impl StationV2 {
         (bytes, wire.seq)
     }
 
+    /// Sends a repetition of the operator's request whose first frame had sequence number
+    /// `request` (as a station does until it sees the acknowledgement): a new sequence number,
+    /// the same request.
+    fn send_repeat(&self, command: Command, request: u32) -> u32 {
+        let mut wire = self.wire.lock().unwrap();
+        wire.seq += 1;
+        let session = wire.session.unwrap_or(0);
+        let bytes = CommandFrame::repeat(command, session, wire.seq, request).encode(&wire.key);
+        write_all(&wire.master, &bytes);
+        *self.last_good.lock().unwrap() = Instant::now();
+        wire.seq
+    }
+
     /// An authentic frame with any fields, not sent.
     fn make(&self, command: Command, session: u32, seq: u32) -> [u8; v2::COMMAND_FRAME_LEN] {
         let wire = self.wire.lock().unwrap();
-        CommandFrame {
-            command,
-            session,
-            seq,
-        }
-        .encode(&wire.key)
+        CommandFrame::new(command, session, seq).encode(&wire.key)
     }
 
     /// Sends these bytes as they are, between whole frames.
@@ -336,12 +339,7 @@ fn forged_replayed_reordered_truncated_stale_and_v1_frames_have_no_effect() {
         .iter()
         .enumerate()
     {
-        let forged = CommandFrame {
-            command: *command,
-            session,
-            seq: seq + 1_000 + i as u32,
-        }
-        .encode(&forger);
+        let forged = CommandFrame::new(*command, session, seq + 1_000 + i as u32).encode(&forger);
         station.send_raw(&forged);
     }
     // Stale session: authentic, but for another boot.
@@ -416,6 +414,47 @@ fn forged_replayed_reordered_truncated_stale_and_v1_frames_have_no_effect() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn a_repeated_revive_does_not_lift_a_later_failsafe() {
+    let dir = temp_dir("link-v2-repeated-revive");
+    let robot = start_robot(&dir);
+    let station = &robot.station;
+    // The operator revives (request = the revive's first sequence number) and drives.
+    let (_, request) = station.send(Command::Revive);
+    station.send(Command::Throttle(pct(60)));
+    assert!(robot
+        .maestro
+        .wait_for(throttle_qus(60), Duration::from_secs(1))
+        .is_some());
+    // The radio fades: comms-loss failsafe.
+    station.heartbeats.store(false, Ordering::Relaxed);
+    robot
+        .maestro
+        .wait_for(SAFE, Duration::from_secs(3))
+        .expect("comms-loss failsafe");
+    let shown = station.wait_display(Instant::now(), Duration::from_secs(1), |d| {
+        d.mode == RobotMode::Failsafe
+    });
+    assert_eq!(shown.failsafe_cause, Some(FailsafeCause::CommsLoss));
+    // The link is back and the station, which never saw the revive acknowledged, repeats it:
+    // accepted as a frame (the link is alive), but the robot already acted on that request.
+    station.heartbeats.store(true, Ordering::Relaxed);
+    std::thread::sleep(Duration::from_millis(300));
+    let repeat = station.send_repeat(Command::Revive, request);
+    let shown = station.wait_display(Instant::now(), Duration::from_secs(2), |d| {
+        d.ack_seq >= repeat
+    });
+    assert_eq!(shown.mode, RobotMode::Failsafe, "{shown:?}");
+    outputs_stay(&robot.maestro, SAFE, Duration::from_millis(300));
+    // A new request from the operator revives.
+    robot.revive_and_drive(55);
+    let summary = robot.finish();
+    let link = summary.telemetry.link;
+    eprintln!("link counters: {link:?}");
+    assert_eq!(link.revive_repeats, 1, "{link:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Garbage at `bytes_per_s` with forged frames, v1 frames and fake start tokens in it, written
 /// between the station's frames, until stopped.
 fn spawn_flood(station: &StationV2, bytes_per_s: usize, stop: Arc<AtomicBool>) -> JoinHandle<u64> {
@@ -437,11 +476,11 @@ fn spawn_flood(station: &StationV2, bytes_per_s: usize, stop: Arc<AtomicBool>) -
                         let session = wire.lock().unwrap().session.unwrap_or(0);
                         seq += 1;
                         bytes.extend_from_slice(
-                            &CommandFrame {
-                                command: Command::Throttle(pct(100)),
+                            &CommandFrame::new(
+                                Command::Throttle(pct(100)),
                                 session,
-                                seq: u32::MAX - seq,
-                            }
+                                u32::MAX - seq,
+                            )
                             .encode(&forger),
                         );
                     }

@@ -19,10 +19,14 @@
 //!   accepted while it was lost). A requested command (a revive, a one-off manual value, a
 //!   setpoint) is therefore repeated in every slot, last in the slot and in place of the
 //!   heartbeat, each time with a new number, until the acknowledgement is exactly one of its
-//!   numbers; a revive until the robot reports MANUAL or AUTO after one of them (the robot may
-//!   accept a revive and still refuse it, e.g. too soon after a kill). It is given up after
-//!   [`CONFIRM_TIMEOUT`] and counted as unacknowledged. Repeating is harmless: the robot
-//!   treats a repeated value, setpoint or revive (in MANUAL or AUTO) as no change.
+//!   numbers (or, for a revive, the robot reports MANUAL or AUTO after one of them). It is
+//!   given up after [`CONFIRM_TIMEOUT`] and counted as unacknowledged. Repeating is harmless:
+//!   the robot treats a repeated value or setpoint as no change, and a revive's frames all
+//!   carry the number of its first frame (its request), so the robot acts on one revive
+//!   request once: a repetition that arrives after the robot failed safe again does not lift
+//!   that failsafe. Once the robot acknowledged a revive it is not sent again; if a later
+//!   display frame still shows KILLED or FAILSAFE the robot refused it (the frame says why)
+//!   and the operator decides whether to revive again.
 //! - **Conflicts**: a newer command of the same type replaces a waiting one; a manual value
 //!   (sent or held) replaces waiting setpoints and a setpoint replaces waiting manual values, so
 //!   a repetition never switches the robot back to a mode the operator has left. A kill drops
@@ -130,6 +134,9 @@ struct Outstanding {
     /// A revive: the downlink sequence number of the display frame that first acknowledged
     /// one of its frames while the robot still reported KILLED or FAILSAFE.
     accepted_in: Option<u32>,
+    /// A revive: the number of its frame the robot acknowledged; from then on it is not sent
+    /// again, only its outcome awaited.
+    acted_on: Option<u32>,
 }
 
 /// Counters since the station started (each saturates).
@@ -301,6 +308,9 @@ impl Uplink {
             let o = &mut self.outstanding[i];
             let exact = o.seqs.contains(&ack);
             let done = if o.status.command == Command::Revive {
+                if exact && o.acted_on.is_none() {
+                    o.acted_on = Some(ack);
+                }
                 if !revived {
                     // The frame that acknowledges a revive may have been built before the
                     // loop acted on it: only a later frame still in KILLED or FAILSAFE shows
@@ -311,14 +321,16 @@ impl Uplink {
                         _ => {}
                     }
                 }
-                revived && o.seqs.first().is_some_and(|&first| ack >= first)
+                o.status.accepted_but_refused
+                    || (revived && o.seqs.first().is_some_and(|&first| ack >= first))
             } else {
                 exact
             };
             if done {
                 let o = self.outstanding.remove(i);
+                let seq = o.acted_on.unwrap_or(ack);
                 self.stats.acknowledged = self.stats.acknowledged.saturating_add(1);
-                self.settle(o.status, Delivery::Acknowledged { seq: ack }, now);
+                self.settle(o.status, Delivery::Acknowledged { seq }, now);
             } else {
                 i += 1;
             }
@@ -375,9 +387,15 @@ impl Uplink {
             out.push(self.number(command, session));
         }
         for i in 0..self.outstanding.len() {
+            if self.outstanding[i].acted_on.is_some() {
+                continue;
+            }
             let command = self.outstanding[i].status.command;
-            let frame = self.number(command, session);
+            let mut frame = self.number(command, session);
             let o = &mut self.outstanding[i];
+            // Every frame of a request names its first frame: the robot acts on a revive
+            // request once.
+            frame.request = o.status.first_seq.unwrap_or(frame.seq);
             if o.seqs.len() == SEQS_KEPT {
                 o.seqs.remove(0);
             }
@@ -423,11 +441,7 @@ impl Uplink {
         // which is safe.
         self.next_seq = self.next_seq.saturating_add(1);
         self.stats.frames = self.stats.frames.saturating_add(1);
-        CommandFrame {
-            command,
-            session,
-            seq,
-        }
+        CommandFrame::new(command, session, seq)
     }
 
     /// A requested command starts waiting for its acknowledgement.
@@ -442,6 +456,7 @@ impl Uplink {
             status,
             seqs: Vec::new(),
             accepted_in: None,
+            acted_on: None,
         });
     }
 
@@ -471,6 +486,12 @@ impl Uplink {
             let age = now.saturating_duration_since(self.outstanding[i].status.requested_at);
             if age > CONFIRM_TIMEOUT {
                 let o = self.outstanding.remove(i);
+                if let Some(seq) = o.acted_on {
+                    // Acknowledged, but no later display frame showed what became of it.
+                    self.stats.acknowledged = self.stats.acknowledged.saturating_add(1);
+                    self.settle(o.status, Delivery::Acknowledged { seq }, now);
+                    continue;
+                }
                 self.stats.unacknowledged = self.stats.unacknowledged.saturating_add(1);
                 self.settle(o.status, Delivery::Unacknowledged, now);
             } else {
@@ -585,14 +606,7 @@ mod tests {
             .is_empty());
         assert_eq!(u.stats().held_back, 2);
         let kill = u.frames(&[at(Command::Kill, Origin::Kill)], ms(t0, 150));
-        assert_eq!(
-            kill,
-            vec![CommandFrame {
-                command: Command::Kill,
-                session: 0,
-                seq: 1
-            }]
-        );
+        assert_eq!(kill, vec![CommandFrame::new(Command::Kill, 0, 1)]);
         // The kill dropped the revive that waited for the session.
         assert_eq!(u.pending().count(), 0);
         assert_eq!(u.last_command().unwrap().command, Command::Kill);
@@ -608,14 +622,7 @@ mod tests {
         assert_eq!(verdict, DownlinkVerdict::NewSession { previous: None });
         assert_eq!(u.session(), Some(SESSION));
         let f = u.frames(&heartbeat(), t0);
-        assert_eq!(
-            f,
-            vec![CommandFrame {
-                command: Command::Heartbeat,
-                session: SESSION,
-                seq: 42
-            }]
-        );
+        assert_eq!(f, vec![CommandFrame::new(Command::Heartbeat, SESSION, 42)]);
         // A later frame with an older acknowledgement (ours still on the way) changes nothing.
         u.on_display(&display(SESSION, 8, 30, RobotMode::Manual), ms(t0, 500));
         assert_eq!(u.frames(&heartbeat(), ms(t0, 600))[0].seq, 43);
@@ -694,34 +701,65 @@ mod tests {
     }
 
     #[test]
-    fn a_revive_is_repeated_until_the_robot_reports_manual() {
+    fn a_revive_is_repeated_until_acknowledged_and_settled_by_the_robots_mode() {
+        let t0 = Instant::now();
+        let mut u = connected(10, t0);
+        let first = u.frames(&[at(Command::Revive, Origin::Request)], t0);
+        assert_eq!((first[0].seq, first[0].request), (11, 11));
+        // An acknowledgement older than the revive proves nothing, even in MANUAL: repeated,
+        // with a new number and the same request.
+        u.on_display(&display(SESSION, 2, 10, RobotMode::Manual), ms(t0, 50));
+        let again = u.frames(&heartbeat(), ms(t0, 100));
+        assert_eq!(commands(&again), vec![Command::Revive]);
+        assert_eq!((again[0].seq, again[0].request), (12, 11));
+        // The robot acknowledged 12. The frame may predate the loop's decision: not refused
+        // yet, but not sent again either.
+        u.on_display(&display(SESSION, 3, 12, RobotMode::Killed), ms(t0, 150));
+        assert!(!u.pending().next().unwrap().accepted_but_refused);
+        assert_eq!(
+            commands(&u.frames(&heartbeat(), ms(t0, 200))),
+            vec![Command::Heartbeat]
+        );
+        // A later frame still says KILLED: refused (e.g. too soon after a kill), and settled.
+        u.on_display(&display(SESSION, 4, 13, RobotMode::Killed), ms(t0, 250));
+        assert_eq!(u.pending().count(), 0);
+        let last = u.last_command().unwrap();
+        assert_eq!(last.delivery, Delivery::Acknowledged { seq: 12 });
+        assert!(last.accepted_but_refused);
+        // The operator revives again: a new request, and MANUAL settles it.
+        let f = u.frames(&[at(Command::Revive, Origin::Request)], ms(t0, 300));
+        assert_eq!((f[0].seq, f[0].request), (14, 14));
+        u.on_display(&display(SESSION, 5, 14, RobotMode::Manual), ms(t0, 350));
+        let last = u.last_command().unwrap();
+        assert_eq!(last.delivery, Delivery::Acknowledged { seq: 14 });
+        assert!(!last.accepted_but_refused);
+        assert_eq!(u.stats().acknowledged, 2);
+        // Acknowledged, but no display frame afterwards: still acknowledged after the timeout.
+        let mut u = connected(10, t0);
+        u.frames(&[at(Command::Revive, Origin::Request)], t0);
+        u.on_display(&display(SESSION, 2, 11, RobotMode::Killed), ms(t0, 50));
+        u.frames(&heartbeat(), ms(t0, 2_600));
+        assert_eq!(
+            u.last_command().unwrap().delivery,
+            Delivery::Acknowledged { seq: 11 }
+        );
+    }
+
+    #[test]
+    fn a_revive_the_robot_acted_on_is_not_repeated() {
         let t0 = Instant::now();
         let mut u = connected(10, t0);
         let first = u.frames(&[at(Command::Revive, Origin::Request)], t0);
         assert_eq!(first[0].seq, 11);
-        // The robot accepted it, and a later frame still says KILLED: refused (e.g. too soon
-        // after a kill). The first such frame may predate the loop's decision.
-        u.on_display(&display(SESSION, 2, 11, RobotMode::Killed), ms(t0, 50));
-        assert!(!u.pending().next().unwrap().accepted_but_refused);
-        let again = u.frames(&heartbeat(), ms(t0, 100));
-        assert_eq!(commands(&again), vec![Command::Revive]);
-        assert_eq!(again[0].seq, 12);
-        u.on_display(&display(SESSION, 3, 11, RobotMode::Killed), ms(t0, 110));
-        let status = u.pending().next().unwrap();
-        assert!(status.accepted_but_refused);
-        assert_eq!(status.delivery, Delivery::Pending);
-        // An acknowledgement older than the revive proves nothing, even in MANUAL.
-        let mut u2 = connected(10, t0);
-        u2.frames(&[at(Command::Revive, Origin::Request)], t0);
-        u2.on_display(&display(SESSION, 2, 10, RobotMode::Manual), ms(t0, 50));
-        assert_eq!(u2.pending().count(), 1);
-        // MANUAL after one of the revives: done.
-        u.on_display(&display(SESSION, 4, 12, RobotMode::Manual), ms(t0, 150));
-        assert_eq!(u.pending().count(), 0);
-        assert_eq!(
-            u.last_command().unwrap().delivery,
-            Delivery::Acknowledged { seq: 12 }
-        );
+        // The robot accepted frame 11 (it revived, and failed safe again before this frame was
+        // built: the radio faded, a sensor was lost). Another revive now would lift a failsafe
+        // nobody asked to lift.
+        u.on_display(&display(SESSION, 2, 11, RobotMode::Failsafe), ms(t0, 50));
+        let throttle = at(Command::Throttle(pct(70)), Origin::Held);
+        for t in (100..=3_000).step_by(100) {
+            let sent = commands(&u.frames(&[throttle], ms(t0, t)));
+            assert!(!sent.contains(&Command::Revive), "at {t} ms: {sent:?}");
+        }
     }
 
     #[test]
@@ -805,14 +843,7 @@ mod tests {
         u.frames(&[at(Command::Revive, Origin::Request)], t0);
         let kill = [at(Command::Kill, Origin::Kill)];
         let k1 = u.frames(&kill, ms(t0, 30));
-        assert_eq!(
-            k1,
-            vec![CommandFrame {
-                command: Command::Kill,
-                session: SESSION,
-                seq: 5
-            }]
-        );
+        assert_eq!(k1, vec![CommandFrame::new(Command::Kill, SESSION, 5)]);
         assert_eq!(u.pending().count(), 0, "the revive was dropped");
         let k2 = u.frames(&kill, ms(t0, 130));
         assert_eq!(k2[0].seq, 6);

@@ -52,12 +52,17 @@ fn command() -> impl Strategy<Value = Command> {
     ]
 }
 
+/// Any valid frame: a revive's request from 1 to its sequence number.
 fn command_frame() -> impl Strategy<Value = CommandFrame> {
-    (command(), any::<u32>(), any::<u32>()).prop_map(|(command, session, seq)| CommandFrame {
-        command,
-        session,
-        seq,
-    })
+    (command(), any::<u32>(), 1..=u32::MAX, any::<u32>()).prop_map(
+        |(command, session, seq, back)| {
+            let request = match command {
+                Command::Revive => seq - back % seq,
+                _ => seq,
+            };
+            CommandFrame::repeat(command, session, seq, request)
+        },
+    )
 }
 
 fn sensors() -> impl Strategy<Value = SensorPayload> {
@@ -260,33 +265,42 @@ proptest! {
     }
 
     /// The gate accepts each authentic (session, sequence) once, in increasing order only;
-    /// kills always.
+    /// kills always; it acts on a revive only for a request newer than the last one it acted
+    /// on (otherwise a heartbeat).
     #[test]
     fn gate_accepts_each_sequence_number_once(
-        seqs in prop::collection::vec((1u32..50, command(), any::<bool>()), 0..60),
+        seqs in prop::collection::vec((1u32..50, command(), any::<bool>(), 0u32..4), 0..60),
     ) {
         let key = reference_key();
         let session = 0xABCD;
         let mut gate = CommandGate::new(key.clone(), session);
-        let mut last = 0;
-        for (seq, command, stale) in seqs {
+        let (mut last, mut last_request, mut repeats) = (0, 0, 0);
+        for (seq, command, stale, back) in seqs {
             let frame_session = if stale { 0 } else { session };
-            let bytes = CommandFrame { command, session: frame_session, seq }.encode(&key);
+            let request = seq.saturating_sub(back).max(1);
+            let bytes = CommandFrame::repeat(command, frame_session, seq, request).encode(&key);
             let result = gate.check(&bytes);
             if command == Command::Kill {
                 prop_assert_eq!(result, Ok(Command::Kill));
             } else if stale {
                 prop_assert_eq!(result, Err(Rejection::StaleSession));
-            } else if seq > last {
-                prop_assert_eq!(result, Ok(command));
-            } else {
+            } else if seq <= last {
                 prop_assert_eq!(result, Err(Rejection::Replayed));
+            } else if command == Command::Revive && request <= last_request {
+                prop_assert_eq!(result, Ok(Command::Heartbeat));
+                repeats += 1;
+            } else {
+                prop_assert_eq!(result, Ok(command));
+                if command == Command::Revive {
+                    last_request = request;
+                }
             }
             if !stale && seq > last {
                 last = seq;
             }
             prop_assert_eq!(gate.last_accepted(), last);
         }
+        prop_assert_eq!(gate.stats().revive_repeats, repeats);
     }
 }
 

@@ -551,13 +551,9 @@ impl Station {
             GroundProtocol::V1 { .. } => command.encode().to_vec(),
             GroundProtocol::V2 { key } => {
                 self.seq += 1;
-                v2::CommandFrame {
-                    command,
-                    session: self.session.unwrap_or(0),
-                    seq: self.seq,
-                }
-                .encode(key)
-                .to_vec()
+                v2::CommandFrame::new(command, self.session.unwrap_or(0), self.seq)
+                    .encode(key)
+                    .to_vec()
             }
         }
     }

@@ -369,7 +369,9 @@ fn command_line(c: &CommandStatus, now: Instant) -> String {
         ""
     };
     match c.delivery {
-        Delivery::Acknowledged { seq } => format!("{what}: acknowledged, seq {seq} ({sent})"),
+        Delivery::Acknowledged { seq } => {
+            format!("{what}: acknowledged, seq {seq} ({sent}{refused})")
+        }
         Delivery::Pending => format!(
             "{what}: pending {:.1} s ({sent}{refused})",
             now.saturating_duration_since(c.requested_at).as_secs_f64()

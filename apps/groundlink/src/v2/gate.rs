@@ -54,6 +54,9 @@ pub struct GateStats {
     /// Kills accepted from another session or with an old sequence number (included in
     /// `accepted`).
     pub kills_outside_window: u32,
+    /// Revives accepted as frames but not acted on: repetitions of a request the robot already
+    /// acted on (included in `accepted`, yielded as heartbeats).
+    pub revive_repeats: u32,
     /// Frames rejected: tag did not match.
     pub bad_tag: u32,
     /// Frames rejected: sequence number not newer than the last accepted one.
@@ -84,6 +87,13 @@ impl GateStats {
 /// session yet (it sends session 0) and a replayed kill can only stop the robot. A kill moves
 /// the sequence window only when it is in the current session and newer.
 ///
+/// A revive is acted on once per operator request ([`CommandFrame::request`]): a station
+/// repeats a revive until it sees it acknowledged, and a repetition that arrives after the
+/// robot failed safe again must not lift that failsafe. A revive of a request not newer than
+/// the last one acted on is accepted (its sequence number moves the window, it shows the link
+/// is alive) and yielded as a [`Command::Heartbeat`], and counted in
+/// [`GateStats::revive_repeats`].
+///
 /// Pure and `no_std`: [`check`](Self::check) takes one complete frame, [`push`](Self::push) and
 /// [`feed`](Self::feed) take a byte stream (through a resynchronising [`CommandDecoder`]).
 #[derive(Debug, Clone)]
@@ -91,9 +101,12 @@ pub struct CommandGate {
     key: LinkKey,
     session: u32,
     last_seq: u32,
+    /// The request of the last revive acted on (0: none yet).
+    last_revive_request: u32,
     decoder: CommandDecoder,
     accepted: u32,
     kills_outside_window: u32,
+    revive_repeats: u32,
     replayed: u32,
     stale_session: u32,
     /// Rejections of frames given to `check` (the decoder counts the stream's).
@@ -110,8 +123,10 @@ impl CommandGate {
             key,
             session,
             last_seq: 0,
+            last_revive_request: 0,
             accepted: 0,
             kills_outside_window: 0,
+            revive_repeats: 0,
             replayed: 0,
             stale_session: 0,
             bad_tag: 0,
@@ -136,6 +151,7 @@ impl CommandGate {
         GateStats {
             accepted: self.accepted,
             kills_outside_window: self.kills_outside_window,
+            revive_repeats: self.revive_repeats,
             bad_tag: self.bad_tag.saturating_add(stream.bad_tag),
             replayed: self.replayed,
             stale_session: self.stale_session,
@@ -193,6 +209,13 @@ impl CommandGate {
         if current && newer {
             self.last_seq = frame.seq;
             self.accepted = self.accepted.saturating_add(1);
+            if frame.command == Command::Revive {
+                if frame.request <= self.last_revive_request {
+                    self.revive_repeats = self.revive_repeats.saturating_add(1);
+                    return Ok(Command::Heartbeat);
+                }
+                self.last_revive_request = frame.request;
+            }
             return Ok(frame.command);
         }
         if frame.command == Command::Kill {
@@ -219,12 +242,7 @@ mod tests {
     const SESSION: u32 = 0xC0FF_EE00;
 
     fn frame(command: Command, session: u32, seq: u32) -> [u8; COMMAND_FRAME_LEN] {
-        CommandFrame {
-            command,
-            session,
-            seq,
-        }
-        .encode(&KEY)
+        CommandFrame::new(command, session, seq).encode(&KEY)
     }
 
     #[test]
@@ -285,14 +303,48 @@ mod tests {
     }
 
     #[test]
+    fn a_revive_request_is_acted_on_once() {
+        let mut gate = CommandGate::new(KEY, SESSION);
+        let revive = |seq, request| CommandFrame::repeat(Command::Revive, SESSION, seq, request);
+        assert_eq!(gate.check(&revive(4, 4).encode(&KEY)), Ok(Command::Revive));
+        // Its repetitions: new sequence numbers, accepted (the acknowledgement moves), but
+        // heartbeats; so is a repetition of a still older request.
+        assert_eq!(
+            gate.check(&revive(5, 4).encode(&KEY)),
+            Ok(Command::Heartbeat)
+        );
+        assert_eq!(
+            gate.check(&revive(9, 2).encode(&KEY)),
+            Ok(Command::Heartbeat)
+        );
+        assert_eq!(gate.last_accepted(), 9);
+        // A kill in between does not make an old request new.
+        assert_eq!(
+            gate.check(&frame(Command::Kill, SESSION, 10)),
+            Ok(Command::Kill)
+        );
+        assert_eq!(
+            gate.check(&revive(11, 4).encode(&KEY)),
+            Ok(Command::Heartbeat)
+        );
+        // The operator's next request, first frame lost: its repetition is acted on.
+        assert_eq!(
+            gate.check(&revive(13, 12).encode(&KEY)),
+            Ok(Command::Revive)
+        );
+        assert_eq!(
+            gate.check(&revive(14, 12).encode(&KEY)),
+            Ok(Command::Heartbeat)
+        );
+        let stats = gate.stats();
+        assert_eq!((stats.accepted, stats.revive_repeats), (7, 4));
+    }
+
+    #[test]
     fn forged_kill_is_refused() {
         let mut gate = CommandGate::new(KEY, SESSION);
-        let forged = CommandFrame {
-            command: Command::Kill,
-            session: SESSION,
-            seq: 1,
-        }
-        .encode(&LinkKey::from_bytes([0x12; 16]));
+        let forged =
+            CommandFrame::new(Command::Kill, SESSION, 1).encode(&LinkKey::from_bytes([0x12; 16]));
         assert_eq!(gate.check(&forged), Err(Rejection::BadTag));
         assert_eq!(gate.stats().bad_tag, 1);
         assert_eq!(gate.stats().accepted, 0);

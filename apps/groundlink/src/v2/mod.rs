@@ -30,19 +30,19 @@
 //! let mut robot = CommandGate::new(key.clone(), session);
 //!
 //! let throttle = Command::Throttle(Percent::new(60).unwrap());
-//! let frame = CommandFrame { command: throttle, session, seq: 1 }.encode(&key);
+//! let frame = CommandFrame::new(throttle, session, 1).encode(&key);
 //! assert_eq!(robot.check(&frame), Ok(throttle));
 //! assert_eq!(robot.last_accepted(), 1);
 //!
 //! // The same bytes again are a replay; a frame under another key is a forgery.
 //! assert_eq!(robot.check(&frame), Err(Rejection::Replayed));
-//! let forged = CommandFrame { command: throttle, session, seq: 2 }
+//! let forged = CommandFrame::new(throttle, session, 2)
 //!     .encode(&LinkKey::from_bytes([7; 16]));
 //! assert_eq!(robot.check(&forged), Err(Rejection::BadTag));
 //!
 //! // A kill with a valid tag stops the robot even from a station that does not know the
 //! // session yet (session 0).
-//! let kill = CommandFrame { command: Command::Kill, session: 0, seq: 1 }.encode(&key);
+//! let kill = CommandFrame::new(Command::Kill, 0, 1).encode(&key);
 //! assert_eq!(robot.check(&kill), Ok(Command::Kill));
 //! assert_eq!(robot.stats().bad_tag, 1);
 //! ```
