@@ -212,7 +212,8 @@ pub struct CommandEffect {
 pub struct SafetyState {
     /// Current mode.
     pub mode: Mode,
-    /// Why the last FAILSAFE was entered (kept until a revive).
+    /// Why FAILSAFE was entered, while in FAILSAFE (a revive or a kill clears it; the
+    /// application keeps the last cause for the operator until a revive).
     pub cause: Option<FailsafeCause>,
     /// Time of the last valid command frame.
     pub last_link_ns: Option<Nanos>,

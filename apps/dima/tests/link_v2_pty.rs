@@ -446,8 +446,20 @@ fn a_repeated_revive_does_not_lift_a_later_failsafe() {
     });
     assert_eq!(shown.mode, RobotMode::Failsafe, "{shown:?}");
     outputs_stay(&robot.maestro, SAFE, Duration::from_millis(300));
-    // A new request from the operator revives.
+    // The operator kills: the display still says why the robot last failed safe.
+    let t_kill = Instant::now();
+    station.send(Command::Kill);
+    let shown = station.wait_display(t_kill, Duration::from_secs(2), |d| {
+        d.mode == RobotMode::Killed
+    });
+    assert_eq!(shown.failsafe_cause, Some(FailsafeCause::CommsLoss));
+    // A new request from the operator revives, and ends the failsafe's story.
+    std::thread::sleep(Duration::from_millis(300)); // past the revive rate limit
     robot.revive_and_drive(55);
+    let shown = station.wait_display(Instant::now(), Duration::from_secs(2), |d| {
+        d.mode == RobotMode::Manual
+    });
+    assert_eq!(shown.failsafe_cause, None);
     let summary = robot.finish();
     let link = summary.telemetry.link;
     eprintln!("link counters: {link:?}");

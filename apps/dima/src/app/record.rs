@@ -109,7 +109,7 @@ pub struct Snapshot {
     pub packet: Option<SensorPacket>,
     /// Mode.
     pub mode: Mode,
-    /// Why FAILSAFE was entered, while in FAILSAFE.
+    /// Why the robot is or last was in FAILSAFE, until a revive succeeds (a kill keeps it).
     pub cause: Option<FailsafeCause>,
     /// Why the last revive was refused, until a revive succeeds.
     pub refusal: Option<ReviveRefusal>,

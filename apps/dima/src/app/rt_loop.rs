@@ -9,7 +9,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, Mode, Nanos, ReviveRefusal};
+use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReviveRefusal};
 use dima_sensorboard::{DecoderStats, Frame, InfoFrame, SensorPacket};
 use embedded_hal::digital::OutputPin;
 
@@ -108,6 +108,9 @@ pub struct RealtimeLoop<P: OutputPin, S: ServoOutput> {
     last_packet: Option<SensorPacket>,
     /// Why the last revive was refused, until a revive succeeds (for the display frames).
     last_refusal: Option<ReviveRefusal>,
+    /// Why the robot last entered FAILSAFE, until a revive succeeds (for the display frames:
+    /// a kill while in FAILSAFE does not hide the cause from the operator).
+    last_cause: Option<FailsafeCause>,
     last_written: Option<ServoTargets>,
     pending_request_ns: Option<Nanos>,
     /// An info frame that arrived since the last record.
@@ -144,6 +147,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             state,
             last_packet: None,
             last_refusal: None,
+            last_cause: None,
             last_written: None,
             pending_request_ns: None,
             info: None,
@@ -455,10 +459,15 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         } else if matches!(record.outputs.mode, Mode::Manual | Mode::Auto) {
             self.last_refusal = None;
         }
+        if record.outputs.cause.is_some() {
+            self.last_cause = record.outputs.cause;
+        } else if matches!(record.outputs.mode, Mode::Manual | Mode::Auto) {
+            self.last_cause = None;
+        }
         self.ends.snapshot.write(Snapshot {
             packet: self.last_packet,
             mode: record.outputs.mode,
-            cause: record.outputs.cause,
+            cause: self.last_cause,
             refusal: self.last_refusal,
             targets: record.outputs.targets,
             counters: record.counters,
