@@ -120,6 +120,9 @@ pub struct McapLog {
     writer: mcap::Writer<BufWriter<LogFile>>,
     /// Length of the file at the last successful flush: complete records only.
     flushed_len: u64,
+    /// Cycle records written since the last successful flush: lost if the file has to be cut
+    /// back to `flushed_len`.
+    unflushed_records: u64,
     /// Set: writes fail as on a full disk (the simulation's `log:full`).
     disk_full: Arc<AtomicBool>,
     path: PathBuf,
@@ -187,7 +190,7 @@ impl McapLog {
             // bit by bit over a long run; a few tens of KB a second need no workers, and on
             // the robot they would compete with the control loop for the cores.
             .compression_threads(0)
-            .chunk_size(Some(4 * 1024 * 1024))
+            .chunk_size(Some(CHUNK_BYTES))
             .profile("")
             .create(BufWriter::new(file))
             .context("log: starting the MCAP file")?;
@@ -209,6 +212,7 @@ impl McapLog {
         let mut log = McapLog {
             writer,
             flushed_len: 0,
+            unflushed_records: 0,
             disk_full: full,
             path: path.to_owned(),
             raw,
@@ -288,6 +292,7 @@ impl McapLog {
         if with_decoded {
             self.message(self.cycle, t, &serde_json::to_vec(&cycle_message(r))?)?;
         }
+        self.unflushed_records += 1;
         Ok(())
     }
 
@@ -295,6 +300,7 @@ impl McapLog {
     pub fn flush(&mut self) -> anyhow::Result<()> {
         self.writer.flush()?;
         self.flushed_len = std::fs::metadata(&self.path)?.len();
+        self.unflushed_records = 0;
         Ok(())
     }
 
@@ -370,6 +376,13 @@ pub const METADATA_LOG_CONTINUED: &str = "log_continued";
 
 /// How often a failed log, or a split that could not open the next file, is retried.
 const LOG_RETRY: Duration = Duration::from_secs(1);
+
+/// A chunk is ended once this many uncompressed bytes went into it, even before the next
+/// flush. zstd compresses each chunk as one frame through an input buffer of its 2 MiB window,
+/// and the process's resident memory keeps the largest part of that buffer a chunk ever
+/// filled: a second of 250 Hz records is about 400 KB, but the backlog after a stalled disk
+/// would fill more. Bounded here, a long run's memory stays flat.
+pub const CHUNK_BYTES: u64 = 512 * 1024;
 
 /// The MCAP end of a file cut at `len` bytes (a complete record boundary): Data End and a
 /// Footer without a summary section, then the magic.
@@ -490,6 +503,8 @@ impl LogState {
         let Some(log) = self.log.take() else { return };
         let path = log.path.clone();
         let flushed_len = log.flushed_len;
+        // The records since the last flush go with the file's unflushed end.
+        let not_logged = log.unflushed_records;
         tracing::error!(
             "log: writing {} failed: {error:#}; logging stops, the robot keeps running \
              (retrying every {} s in a new file)",
@@ -504,7 +519,7 @@ impl LogState {
             flushed_len,
             error: format!("{error:#}"),
             next_try: Instant::now() + LOG_RETRY,
-            not_logged: 0,
+            not_logged,
         });
     }
 
@@ -841,6 +856,17 @@ mod tests {
         n: u64,
         mut during: impl FnMut(u64),
     ) -> Vec<PathBuf> {
+        log_run_with(dir, Some(max_file), LogFaults::default(), n, &mut during)
+    }
+
+    /// [`log_run`] with injected faults, and no split when `max_file` is `None`.
+    fn log_run_with(
+        dir: &Path,
+        max_file: Option<Duration>,
+        faults: LogFaults,
+        n: u64,
+        during: &mut dyn FnMut(u64),
+    ) -> Vec<PathBuf> {
         let first = dir.join("run.mcap");
         let mut log = McapLog::create_file(&first).unwrap();
         let header = vec![("dima".to_owned(), vec![("version", "test".to_owned())])];
@@ -858,8 +884,8 @@ mod tests {
                 flush_interval: Duration::from_millis(20),
                 decoded_every: 1,
                 header,
-                max_file_duration: Some(max_file),
-                faults: LogFaults::default(),
+                max_file_duration: max_file,
+                faults,
             },
             Arc::clone(&stop),
             None,
@@ -955,6 +981,54 @@ mod tests {
         }
         assert!(total_chunks > 40, "{total_chunks} chunks in the run");
         assert_eq!(all, (0..n).collect::<Vec<_>>(), "records lost or repeated");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_full_disk_counts_every_record_it_loses() {
+        let dir = test_dir("log-full");
+        // About 2.5 s of records: the logger tries again a second after the failure.
+        let n = 1_100;
+        // Full from 0.4 s for 0.3 s: the current chunk (up to 20 ms of records) is cut with
+        // the file, the records after it are not written until logging resumes.
+        let full = NsWindow {
+            start_ns: 400_000_000,
+            duration_ns: 300_000_000,
+        };
+        let faults = LogFaults {
+            stalls: Vec::new(),
+            full: vec![full],
+        };
+        let files = log_run_with(&dir, None, faults, n, &mut |_| {});
+        assert_eq!(files.len(), 2, "{files:?}");
+        let mut logged = Vec::new();
+        let mut not_logged = None;
+        for path in &files {
+            let bytes = std::fs::read(path).unwrap();
+            for m in mcap::MessageStream::new(&bytes).unwrap() {
+                let m = m.unwrap();
+                if m.channel.topic == "/dima/cycle" {
+                    let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+                    logged.push(v["cycle"].as_u64().unwrap());
+                }
+            }
+            for record in mcap::read::LinearReader::new(&bytes).unwrap() {
+                if let mcap::records::Record::Metadata(m) = record.unwrap() {
+                    if m.name == METADATA_LOG_RESUMED {
+                        not_logged = m.metadata["records_not_logged"].parse::<u64>().ok();
+                    }
+                }
+            }
+        }
+        let not_logged = not_logged.expect("a log_resumed record");
+        assert!(logged.windows(2).all(|w| w[0] < w[1]), "in order, once");
+        assert!(not_logged > 0);
+        assert_eq!(
+            logged.len() as u64 + not_logged,
+            n,
+            "{} logged + {not_logged} counted as not logged",
+            logged.len()
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 
