@@ -148,6 +148,8 @@ where
     let rt = &config.realtime;
     if rt.lock_memory {
         crate::rt::setup::prepare_allocator_for_locking();
+    } else {
+        crate::rt::setup::map_large_blocks();
     }
     let (commands_tx, commands_rx) = rtrb::RingBuffer::new(rt.command_ring);
     let (log_tx, log_rx) = rtrb::RingBuffer::new(rt.log_ring_records);

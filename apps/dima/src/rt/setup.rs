@@ -164,6 +164,31 @@ pub fn prepare_allocator_for_locking() -> bool {
     }
 }
 
+/// Below this size glibc serves a block from its heaps; from it on a block is mapped on its
+/// own and returned to the system when freed ([`map_large_blocks`]).
+pub const MMAP_THRESHOLD: usize = 128 * 1024;
+
+/// Without locked memory: blocks of [`MMAP_THRESHOLD`] or more are always mapped on their own
+/// and unmapped when freed. glibc otherwise raises that threshold to the size of the largest
+/// block freed so far, after which such blocks come from a heap that keeps every page it ever
+/// touched: each log file's zstd context (about 2.5 MB, a new one per file) then made a long
+/// run's resident memory grow in steps. Returns whether it applied (glibc only).
+pub fn map_large_blocks() -> bool {
+    #[cfg(target_env = "gnu")]
+    {
+        // SAFETY: mallopt only changes an allocator parameter; a fixed M_MMAP_THRESHOLD also
+        // turns off its dynamic adjustment.
+        #[allow(unsafe_code)]
+        unsafe {
+            libc::mallopt(libc::M_MMAP_THRESHOLD, MMAP_THRESHOLD as libc::c_int) == 1
+        }
+    }
+    #[cfg(not(target_env = "gnu"))]
+    {
+        false
+    }
+}
+
 /// Sets the calling thread's timer slack, ns (the default 50 µs delays SCHED_OTHER wake-ups).
 pub fn set_timer_slack(ns: u64) -> std::io::Result<()> {
     // SAFETY: PR_SET_TIMERSLACK takes one unsigned long argument.
