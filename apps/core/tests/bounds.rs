@@ -188,58 +188,115 @@ fn config() -> impl Strategy<Value = Config> {
         })
 }
 
+/// Runs `cycles` through a core built from `config`, checking every cycle's outputs against
+/// the bounds; `seen` gets each cycle's mode.
+fn run_case(
+    config: &Config,
+    cycles: &[Cycle],
+    mut seen: impl FnMut(Mode),
+) -> Result<(), TestCaseError> {
+    config.validate().expect("the strategy builds valid tables");
+    let mut core = Core::new(config).expect("valid");
+    let mut state = CoreState::new();
+    let channels = [
+        &config.channels.throttle,
+        &config.channels.steering,
+        &config.channels.tail,
+    ];
+    let safe = core.outputs().safe().pulse_us;
+    let mut now: Nanos = 1_000 * MS;
+    for (i, c) in cycles.iter().enumerate() {
+        now += c.dt_ns;
+        let sensor = match &c.sensor {
+            Sensor::Packet {
+                packet,
+                healthy_gnss,
+                after_ns,
+            } => {
+                let mut packet = **packet;
+                if *healthy_gnss {
+                    set_healthy_gnss(&mut packet, now);
+                }
+                SensorInput::Packet {
+                    raw: RawPacket::new(packet.encode()).expect("a valid packet"),
+                    t_request_ns: now,
+                    t_complete_ns: now + after_ns,
+                }
+            }
+            Sensor::NoAnswer => SensorInput::NoAnswer { t_request_ns: now },
+            Sensor::DeviceError => SensorInput::DeviceError,
+            Sensor::NotRequested => SensorInput::NotRequested,
+        };
+        let inputs = CycleInputs {
+            missed_periods: c.missed,
+            commands: &c.commands,
+            sensor,
+            stale_packets: c.stale_packets,
+        };
+        let out = core.step(&mut state, &inputs, now);
+        seen(out.mode);
+        let us = out.targets.pulse_us;
+        if out.mode.is_safe() {
+            prop_assert_eq!(
+                us,
+                safe,
+                "cycle {}: {:?} with outputs {:?}",
+                i,
+                out.mode,
+                us
+            );
+        } else {
+            for (k, ch) in channels.iter().enumerate() {
+                prop_assert!(
+                    (ch.min_us..=ch.max_us).contains(&us[k]) || us[k] == safe[k],
+                    "cycle {}: {:?} channel {} at {} µs outside {}..={}",
+                    i,
+                    out.mode,
+                    k,
+                    us[k],
+                    ch.min_us,
+                    ch.max_us
+                );
+            }
+        }
+        prop_assert_eq!(out.mode, state.safety.mode);
+        if i == 0 && !c.commands.contains(&Command::Revive) {
+            prop_assert_eq!(out.mode, Mode::Killed);
+        }
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(128))]
 
     #[test]
     fn outputs_never_leave_their_bounds(config in config(), cycles in prop::collection::vec(cycle(), 1..400)) {
-        config.validate().expect("the strategy builds valid tables");
-        let mut core = Core::new(&config).expect("valid");
-        let mut state = CoreState::new();
-        let channels = [&config.channels.throttle, &config.channels.steering, &config.channels.tail];
-        let safe = core.outputs().safe().pulse_us;
-        let mut now: Nanos = 1_000 * MS;
-        for (i, c) in cycles.iter().enumerate() {
-            now += c.dt_ns;
-            let sensor = match &c.sensor {
-                Sensor::Packet { packet, healthy_gnss, after_ns } => {
-                    let mut packet = **packet;
-                    if *healthy_gnss {
-                        set_healthy_gnss(&mut packet, now);
-                    }
-                    SensorInput::Packet {
-                        raw: RawPacket::new(packet.encode()).expect("a valid packet"),
-                        t_request_ns: now,
-                        t_complete_ns: now + after_ns,
-                    }
-                }
-                Sensor::NoAnswer => SensorInput::NoAnswer { t_request_ns: now },
-                Sensor::DeviceError => SensorInput::DeviceError,
-                Sensor::NotRequested => SensorInput::NotRequested,
-            };
-            let inputs = CycleInputs {
-                missed_periods: c.missed,
-                commands: &c.commands,
-                sensor,
-                stale_packets: c.stale_packets,
-            };
-            let out = core.step(&mut state, &inputs, now);
-            let us = out.targets.pulse_us;
-            if out.mode.is_safe() {
-                prop_assert_eq!(us, safe, "cycle {}: {:?} with outputs {:?}", i, out.mode, us);
-            } else {
-                for (k, ch) in channels.iter().enumerate() {
-                    prop_assert!(
-                        (ch.min_us..=ch.max_us).contains(&us[k]) || us[k] == safe[k],
-                        "cycle {}: {:?} channel {} at {} µs outside {}..={}",
-                        i, out.mode, k, us[k], ch.min_us, ch.max_us
-                    );
-                }
-            }
-            prop_assert_eq!(out.mode, state.safety.mode);
-            if i == 0 && !c.commands.contains(&Command::Revive) {
-                prop_assert_eq!(out.mode, Mode::Killed);
-            }
-        }
+        run_case(&config, &cycles, |_| {})?;
+    }
+}
+
+/// The property above means something only if its random streams drive the robot: over the
+/// same number of cases (a fixed seed), many cycles are in MANUAL and in AUTO.
+#[test]
+fn the_random_streams_reach_manual_and_auto() {
+    use proptest::strategy::ValueTree;
+    use proptest::test_runner::TestRunner;
+    let mut runner = TestRunner::deterministic();
+    let case = (config(), prop::collection::vec(cycle(), 1..400));
+    let mut cycles_in = std::collections::HashMap::new();
+    for _ in 0..128 {
+        let (config, cycles) = case.new_tree(&mut runner).unwrap().current();
+        run_case(&config, &cycles, |mode| {
+            *cycles_in.entry(mode).or_insert(0) += 1
+        })
+        .unwrap();
+    }
+    eprintln!("cycles per mode: {cycles_in:?}");
+    for mode in [Mode::Manual, Mode::Auto, Mode::Killed, Mode::Failsafe] {
+        assert!(
+            cycles_in.get(&mode).copied().unwrap_or(0) > 100,
+            "{mode:?}: {cycles_in:?}"
+        );
     }
 }

@@ -389,6 +389,9 @@ fn forged_replayed_reordered_truncated_stale_and_v1_frames_have_no_effect() {
     std::thread::sleep(Duration::from_millis(400)); // past the revive rate limit
     station.send_raw(&revive);
     station.send_raw(&station.make(Command::Throttle(pct(90)), session, 1));
+    // A fresh throttle would move the outputs had the replayed revive revived the robot
+    // (MANUAL at neutral looks like the safe outputs).
+    station.send(Command::Throttle(pct(90)));
     outputs_stay(&robot.maestro, SAFE, Duration::from_millis(300));
 
     // A kill from a station that does not know the session (session 0) is obeyed.
