@@ -620,7 +620,8 @@ pub struct LogConfig {
     pub enabled: bool,
     /// Directory for `dima-YYYYMMDDTHHMMSSZ.mcap` files (created if missing).
     pub directory: PathBuf,
-    /// Longest time between chunk flushes, in milliseconds (what a crash can lose).
+    /// Longest time between chunk flushes, in milliseconds (what a crash can lose),
+    /// 100..=60000.
     pub flush_interval_ms: u32,
     /// Decoded values are logged every n-th cycle (raw packets and timings every cycle).
     pub decoded_every: u32,
@@ -642,6 +643,11 @@ impl Default for LogConfig {
         }
     }
 }
+
+/// Shortest `log.flush_interval_ms`, ms.
+pub const MIN_FLUSH_INTERVAL_MS: u32 = 100;
+/// Longest `log.flush_interval_ms`, ms (what a crash may lose).
+pub const MAX_FLUSH_INTERVAL_MS: u32 = 60_000;
 
 /// Shortest `log.max_file_duration_s` other than 0 (never split), s.
 pub const MIN_FILE_DURATION_S: u32 = 10;
@@ -774,6 +780,14 @@ impl Config {
 
     fn validate_log(&self) -> Result<(), ConfigError> {
         within("log.decoded_every", self.log.decoded_every, 1..=u32::MAX)?;
+        // A chunk per flush, and the writer keeps an index entry per chunk until its file is
+        // finished: flushing every cycle would grow the logger's memory a hundred times
+        // faster than the default.
+        within(
+            "log.flush_interval_ms",
+            self.log.flush_interval_ms,
+            MIN_FLUSH_INTERVAL_MS..=MAX_FLUSH_INTERVAL_MS,
+        )?;
         let split = self.log.max_file_duration_s;
         if split != 0 && !(MIN_FILE_DURATION_S..=MAX_FILE_DURATION_S).contains(&split) {
             return Err(invalid(
@@ -1248,6 +1262,8 @@ mod tests {
             ("[sensor]\npacket_deadline_us = 3000", "sensor.packet_deadline_us", "on the wire"),
             ("[log]\nmax_file_duration_s = 9", "log.max_file_duration_s", "0 (never split) or 10..=86400"),
             ("[log]\nmax_file_duration_s = 86401", "log.max_file_duration_s", "10..=86400"),
+            ("[log]\nflush_interval_ms = 0", "log.flush_interval_ms", "100..=60000"),
+            ("[log]\nflush_interval_ms = 60001", "log.flush_interval_ms", "100..=60000"),
             (
                 "[maestro]\nwrite_budget_us = 400",
                 "sensor.packet_deadline_us",
