@@ -53,7 +53,16 @@ pub fn write_all(fd: &OwnedFd, mut bytes: &[u8]) {
 pub fn read_some(fd: &OwnedFd, buf: &mut [u8], timeout_ms: u16) -> usize {
     let mut fds = [PollFd::new(fd.as_fd(), PollFlags::POLLIN)];
     match poll(&mut fds, PollTimeout::from(timeout_ms)) {
-        Ok(n) if n > 0 => nix::unistd::read(fd, buf).unwrap_or(0),
+        Ok(n) if n > 0 => match nix::unistd::read(fd, buf) {
+            Ok(n) if n > 0 => n,
+            // Hung up (nothing holds the slave side open) or an error: poll reports it at once,
+            // every time. Wait as long as a quiet line would, so that a caller's loop (at
+            // SCHED_FIFO in the fake devices) does not spin and starve the threads under test.
+            _ => {
+                std::thread::sleep(Duration::from_millis(timeout_ms.into()));
+                0
+            }
+        },
         _ => 0,
     }
 }
