@@ -37,13 +37,18 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
                     );
                     if let Some(last) = s.uplink.as_ref().and_then(|u| u.last_command.as_ref()) {
                         ui.separator();
+                        let refused = if last.accepted_but_refused {
+                            ", refused"
+                        } else {
+                            ""
+                        };
                         ui.label(
                             RichText::new(format!(
-                                "{}: {}",
+                                "{}: {}{refused}",
                                 describe_command(last.command),
                                 last.delivery.label()
                             ))
-                            .color(delivery_colour(last.delivery)),
+                            .color(status_colour(last)),
                         );
                     }
                 }
@@ -85,6 +90,16 @@ fn robot_mode_colour(mode: RobotMode) -> Color32 {
         RobotMode::Manual => GOOD,
         RobotMode::Auto => AUTO,
         RobotMode::Failsafe => FAILSAFE,
+    }
+}
+
+/// The colour of a command's line: its delivery's, amber for a revive the robot accepted but
+/// refused (acknowledged, and still KILLED or FAILSAFE).
+fn status_colour(status: &CommandStatus) -> Color32 {
+    if status.accepted_but_refused {
+        WARN
+    } else {
+        delivery_colour(status.delivery)
     }
 }
 
@@ -346,13 +361,13 @@ fn last_command(ui: &mut egui::Ui, u: &UplinkView, now: Instant) {
         ui.label("no command sent yet");
         return;
     };
-    ui.label(RichText::new(command_line(last, now)).color(delivery_colour(last.delivery)));
+    ui.label(RichText::new(command_line(last, now)).color(status_colour(last)));
     for p in u
         .pending
         .iter()
         .filter(|p| p.requested_at != last.requested_at)
     {
-        ui.label(RichText::new(command_line(p, now)).color(delivery_colour(p.delivery)));
+        ui.label(RichText::new(command_line(p, now)).color(status_colour(p)));
     }
 }
 
