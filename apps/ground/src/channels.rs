@@ -9,9 +9,8 @@ use std::path::Path;
 
 use dima_core::config::{ChannelConfig, ChannelsConfig, Config};
 use dima_core::control::mapping::OutputMap;
+use dima_groundlink::station::ManualChannel;
 use dima_groundlink::Percent;
-
-use crate::scheduler::ManualChannel;
 
 /// The channel table (limits, neutral and safe pulse widths per channel), with the AUTO speed
 /// limit from the same configuration.

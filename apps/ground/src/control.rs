@@ -7,12 +7,12 @@
 //! must be released before it drives again, so a revive never finds the car already under
 //! throttle from a key nobody remembers holding.
 
+use dima_groundlink::station::ManualChannel;
 use dima_groundlink::Percent;
 
 use crate::channels::ChannelTable;
 use crate::keys::AxisChange;
 use crate::link::LinkControl;
-use crate::scheduler::ManualChannel;
 
 /// What holds a channel.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -12,10 +12,10 @@
 
 use std::time::{Duration, Instant};
 
+use dima_groundlink::station::ManualChannel;
 use dima_groundlink::Percent;
 
 use crate::channels::ChannelTable;
-use crate::scheduler::ManualChannel;
 
 /// How long R must be held to revive.
 pub const REVIVE_HOLD: Duration = Duration::from_secs(1);

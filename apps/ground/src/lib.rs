@@ -4,12 +4,10 @@
 //! own tests:
 //! - [`serial`]: opening a serial port (or a pseudo-terminal) raw at a baud rate, and listing
 //!   the ports a robot's XBee could be on;
-//! - [`scheduler`]: which command frames go out when: a heartbeat every 100 ms, a pending
-//!   command in its place, held values repeated, a kill at once and repeated for 1 s;
-//! - [`uplink`]: ground link v2's station side: the robot's session, sequence numbers, and
-//!   requested commands repeated until the robot acknowledges them;
-//! - [`link`]: the link thread that owns the port: sends what the scheduler says, decodes
-//!   display frames, counts everything, reconnects, and never blocks the user interface;
+//! - [`link`]: the link thread that owns the port: sends what the station logic of
+//!   [`dima_groundlink::station`] says (which command frames go out when; with v2, numbered and
+//!   repeated until the robot acknowledges them), decodes display frames, counts everything,
+//!   reconnects, and never blocks the user interface;
 //! - [`keys`]: the keyboard contract (arrows/WASD, Q/E, Space kills, R held 1 s revives) as a
 //!   pure function of the keys held and the time;
 //! - [`control`]: keys, gamepad and sliders merged into what the link holds and sends;
@@ -35,10 +33,8 @@ pub mod link;
 pub mod plots;
 pub mod recording;
 pub mod robot_view;
-pub mod scheduler;
 pub mod serial;
 pub mod sim;
 pub mod telemetry;
 pub mod ui;
 pub mod units;
-pub mod uplink;

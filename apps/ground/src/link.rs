@@ -1,10 +1,13 @@
 //! The link thread: owns the serial port, sends what the [`CommandScheduler`] says, decodes
 //! display frames, counts everything, records the session and reconnects.
 //!
-//! With a link key it speaks ground link v2: the scheduler's slots are numbered by the
-//! [`Uplink`] and tagged with the key, and only display frames v2 with a valid tag are
-//! decoded (a frame whose tag does not match is counted and never shown). Without a key it
-//! speaks version 1, unauthenticated.
+//! With a link key it speaks ground link v2: a [`Station`] numbers the scheduler's slots, the
+//! frames are tagged with the key, and only display frames v2 with a valid tag are decoded (a
+//! frame whose tag does not match is counted and never shown). Without a key it speaks
+//! version 1, unauthenticated, with the [`CommandScheduler`] alone.
+//!
+//! The station's logic takes the time as a [`StationTime`]: [`station_time`] converts the
+//! thread's `Instant`s against one epoch captured when the first link starts.
 //!
 //! The user interface talks to it only through a channel ([`LinkControl`]), reads a snapshot
 //! of its state ([`LinkStatus`], a short lock) and takes decoded frames from another channel
@@ -17,10 +20,14 @@ use std::io::{ErrorKind, Read, Write};
 use std::os::fd::AsFd;
 use std::path::PathBuf;
 use std::sync::mpsc::{self, Receiver, Sender, TryRecvError};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use dima_groundlink::station::{
+    CommandScheduler, CommandStatus, DownlinkVerdict, ManualChannel, Station, StationTime, Uplink,
+    UplinkStats,
+};
 use dima_groundlink::v2::{self, FailsafeCause, Health, LinkKey, ReviveRefusal, RobotMode};
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
@@ -28,10 +35,8 @@ use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 use crate::recording::{
     now_ns, CommandRecord, DeliveryRecord, DisplayRecord, LinkRecord, RecordEvent, RobotRecord,
 };
-use crate::scheduler::{CommandScheduler, ManualChannel};
 use crate::serial::open_port;
 use crate::units::{Physical, SensorCalibration};
-use crate::uplink::{CommandStatus, DownlinkVerdict, Uplink, UplinkStats};
 
 /// The longest the thread sleeps between looks at the user interface's requests.
 pub const MAX_WAIT: Duration = Duration::from_millis(10);
@@ -39,6 +44,14 @@ pub const MAX_WAIT: Duration = Duration::from_millis(10);
 pub const RECONNECT_INTERVAL: Duration = Duration::from_secs(1);
 /// Window over which the display frame rate is measured.
 pub const RATE_WINDOW: Duration = Duration::from_secs(5);
+
+/// `at` on the station clock: the time since one epoch, captured the first time the clock is
+/// read (at the latest when the first link thread starts). An `at` before the epoch reads as
+/// the epoch.
+pub fn station_time(at: Instant) -> StationTime {
+    static EPOCH: OnceLock<Instant> = OnceLock::new();
+    at.saturating_duration_since(*EPOCH.get_or_init(Instant::now))
+}
 
 /// Requests from the user interface.
 #[derive(Debug, Clone, PartialEq)]
@@ -221,6 +234,8 @@ impl LinkHandle {
         calibration: Option<SensorCalibration>,
         key: Option<LinkKey>,
     ) -> std::io::Result<LinkHandle> {
+        // The station clock's epoch, before any time the thread reads.
+        station_time(Instant::now());
         let (control, control_rx) = mpsc::channel();
         let (events_tx, events) = mpsc::channel();
         let status = Arc::new(Mutex::new(LinkStatus {
@@ -232,10 +247,11 @@ impl LinkHandle {
             Some(key) => Protocol::V2 {
                 decoder: v2::DisplayDecoder::new(key.clone()),
                 key,
-                uplink: Box::default(),
+                station: Box::default(),
             },
             None => Protocol::V1 {
                 decoder: DisplayDecoder::new(),
+                scheduler: CommandScheduler::default(),
             },
         };
         let mut worker = LinkWorker::new(
@@ -300,6 +316,8 @@ enum Protocol {
     V1 {
         /// Display frames v1.
         decoder: DisplayDecoder,
+        /// Which frames go out when.
+        scheduler: CommandScheduler,
     },
     /// Version 2: authenticated, numbered, acknowledged.
     V2 {
@@ -307,9 +325,53 @@ enum Protocol {
         key: LinkKey,
         /// Display frames v2 under the key.
         decoder: v2::DisplayDecoder,
-        /// Session, numbering, acknowledgements.
-        uplink: Box<Uplink>,
+        /// The schedule, session, numbering and acknowledgements.
+        station: Box<Station>,
     },
+}
+
+impl Protocol {
+    /// Queues `command` (see [`CommandScheduler::request`]).
+    fn request(&mut self, command: Command, now: Instant) {
+        match self {
+            Protocol::V1 { scheduler, .. } => scheduler.request(command, station_time(now)),
+            Protocol::V2 { station, .. } => station.request(command, station_time(now)),
+        }
+    }
+
+    /// Holds a value on `channel`, or stops holding it.
+    fn hold(&mut self, channel: ManualChannel, command: Option<Command>) {
+        match self {
+            Protocol::V1 { scheduler, .. } => scheduler.hold(channel, command),
+            Protocol::V2 { station, .. } => station.hold(channel, command),
+        }
+    }
+
+    /// Forgets the slot rhythm (after a reconnect).
+    fn restart(&mut self) {
+        match self {
+            Protocol::V1 { scheduler, .. } => scheduler.restart(),
+            Protocol::V2 { station, .. } => station.restart(),
+        }
+    }
+
+    /// Whether a kill is still being repeated at `now`.
+    fn killing(&self, now: Instant) -> bool {
+        match self {
+            Protocol::V1 { scheduler, .. } => scheduler.killing(station_time(now)),
+            Protocol::V2 { station, .. } => station.killing(station_time(now)),
+        }
+    }
+
+    /// How long after `now` the next slot is due (zero if it is).
+    fn until_due(&self, now: Instant) -> Duration {
+        let t = station_time(now);
+        let due = match self {
+            Protocol::V1 { scheduler, .. } => scheduler.next_due(t),
+            Protocol::V2 { station, .. } => station.next_due(t),
+        };
+        due.saturating_sub(t)
+    }
 }
 
 /// The thread's state.
@@ -320,7 +382,6 @@ struct LinkWorker {
     recorder: Option<Sender<RecordEvent>>,
     calibration: Option<SensorCalibration>,
     status: LinkStatus,
-    scheduler: CommandScheduler,
     protocol: Protocol,
     port: Option<File>,
     next_attempt: Option<Instant>,
@@ -346,7 +407,6 @@ impl LinkWorker {
             recorder,
             calibration,
             status,
-            scheduler: CommandScheduler::default(),
             protocol,
             port: None,
             next_attempt: None,
@@ -413,8 +473,8 @@ impl LinkWorker {
                     self.next_attempt = None;
                 }
                 LinkControl::AutoReconnect(on) => self.status.auto_reconnect = on,
-                LinkControl::Request(c) => self.scheduler.request(c, now),
-                LinkControl::Hold(channel, c) => self.scheduler.hold(channel, c),
+                LinkControl::Request(c) => self.protocol.request(c, now),
+                LinkControl::Hold(channel, c) => self.protocol.hold(channel, c),
                 LinkControl::Shutdown => return false,
             }
         }
@@ -439,11 +499,11 @@ impl LinkWorker {
                 self.status.opens += 1;
                 self.status.last_error = None;
                 match &mut self.protocol {
-                    Protocol::V1 { decoder } => decoder.reset(),
+                    Protocol::V1 { decoder, .. } => decoder.reset(),
                     Protocol::V2 { decoder, .. } => decoder.reset(),
                 }
                 self.resyncing = false;
-                self.scheduler.restart();
+                self.protocol.restart();
                 self.connected_at = Some(now);
                 self.record_link("connected", None);
             }
@@ -481,28 +541,30 @@ impl LinkWorker {
         if self.port.is_none() {
             return;
         }
-        let slot = self.scheduler.poll_slot(now);
+        let t = station_time(now);
         let (frames, settled): (Vec<(Command, Vec<u8>, CommandRecord)>, _) =
             match &mut self.protocol {
-                Protocol::V1 { .. } => (
-                    slot.iter()
-                        .map(|s| {
-                            let bytes = s.command.encode().to_vec();
-                            (s.command, bytes, CommandRecord::new(s.command))
+                Protocol::V1 { scheduler, .. } => (
+                    scheduler
+                        .poll(t)
+                        .into_iter()
+                        .map(|command| {
+                            let bytes = command.encode().to_vec();
+                            (command, bytes, CommandRecord::new(command))
                         })
                         .collect(),
                     Vec::new(),
                 ),
-                Protocol::V2 { key, uplink, .. } => {
-                    let frames = uplink
-                        .frames(&slot, now)
+                Protocol::V2 { key, station, .. } => {
+                    let frames = station
+                        .poll(t)
                         .iter()
                         .map(|f| {
                             let bytes = f.encode(key);
                             (f.command, bytes.to_vec(), CommandRecord::v2(f, &bytes))
                         })
                         .collect();
-                    (frames, uplink.take_settled())
+                    (frames, station.take_settled())
                 }
             };
         for s in settled {
@@ -531,7 +593,7 @@ impl LinkWorker {
                 }
             }
         }
-        self.status.killing = self.scheduler.killing(now);
+        self.status.killing = self.protocol.killing(now);
         if let Some(e) = failure {
             self.close("lost", Some(format!("write: {e}")));
         }
@@ -539,12 +601,7 @@ impl LinkWorker {
 
     /// Waits for bytes until the scheduler's next slot (at most [`MAX_WAIT`]) and reads them.
     fn wait_and_read(&mut self) {
-        let now = Instant::now();
-        let wait = self
-            .scheduler
-            .next_due(now)
-            .saturating_duration_since(now)
-            .min(MAX_WAIT);
+        let wait = self.protocol.until_due(Instant::now()).min(MAX_WAIT);
         let Some(port) = self.port.as_ref() else {
             std::thread::sleep(wait.max(Duration::from_millis(1)));
             return;
@@ -604,7 +661,7 @@ impl LinkWorker {
     }
 
     fn take_bytes_v1(&mut self, bytes: &[u8], now: Instant, t_ns: u64) {
-        let Protocol::V1 { decoder } = &mut self.protocol else {
+        let Protocol::V1 { decoder, .. } = &mut self.protocol else {
             return;
         };
         let mut frames = Vec::new();
@@ -634,17 +691,18 @@ impl LinkWorker {
 
     fn take_bytes_v2(&mut self, bytes: &[u8], now: Instant, t_ns: u64) {
         let Protocol::V2 {
-            decoder, uplink, ..
+            decoder, station, ..
         } = &mut self.protocol
         else {
             return;
         };
+        let t = station_time(now);
         let mut frames = Vec::new();
         for &b in bytes {
             // A rejected candidate is counted by the decoder; the content of a frame whose tag
             // does not match is never looked at.
             if let Some(Ok(frame)) = decoder.push(b) {
-                if uplink.on_display(&frame, now) != DownlinkVerdict::Old {
+                if station.on_display(&frame, t) != DownlinkVerdict::Old {
                     frames.push(frame);
                 }
             }
@@ -653,7 +711,7 @@ impl LinkWorker {
         self.status.bad_tag = u64::from(stats.bad_tag);
         self.status.skipped_bytes = u64::from(stats.skipped_bytes);
         self.status.out_of_range = u64::from(stats.malformed);
-        let settled = uplink.take_settled();
+        let settled = station.take_settled();
         for s in settled {
             self.record(RecordEvent::Delivery(t_ns, DeliveryRecord::new(&s)));
         }
@@ -696,8 +754,8 @@ impl LinkWorker {
             .map_or(RATE_WINDOW, |t| now.saturating_duration_since(t))
             .clamp(Duration::from_secs(1), RATE_WINDOW);
         self.status.frames_per_s = self.recent_frames.len() as f64 / span.as_secs_f64();
-        if let Protocol::V2 { uplink, .. } = &self.protocol {
-            self.status.uplink = Some(UplinkView::of(uplink));
+        if let Protocol::V2 { station, .. } = &self.protocol {
+            self.status.uplink = Some(UplinkView::of(station.uplink()));
         }
         *lock(&self.shared) = self.status.clone();
     }
@@ -991,7 +1049,12 @@ mod tests {
             link.status()
                 .uplink
                 .and_then(|u| u.last_command)
-                .is_some_and(|c| matches!(c.delivery, crate::uplink::Delivery::Acknowledged { .. }))
+                .is_some_and(|c| {
+                    matches!(
+                        c.delivery,
+                        dima_groundlink::station::Delivery::Acknowledged { .. }
+                    )
+                })
         });
         let after = gate_commands(&mut robot, &mut gate, Duration::from_millis(250));
         assert!(

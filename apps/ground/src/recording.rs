@@ -22,13 +22,13 @@ use std::thread::JoinHandle;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
+use dima_groundlink::station::{Delivery, Settled};
 use dima_groundlink::v2::{self, CommandFrame, FailsafeCause, ReviveRefusal, RobotMode};
 use dima_groundlink::{Command, DisplayFrame};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::units::{Baro, MagField, Physical};
-use crate::uplink::{Delivery, Settled};
 
 /// Topic of the commands sent.
 pub const TOPIC_COMMAND: &str = "/ground/command";
@@ -134,11 +134,7 @@ impl DeliveryRecord {
             transmissions: s.transmissions,
             first_seq: s.first_seq,
             last_seq: s.last_seq,
-            latency_ms: settled
-                .at
-                .saturating_duration_since(s.requested_at)
-                .as_secs_f64()
-                * 1e3,
+            latency_ms: settled.at.saturating_sub(s.requested_at).as_secs_f64() * 1e3,
             accepted_but_refused: s.accepted_but_refused,
         }
     }
@@ -607,8 +603,8 @@ mod tests {
         let mut record = DisplayRecord::new(&frame, &physical);
         record.robot = Some(RobotRecord::new(&report, 2));
         tx.send(RecordEvent::Display(40, Box::new(record))).unwrap();
-        let t = std::time::Instant::now();
-        let status = crate::uplink::CommandStatus {
+        let t = dima_groundlink::station::StationTime::from_secs(90);
+        let status = dima_groundlink::station::CommandStatus {
             command: Command::Revive,
             requested_at: t,
             transmissions: 4,

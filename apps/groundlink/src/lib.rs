@@ -18,6 +18,10 @@
 //! ([`CommandStats`], [`DisplayStats`]). The frames are bit-compatible with the original DIMA
 //! ground station; speed and heading setpoints (types 6 and 7) are new in this implementation.
 //!
+//! With the `station` feature, module `station` is the ground station's side of the link
+//! without I/O: the command schedule, and ground link v2's numbering, repetition until
+//! acknowledged and acknowledgements, with the clock passed in (`station::Station`).
+//!
 //! ```
 //! use dima_groundlink::{Command, CommandDecoder, Percent};
 //!
@@ -49,6 +53,8 @@ pub mod command;
 pub mod display;
 #[cfg(feature = "std")]
 pub mod key_file;
+#[cfg(feature = "station")]
+pub mod station;
 pub mod v2;
 
 pub use command::{

@@ -1,6 +1,7 @@
 //! The driving panel: kill, revive, the manual sliders with their pulse widths, control-mode
 //! setpoints, the gamepad and the keys.
 
+use dima_groundlink::station::ManualChannel;
 use dima_groundlink::{Command, Percent};
 use eframe::egui::{self, Color32, RichText};
 
@@ -9,7 +10,6 @@ use super::GroundApp;
 use crate::control::Source;
 use crate::keys::REVIVE_HOLD;
 use crate::link::LinkControl;
-use crate::scheduler::ManualChannel;
 use crate::units::{heading_setpoint_deg_e5, speed_setpoint_mm_s};
 
 pub fn left_panel(ui: &mut egui::Ui, app: &mut GroundApp) {

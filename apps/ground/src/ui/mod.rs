@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use dima_groundlink::station::ManualChannel;
 use dima_groundlink::Command;
 use eframe::egui;
 
@@ -24,7 +25,6 @@ use crate::gamepad::{stick_percent, GamepadInput, Gamepads};
 use crate::keys::KeyboardDriver;
 use crate::link::{LinkControl, LinkEvent, LinkHandle, LinkStatus};
 use crate::recording::Recorder;
-use crate::scheduler::ManualChannel;
 use crate::sim::{SimLaunch, SimRobot};
 use crate::telemetry::Telemetry;
 use crate::units::SensorCalibration;

@@ -3,17 +3,17 @@
 
 use std::time::{Duration, Instant};
 
+use dima_groundlink::station::{CommandStatus, Delivery};
 use dima_groundlink::v2::RobotMode;
 use dima_groundlink::CommandType;
 use eframe::egui::{self, Color32, RichText};
 
 use super::connection::{BAD, GOOD, WARN};
 use super::GroundApp;
-use crate::link::{LinkState, LinkStatus, RobotReport, UplinkView};
+use crate::link::{station_time, LinkState, LinkStatus, RobotReport, UplinkView};
 use crate::recording::{cause_name, mode_name, refusal_name};
 use crate::robot_view::{expected_mode, ExpectedMode};
 use crate::units::{Baro, MagField};
-use crate::uplink::{CommandStatus, Delivery};
 
 /// Colour of AUTO (the controllers drive).
 const AUTO: Color32 = Color32::from_rgb(70, 130, 230);
@@ -389,7 +389,9 @@ fn command_line(c: &CommandStatus, now: Instant) -> String {
         }
         Delivery::Pending => format!(
             "{what}: pending {:.1} s ({sent}{refused})",
-            now.saturating_duration_since(c.requested_at).as_secs_f64()
+            station_time(now)
+                .saturating_sub(c.requested_at)
+                .as_secs_f64()
         ),
         other => format!("{what}: {} ({sent}{refused})", other.label()),
     }

@@ -1,4 +1,4 @@
-//! Which command frames go out when (ground link v1, DESIGN 2.2).
+//! Which command frames go out when (ground link v1 and v2).
 //!
 //! - One slot every [`HEARTBEAT_PERIOD`]: the pending commands go out in it (coalesced: only the
 //!   latest value per command type), and the values the operator holds (a key, a stick, a
@@ -15,13 +15,15 @@
 //!
 //! [`poll_slot`](CommandScheduler::poll_slot) says where each frame comes from
 //! ([`Origin`]): ground link v2 repeats a requested command until the robot acknowledges
-//! it (see [`crate::uplink`]), and needs to tell it from a held value or a heartbeat.
+//! it (see [`super::uplink`]), and needs to tell it from a held value or a heartbeat.
 //!
-//! Time is an input ([`Instant`] arguments), so every rule is tested without sleeping.
+//! Time is an input ([`StationTime`] arguments), so every rule is tested without sleeping.
 
-use std::time::{Duration, Instant};
+use core::time::Duration;
+use std::vec::Vec;
 
-use dima_groundlink::{Command, CommandType};
+use super::StationTime;
+use crate::{Command, CommandType};
 
 /// The slot period: one frame (at least a heartbeat) every 100 ms.
 pub const HEARTBEAT_PERIOD: Duration = Duration::from_millis(100);
@@ -77,7 +79,7 @@ impl ManualChannel {
     }
 
     /// The command carrying `percent` on this channel.
-    pub fn command(self, percent: dima_groundlink::Percent) -> Command {
+    pub fn command(self, percent: crate::Percent) -> Command {
         match self {
             ManualChannel::Throttle => Command::Throttle(percent),
             ManualChannel::Steering => Command::Steering(percent),
@@ -99,11 +101,11 @@ impl ManualChannel {
 #[derive(Debug, Clone)]
 pub struct CommandScheduler {
     period: Duration,
-    next_slot: Option<Instant>,
-    kill_until: Option<Instant>,
+    next_slot: Option<StationTime>,
+    kill_until: Option<StationTime>,
     kill_now: bool,
     /// When the last kill frame went out.
-    last_kill: Option<Instant>,
+    last_kill: Option<StationTime>,
     /// Pending commands in request order, at most one per type.
     pending: Vec<Command>,
     held: [Option<Command>; 3],
@@ -130,7 +132,7 @@ impl CommandScheduler {
     }
 
     /// Queues `command` for the next slot (a kill goes out at once: see the module docs).
-    pub fn request(&mut self, command: Command, now: Instant) {
+    pub fn request(&mut self, command: Command, now: StationTime) {
         match command {
             Command::Kill => {
                 self.kill_now = true;
@@ -163,12 +165,12 @@ impl CommandScheduler {
     }
 
     /// Whether a kill is still being repeated at `now`.
-    pub fn killing(&self, now: Instant) -> bool {
+    pub fn killing(&self, now: StationTime) -> bool {
         self.kill_until.is_some_and(|until| now < until)
     }
 
     /// When [`poll`](Self::poll) next has something to send (`now` if it has already).
-    pub fn next_due(&self, now: Instant) -> Instant {
+    pub fn next_due(&self, now: StationTime) -> StationTime {
         if self.kill_now {
             return now;
         }
@@ -176,18 +178,18 @@ impl CommandScheduler {
     }
 
     /// The frames due at `now`, in the order to send them (empty between slots).
-    pub fn poll(&mut self, now: Instant) -> Vec<Command> {
+    pub fn poll(&mut self, now: StationTime) -> Vec<Command> {
         self.poll_slot(now).into_iter().map(|s| s.command).collect()
     }
 
     /// The frames due at `now` with their [`Origin`], in the order to send them.
-    pub fn poll_slot(&mut self, now: Instant) -> Vec<Scheduled> {
+    pub fn poll_slot(&mut self, now: StationTime) -> Vec<Scheduled> {
         let mut out = Vec::new();
         let kill = Scheduled {
             command: Command::Kill,
             origin: Origin::Kill,
         };
-        if std::mem::take(&mut self.kill_now) {
+        if core::mem::take(&mut self.kill_now) {
             out.push(kill);
             self.last_kill = Some(now);
             // The immediate kill counts as this slot's frame; the rhythm restarts from it.
@@ -209,7 +211,7 @@ impl CommandScheduler {
         }
         let revive_waits = self
             .last_kill
-            .is_some_and(|k| now.saturating_duration_since(k) < REVIVE_AFTER_KILL);
+            .is_some_and(|k| now.saturating_sub(k) < REVIVE_AFTER_KILL);
         let mut waiting = Vec::new();
         for command in self.pending.drain(..) {
             if command == Command::Revive && revive_waits {
@@ -250,9 +252,10 @@ impl CommandScheduler {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dima_groundlink::Percent;
+    use crate::Percent;
+    use std::vec;
 
-    fn ms(t0: Instant, n: u64) -> Instant {
+    fn ms(t0: StationTime, n: u64) -> StationTime {
         t0 + Duration::from_millis(n)
     }
 
@@ -261,7 +264,7 @@ mod tests {
     }
 
     /// Everything sent over `0..=end_ms`, polled every millisecond, with the time it went out.
-    fn run(s: &mut CommandScheduler, t0: Instant, end_ms: u64) -> Vec<(u64, Command)> {
+    fn run(s: &mut CommandScheduler, t0: StationTime, end_ms: u64) -> Vec<(u64, Command)> {
         let mut sent = Vec::new();
         for t in 0..=end_ms {
             for c in s.poll(ms(t0, t)) {
@@ -273,7 +276,7 @@ mod tests {
 
     #[test]
     fn a_heartbeat_every_100_ms_when_idle() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         let sent = run(&mut s, t0, 1_000);
         let times: Vec<u64> = sent.iter().map(|(t, _)| *t).collect();
@@ -283,7 +286,7 @@ mod tests {
 
     #[test]
     fn a_pending_command_replaces_the_heartbeat_once() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         assert_eq!(s.poll(t0), vec![Command::Heartbeat]);
         s.request(Command::Throttle(pct(60)), ms(t0, 30));
@@ -300,7 +303,7 @@ mod tests {
 
     #[test]
     fn held_values_repeat_every_slot_until_released() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         s.hold(ManualChannel::Throttle, Some(Command::Throttle(pct(80))));
         let sent = run(&mut s, t0, 350);
@@ -314,7 +317,7 @@ mod tests {
 
     #[test]
     fn kill_goes_out_at_once_and_repeats_for_one_second() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         s.hold(ManualChannel::Throttle, Some(Command::Throttle(pct(90))));
         assert_eq!(s.poll(t0), vec![Command::Throttle(pct(90))]);
@@ -345,7 +348,7 @@ mod tests {
 
     #[test]
     fn revive_ends_the_kill_repetition() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         s.request(Command::Kill, t0);
         assert_eq!(s.poll(t0), vec![Command::Kill]);
@@ -359,7 +362,7 @@ mod tests {
 
     #[test]
     fn a_revive_waits_until_the_kill_is_old_enough() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         s.request(Command::Kill, t0);
         assert_eq!(s.poll(t0), vec![Command::Kill]);
@@ -382,7 +385,7 @@ mod tests {
 
     #[test]
     fn slots_say_where_each_frame_comes_from() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         s.hold(ManualChannel::Steering, Some(Command::Steering(pct(30))));
         s.request(Command::SpeedSetpoint { mm_s: 800 }, t0);
@@ -397,7 +400,7 @@ mod tests {
 
     #[test]
     fn late_polls_do_not_burst() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut s = CommandScheduler::default();
         assert_eq!(s.poll(t0).len(), 1);
         // The caller stalled for 550 ms: one frame, then the rhythm resumes from there.

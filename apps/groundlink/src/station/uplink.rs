@@ -4,7 +4,7 @@
 //! The robot accepts a command frame v2 only with its per-boot session id and a sequence
 //! number above the last one it accepted, and reports that last accepted number (the
 //! acknowledgement) in every display frame. This module turns the slots of the
-//! [`CommandScheduler`](crate::scheduler::CommandScheduler) into numbered [`CommandFrame`]s
+//! [`CommandScheduler`](super::scheduler::CommandScheduler) into numbered [`CommandFrame`]s
 //! and reads the acknowledgements back:
 //!
 //! - **Session**: learned from authenticated display frames. Until it is known only a kill
@@ -36,14 +36,15 @@
 //!   and so is a frame of a session that an earlier boot's frames were replaced by (a robot
 //!   draws a new random session id at every boot and never goes back to an old one).
 //!
-//! Pure: time is an argument, nothing here touches the port.
+//! Pure: time is a [`StationTime`] argument, and nothing here does I/O.
 
-use std::time::{Duration, Instant};
+use core::time::Duration;
+use std::vec::Vec;
 
-use dima_groundlink::v2::{CommandFrame, DisplayFrame, RobotMode};
-use dima_groundlink::{Command, CommandType};
-
-use crate::scheduler::{Origin, Scheduled};
+use super::scheduler::{Origin, Scheduled};
+use super::StationTime;
+use crate::v2::{CommandFrame, DisplayFrame, RobotMode};
+use crate::{Command, CommandType};
 
 /// How long a requested command is repeated without its acknowledgement before it is given up
 /// (five display periods at the robot's default 2 Hz).
@@ -94,7 +95,7 @@ pub struct CommandStatus {
     /// The command.
     pub command: Command,
     /// When it was requested.
-    pub requested_at: Instant,
+    pub requested_at: StationTime,
     /// Frames sent with it (each with its own sequence number).
     pub transmissions: u32,
     /// Sequence number of its first and latest frame (`None` before it went out).
@@ -102,7 +103,7 @@ pub struct CommandStatus {
     /// Sequence number of its latest frame.
     pub last_seq: Option<u32>,
     /// When it was acknowledged, given up or dropped.
-    pub settled_at: Option<Instant>,
+    pub settled_at: Option<StationTime>,
     /// What became of it.
     pub delivery: Delivery,
     /// A revive the robot accepted (one of its frames was acknowledged) while still reporting
@@ -111,7 +112,7 @@ pub struct CommandStatus {
 }
 
 impl CommandStatus {
-    fn new(command: Command, now: Instant) -> CommandStatus {
+    fn new(command: Command, now: StationTime) -> CommandStatus {
         CommandStatus {
             command,
             requested_at: now,
@@ -165,7 +166,7 @@ pub struct Settled {
     /// Its final status.
     pub status: CommandStatus,
     /// When it was settled.
-    pub at: Instant,
+    pub at: StationTime,
 }
 
 /// What [`Uplink::on_display`] made of a display frame.
@@ -259,12 +260,12 @@ impl Uplink {
 
     /// Commands settled since the last call (acknowledged, given up or dropped).
     pub fn take_settled(&mut self) -> Vec<Settled> {
-        std::mem::take(&mut self.settled)
+        core::mem::take(&mut self.settled)
     }
 
     /// Takes an authenticated display frame received at `now`: session, numbering,
     /// acknowledgements. Frames judged [`DownlinkVerdict::Old`] change nothing.
-    pub fn on_display(&mut self, frame: &DisplayFrame, now: Instant) -> DownlinkVerdict {
+    pub fn on_display(&mut self, frame: &DisplayFrame, now: StationTime) -> DownlinkVerdict {
         let old = match self.session {
             Some(s) if s == frame.session => frame.seq <= self.last_downlink_seq,
             _ => self.retired.contains(&frame.session),
@@ -300,7 +301,7 @@ impl Uplink {
     }
 
     /// Acknowledgements in `frame` for what is waiting.
-    fn confirm(&mut self, frame: &DisplayFrame, now: Instant) {
+    fn confirm(&mut self, frame: &DisplayFrame, now: StationTime) {
         let ack = frame.ack_seq;
         let revived = matches!(frame.mode, RobotMode::Manual | RobotMode::Auto);
         let mut i = 0;
@@ -349,9 +350,9 @@ impl Uplink {
         }
     }
 
-    /// Numbers the frames of one slot of the [`CommandScheduler`](crate::scheduler::CommandScheduler),
+    /// Numbers the frames of one slot of the [`CommandScheduler`](super::scheduler::CommandScheduler),
     /// taken at `now`, adding the repetitions of what waits for an acknowledgement.
-    pub fn frames(&mut self, slot: &[Scheduled], now: Instant) -> Vec<CommandFrame> {
+    pub fn frames(&mut self, slot: &[Scheduled], now: StationTime) -> Vec<CommandFrame> {
         self.expire(now);
         let mut out = Vec::new();
         if slot.is_empty() {
@@ -418,7 +419,7 @@ impl Uplink {
     }
 
     /// Notes a kill frame: the first of a kill (not a repetition) drops everything waiting.
-    fn kill_sent(&mut self, seq: u32, now: Instant) {
+    fn kill_sent(&mut self, seq: u32, now: StationTime) {
         if !self.killing {
             self.killing = true;
             self.settle_all(Delivery::Cancelled, now);
@@ -445,7 +446,7 @@ impl Uplink {
     }
 
     /// A requested command starts waiting for its acknowledgement.
-    fn track(&mut self, command: Command, now: Instant) {
+    fn track(&mut self, command: Command, now: StationTime) {
         if command == Command::Heartbeat {
             return;
         }
@@ -461,7 +462,7 @@ impl Uplink {
     }
 
     /// Drops what `command` replaces: the same type, and the other driving mode's commands.
-    fn supersede_for(&mut self, command: Command, now: Instant) {
+    fn supersede_for(&mut self, command: Command, now: StationTime) {
         let kind = command.command_type();
         let replaced = |waiting: CommandType| {
             waiting == kind
@@ -480,10 +481,10 @@ impl Uplink {
     }
 
     /// Gives up what waited longer than [`CONFIRM_TIMEOUT`].
-    fn expire(&mut self, now: Instant) {
+    fn expire(&mut self, now: StationTime) {
         let mut i = 0;
         while i < self.outstanding.len() {
-            let age = now.saturating_duration_since(self.outstanding[i].status.requested_at);
+            let age = now.saturating_sub(self.outstanding[i].status.requested_at);
             if age > CONFIRM_TIMEOUT {
                 let o = self.outstanding.remove(i);
                 if let Some(seq) = o.acted_on {
@@ -499,7 +500,7 @@ impl Uplink {
             }
         }
         if let Some(mut kill) = self.kill.take() {
-            let age = now.saturating_duration_since(kill.requested_at);
+            let age = now.saturating_sub(kill.requested_at);
             if kill.delivery == Delivery::Pending && age > CONFIRM_TIMEOUT {
                 kill.delivery = Delivery::Unacknowledged;
                 kill.settled_at = Some(now);
@@ -513,13 +514,13 @@ impl Uplink {
         }
     }
 
-    fn settle_all(&mut self, delivery: Delivery, now: Instant) {
-        for o in std::mem::take(&mut self.outstanding) {
+    fn settle_all(&mut self, delivery: Delivery, now: StationTime) {
+        for o in core::mem::take(&mut self.outstanding) {
             self.settle(o.status, delivery, now);
         }
     }
 
-    fn settle(&mut self, mut status: CommandStatus, delivery: Delivery, now: Instant) {
+    fn settle(&mut self, mut status: CommandStatus, delivery: Delivery, now: StationTime) {
         status.delivery = delivery;
         status.settled_at = Some(now);
         self.note_last(&status);
@@ -555,11 +556,12 @@ fn is_setpoint(kind: CommandType) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dima_groundlink::Percent;
+    use crate::Percent;
+    use std::vec;
 
     const SESSION: u32 = 0x5EED_0001;
 
-    fn ms(t0: Instant, n: u64) -> Instant {
+    fn ms(t0: StationTime, n: u64) -> StationTime {
         t0 + Duration::from_millis(n)
     }
 
@@ -586,7 +588,7 @@ mod tests {
     }
 
     /// An uplink that knows `SESSION`, whose robot acknowledged `ack`.
-    fn connected(ack: u32, t0: Instant) -> Uplink {
+    fn connected(ack: u32, t0: StationTime) -> Uplink {
         let mut u = Uplink::new();
         u.on_display(&display(SESSION, 1, ack, RobotMode::Killed), t0);
         u
@@ -598,7 +600,7 @@ mod tests {
 
     #[test]
     fn before_the_session_is_known_only_kills_go_out_with_session_0() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = Uplink::new();
         assert!(u.frames(&heartbeat(), t0).is_empty());
         assert!(u
@@ -615,7 +617,7 @@ mod tests {
 
     #[test]
     fn numbering_follows_the_acknowledgement_and_never_goes_back() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         // A station (re)started while the robot had accepted up to 41.
         let mut u = Uplink::new();
         let verdict = u.on_display(&display(SESSION, 7, 41, RobotMode::Manual), t0);
@@ -634,7 +636,7 @@ mod tests {
 
     #[test]
     fn a_request_is_repeated_with_new_numbers_until_exactly_acknowledged() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = connected(0, t0);
         let steer = at(Command::Steering(pct(30)), Origin::Held);
         let throttle = Command::Throttle(pct(60));
@@ -675,7 +677,7 @@ mod tests {
 
     #[test]
     fn a_request_replaces_the_heartbeat_and_is_given_up_after_the_timeout() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = connected(0, t0);
         let speed = Command::SpeedSetpoint { mm_s: 1_200 };
         assert_eq!(
@@ -702,7 +704,7 @@ mod tests {
 
     #[test]
     fn a_revive_is_repeated_until_acknowledged_and_settled_by_the_robots_mode() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = connected(10, t0);
         let first = u.frames(&[at(Command::Revive, Origin::Request)], t0);
         assert_eq!((first[0].seq, first[0].request), (11, 11));
@@ -747,7 +749,7 @@ mod tests {
 
     #[test]
     fn a_revive_the_robot_acted_on_is_not_repeated() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = connected(10, t0);
         let first = u.frames(&[at(Command::Revive, Origin::Request)], t0);
         assert_eq!(first[0].seq, 11);
@@ -764,7 +766,7 @@ mod tests {
 
     #[test]
     fn a_new_session_restarts_numbering_and_drops_what_waited() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = connected(500, t0);
         u.frames(
             &[at(
@@ -798,7 +800,7 @@ mod tests {
 
     #[test]
     fn old_display_frames_are_ignored() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = Uplink::new();
         u.on_display(&display(SESSION, 20, 5, RobotMode::Manual), t0);
         // A replay of an older frame (or one overtaken): no effect on numbering or acks.
@@ -815,7 +817,7 @@ mod tests {
 
     #[test]
     fn driving_modes_replace_each_others_waiting_commands() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = connected(0, t0);
         let speed = Command::SpeedSetpoint { mm_s: 900 };
         u.frames(&[at(speed, Origin::Request)], t0);
@@ -838,7 +840,7 @@ mod tests {
 
     #[test]
     fn a_kill_goes_out_alone_drops_what_waited_and_is_confirmed_by_the_mode() {
-        let t0 = Instant::now();
+        let t0 = StationTime::from_secs(1_000);
         let mut u = connected(3, t0);
         u.frames(&[at(Command::Revive, Origin::Request)], t0);
         let kill = [at(Command::Kill, Origin::Kill)];
