@@ -21,7 +21,7 @@ use crate::devices::servo::{ServoError, ServoOutput};
 use crate::devices::{DeviceLink, LinkEvent};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, Tick};
-use crate::telemetry::LinkCounters;
+use crate::telemetry::{LinkCounters, ReceivedCommand};
 
 /// Most command events applied per cycle (the rest wait for the next cycle).
 pub const MAX_COMMANDS_PER_CYCLE: usize = 64;
@@ -86,8 +86,8 @@ impl LoopParams {
 
 /// The loop's connections to the other threads.
 pub struct LoopEnds {
-    /// Command events from telemetry.
-    pub commands: rtrb::Consumer<Command>,
+    /// Command events from telemetry, with their arrival times.
+    pub commands: rtrb::Consumer<ReceivedCommand>,
     /// Records to the logger.
     pub log: rtrb::Producer<CycleRecord>,
     /// Latest state to telemetry.
@@ -326,10 +326,10 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
         let mut n = 0;
         while n < MAX_COMMANDS_PER_CYCLE {
-            let Ok(command) = self.ends.commands.pop() else {
+            let Ok(received) = self.ends.commands.pop() else {
                 break;
             };
-            commands[n] = command;
+            commands[n] = received.command;
             n += 1;
         }
         let sensor = self.acquire_sensor(&mut ev);
