@@ -764,6 +764,56 @@ mod tests {
         assert_eq!(h.mode(), (Mode::Manual, None));
         h.cycle_at(1_992 * MS);
         assert_eq!(h.mode(), (Mode::Failsafe, Some(FailsafeCause::CommsLoss)));
-        let _ = (&h.servo, &h.servo_sup);
+    }
+
+    #[test]
+    fn a_kill_during_a_servo_outage_is_the_first_write_after_the_reopen() {
+        let mut h = Harness::new();
+        let t0 = std::time::Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        assert!(h.servo_sup.service(at(0)));
+        h.manual(0);
+        h.send(Command::Throttle(dima_groundlink::Percent::MAX), 0);
+        h.cycle_at(4 * MS);
+        let safe = h.rt.params.core.safe_targets().quarter_us();
+        let driving = h.servo.writes.lock().unwrap().clone();
+        assert_eq!(driving.len(), 1);
+        assert_ne!(driving[0], safe);
+
+        // The board fails: it is handed back and nothing more reaches it.
+        *h.servo.fail.lock().unwrap() = Some(ServoError::Device);
+        h.send(Command::Throttle(dima_groundlink::Percent::MIN), 6 * MS);
+        h.cycle_at(8 * MS);
+        assert!(!h.rt.servo.is_connected());
+        *h.servo.fail.lock().unwrap() = None;
+        h.send(Command::Kill, 10 * MS);
+        h.cycle_at(12 * MS);
+        assert_eq!(h.mode(), (Mode::Killed, None));
+        assert_eq!(h.servo.writes.lock().unwrap().len(), 1);
+        assert_eq!(h.rt.state.counters.servo_errors, 1);
+        assert_eq!(h.rt.state.counters.servo_missing, 1);
+
+        // The supervisor closes it and reopens one reopen interval later; the cycle that
+        // adopts it writes the safe targets, whatever the refresh schedule.
+        assert!(!h.servo_sup.service(at(20)));
+        assert!(!h.servo_sup.service(at(1_010)));
+        assert!(h.servo_sup.service(at(1_020)));
+        h.cycle_at(1_024 * MS);
+        assert_eq!(h.servo.writes.lock().unwrap()[1..], [safe]);
+    }
+
+    #[test]
+    fn a_write_timeout_keeps_the_board_and_resends_the_next_cycle() {
+        let mut h = Harness::new();
+        assert!(h.servo_sup.service(std::time::Instant::now()));
+        *h.servo.fail.lock().unwrap() = Some(ServoError::Timeout);
+        h.cycle_at(4 * MS); // cycle 0: due, times out
+        assert!(h.rt.servo.is_connected());
+        assert_eq!(h.rt.state.counters.servo_errors, 1);
+        *h.servo.fail.lock().unwrap() = None;
+        h.cycle_at(8 * MS); // cycle 1: not on the refresh schedule, resent anyway
+        assert_eq!(h.servo.writes.lock().unwrap().len(), 1);
+        h.cycle_at(12 * MS); // written and unchanged: waits for the schedule
+        assert_eq!(h.servo.writes.lock().unwrap().len(), 1);
     }
 }
