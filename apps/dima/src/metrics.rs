@@ -144,6 +144,9 @@ pub struct LoopMetrics {
     pub servo_write: Stat,
     /// Counters (a copy of the control state's, updated every cycle).
     pub counters: Counters,
+    /// Commands dropped unread because they arrived longer than the comms timeout before the
+    /// loop took them (a kill is never dropped).
+    pub stale_commands: u64,
 }
 
 impl LoopMetrics {
@@ -154,6 +157,7 @@ impl LoopMetrics {
             request_to_packet: Stat::default(),
             compute: Stat::default(),
             servo_write: Stat::default(),
+            stale_commands: 0,
             counters: Counters::default(),
         }
     }
@@ -192,7 +196,7 @@ impl LoopMetrics {
              {}/{} µs | packets ok {} missing {} stale {} late {} crc {} skipped-bytes {} | \
              sensor errors {} | gnss fixes {} | \
              servo writes {} errors {} missing {} | commands {} (setpoints rejected {}, revives \
-             refused {}) | log dropped {} | failsafes {}",
+             refused {}) | log dropped {} | failsafes {} | stale commands dropped {}",
             c.cycles,
             c.missed_periods,
             h.min_ns() / 1_000,
@@ -221,6 +225,7 @@ impl LoopMetrics {
             c.revives_refused,
             c.log_dropped,
             c.failsafes,
+            self.stale_commands,
         )
     }
 }

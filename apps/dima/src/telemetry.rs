@@ -7,7 +7,9 @@
 //! go out whenever a key is configured, v1 display frames whenever v1 commands are accepted.
 //!
 //! Commands go to the loop as events through a ring, never as a latest value, so a kill or a
-//! revive cannot be overwritten; if the ring is ever full they wait here, in order, in a
+//! revive cannot be overwritten; each carries the earliest time it can have arrived at the port
+//! ([`ArrivalBound`]), so a command that waited (in the port, in this thread or in the ring)
+//! is not taken for fresh link activity; if the ring is ever full they wait here, in order, in a
 //! bounded queue ([`CommandHandOff`]). A kill goes first: it is pushed before anything else is
 //! done with it, and it supersedes every command still waiting. The comms-loss decision is not
 //! taken here but in the loop, so a dead telemetry thread still trips the failsafe.
@@ -30,6 +32,7 @@ use crate::app::record::Snapshot;
 use crate::devices::serial::SerialPort;
 use crate::devices::Opener;
 use crate::rt::monotonic_ns;
+use dima_core::Nanos;
 
 /// The display frame for the last packet: decoded signed values, raw BMP280 ADC values,
 /// latitude then longitude (the original swapped them), velocities and heading from NAV-PVT.
@@ -63,17 +66,72 @@ pub fn display_frame(packet: Option<&SensorPacket>) -> DisplayFrame {
 /// Commands waiting for room in the ring to the loop, at most this many.
 pub const PENDING_COMMANDS: usize = 64;
 
+/// A command as it travels to the loop: what, and when it arrived.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReceivedCommand {
+    /// The command.
+    pub command: Command,
+    /// The earliest time its frame can have been complete at the port, ns
+    /// (CLOCK_MONOTONIC): never later than its real arrival (see [`ArrivalBound`]).
+    pub arrival_ns: Nanos,
+}
+
+/// The earliest time the bytes read from the port now can have arrived: the last time the
+/// reader found the port empty. A byte read after the port was seen empty at `t` arrived after
+/// `t`, however long the reader then took to come back (a stalled thread, a display frame
+/// being sent): the bound is never later than the arrival, and at most one pass of the reader
+/// earlier while it keeps up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ArrivalBound {
+    empty_ns: Nanos,
+    drained: bool,
+}
+
+impl ArrivalBound {
+    /// For a port opened (and flushed) after `opened_ns`: nothing read from it is older.
+    pub fn new(opened_ns: Nanos) -> ArrivalBound {
+        ArrivalBound {
+            empty_ns: opened_ns,
+            drained: true,
+        }
+    }
+
+    /// A read that started at `before_read_ns` found nothing.
+    pub fn found_empty(&mut self, before_read_ns: Nanos) {
+        self.empty_ns = self.empty_ns.max(before_read_ns);
+        self.drained = true;
+    }
+
+    /// A byte was read (the reader may stop before the port is empty).
+    pub fn byte_read(&mut self) {
+        self.drained = false;
+    }
+
+    /// A wait for input until `deadline_ns` ended with nothing readable: if everything read
+    /// before was drained, the port was empty up to the deadline.
+    pub fn wait_timed_out(&mut self, deadline_ns: Nanos) {
+        if self.drained {
+            self.empty_ns = self.empty_ns.max(deadline_ns);
+        }
+    }
+
+    /// The earliest arrival time of a byte read now, ns.
+    pub fn earliest_ns(&self) -> Nanos {
+        self.empty_ns
+    }
+}
+
 /// Hands commands to the loop in arrival order through the ring, with a bounded queue for when
 /// the ring is full.
 pub struct CommandHandOff {
-    ring: rtrb::Producer<Command>,
-    pending: VecDeque<Command>,
+    ring: rtrb::Producer<ReceivedCommand>,
+    pending: VecDeque<ReceivedCommand>,
     dropped: u64,
 }
 
 impl CommandHandOff {
     /// Around the ring to the loop.
-    pub fn new(ring: rtrb::Producer<Command>) -> CommandHandOff {
+    pub fn new(ring: rtrb::Producer<ReceivedCommand>) -> CommandHandOff {
         CommandHandOff {
             ring,
             pending: VecDeque::with_capacity(PENDING_COMMANDS),
@@ -84,8 +142,8 @@ impl CommandHandOff {
     /// Hands `command` over: a kill at once, ahead of (and instead of) anything still
     /// waiting; anything else after what is waiting. A full queue drops the new command and
     /// counts it.
-    pub fn push(&mut self, command: Command) {
-        if command == Command::Kill {
+    pub fn push(&mut self, command: ReceivedCommand) {
+        if command.command == Command::Kill {
             if self.ring.push(command).is_err() {
                 self.dropped += self.pending.len() as u64;
                 self.pending.clear();
@@ -368,16 +426,31 @@ pub fn display_frame_v2(
 #[derive(Debug)]
 struct RadioFailed;
 
-/// Reads what the radio has (bounded) into the command link.
+/// Reads what the radio has (bounded) into the command link; `deliver` gets each command with
+/// the earliest time it can have arrived.
 fn receive(
     radio: &mut XBee<SerialPort, Transparent>,
     link: &mut CommandLink,
-    mut deliver: impl FnMut(Command),
+    arrival: &mut ArrivalBound,
+    mut deliver: impl FnMut(ReceivedCommand),
 ) -> Result<(), RadioFailed> {
     for _ in 0..1024 {
+        let before_read_ns = monotonic_ns();
         match radio.read() {
-            Ok(byte) => link.push(byte, &mut deliver),
-            Err(nb::Error::WouldBlock) => return Ok(()),
+            Ok(byte) => {
+                arrival.byte_read();
+                let arrival_ns = arrival.earliest_ns();
+                link.push(byte, &mut |command| {
+                    deliver(ReceivedCommand {
+                        command,
+                        arrival_ns,
+                    })
+                });
+            }
+            Err(nb::Error::WouldBlock) => {
+                arrival.found_empty(before_read_ns);
+                return Ok(());
+            }
             Err(nb::Error::Other(_)) => return Err(RadioFailed),
         }
     }
@@ -502,7 +575,7 @@ impl Downlink {
 /// Spawns the telemetry thread.
 pub fn spawn_telemetry(
     mut open: Opener<SerialPort>,
-    commands: rtrb::Producer<Command>,
+    commands: rtrb::Producer<ReceivedCommand>,
     mut snapshot: triple_buffer::Output<Snapshot>,
     settings: TelemetrySettings,
     shared: Arc<LinkCounters>,
@@ -523,6 +596,7 @@ pub fn spawn_telemetry(
             let mut downlink = Downlink::new(settings.security.clone());
             let mut hand_off = CommandHandOff::new(commands);
             let mut last_open: Option<Instant> = None;
+            let mut arrival = ArrivalBound::new(monotonic_ns());
             let mut failures = 0u64;
             let mut next_display = Instant::now() + settings.display_period;
             while !stop.load(Ordering::Relaxed) {
@@ -530,11 +604,13 @@ pub fn spawn_telemetry(
                 if radio.is_none() && last_open.is_none_or(|t| now - t >= settings.reopen_interval)
                 {
                     last_open = Some(now);
+                    let opened_ns = monotonic_ns();
                     match open() {
                         Ok(port) => {
                             tracing::info!("XBee: connected");
                             failures = 0;
                             link.reset();
+                            arrival = ArrivalBound::new(opened_ns);
                             radio = Some(XBee::new(port));
                             if settings.security.key.is_some() {
                                 // The station learns the session from the first display frame.
@@ -558,17 +634,20 @@ pub fn spawn_telemetry(
                 let wait = next_display
                     .saturating_duration_since(now)
                     .min(Duration::from_millis(20));
-                let mut result = match r
-                    .serial_mut()
-                    .wait_input(monotonic_ns() + wait.as_nanos() as u64)
-                {
-                    Ok(_) => receive(r, &mut link, |c| {
-                        // Hand over first (a kill goes straight to the loop), then report.
-                        hand_off.push(c);
-                        if matches!(c, Command::Kill | Command::Revive) {
-                            tracing::info!("ground link: {c:?}");
+                let deadline_ns = monotonic_ns() + wait.as_nanos() as u64;
+                let mut result = match r.serial_mut().wait_input(deadline_ns) {
+                    Ok(readable) => {
+                        if !readable {
+                            arrival.wait_timed_out(deadline_ns);
                         }
-                    }),
+                        receive(r, &mut link, &mut arrival, |c| {
+                            // Hand over first (a kill goes straight to the loop), then report.
+                            hand_off.push(c);
+                            if matches!(c.command, Command::Kill | Command::Revive) {
+                                tracing::info!("ground link: {:?}", c.command);
+                            }
+                        })
+                    }
                     Err(_) => Err(RadioFailed),
                 };
                 shared.store(&link.counters());
@@ -685,8 +764,16 @@ mod tests {
         assert_eq!((h.bad_tag, h.v1_ignored), (4, 6));
     }
 
-    fn drain(ring: &mut rtrb::Consumer<Command>) -> Vec<Command> {
-        std::iter::from_fn(|| ring.pop().ok()).collect()
+    fn drain(ring: &mut rtrb::Consumer<ReceivedCommand>) -> Vec<Command> {
+        std::iter::from_fn(|| ring.pop().ok().map(|c| c.command)).collect()
+    }
+
+    /// `command` as received at time 0.
+    fn received(command: Command) -> ReceivedCommand {
+        ReceivedCommand {
+            command,
+            arrival_ns: 0,
+        }
     }
 
     #[test]
@@ -695,12 +782,12 @@ mod tests {
         let mut h = CommandHandOff::new(tx);
         let t = |p| Command::Throttle(Percent::new(p).unwrap());
         for p in 0..5 {
-            h.push(t(p));
+            h.push(received(t(p)));
         }
         assert_eq!(drain(&mut rx), [t(0), t(1)]);
         h.flush();
         assert_eq!(drain(&mut rx), [t(2), t(3)]);
-        h.push(t(5));
+        h.push(received(t(5)));
         assert_eq!(drain(&mut rx), [t(4), t(5)]);
         assert_eq!(h.dropped(), 0);
     }
@@ -710,16 +797,16 @@ mod tests {
         let (tx, mut rx) = rtrb::RingBuffer::new(2);
         let mut h = CommandHandOff::new(tx);
         // A revive waiting behind a full ring must not come after the kill.
-        h.push(Command::Heartbeat);
-        h.push(Command::Heartbeat);
-        h.push(Command::Revive);
-        h.push(Command::Kill);
+        h.push(received(Command::Heartbeat));
+        h.push(received(Command::Heartbeat));
+        h.push(received(Command::Revive));
+        h.push(received(Command::Kill));
         assert_eq!(drain(&mut rx), [Command::Heartbeat, Command::Heartbeat]);
         h.flush();
         assert_eq!(drain(&mut rx), [Command::Kill]);
         assert_eq!(h.dropped(), 1);
         // With room in the ring the kill is pushed at once, before anything else.
-        h.push(Command::Kill);
+        h.push(received(Command::Kill));
         assert_eq!(drain(&mut rx), [Command::Kill]);
     }
 
@@ -728,9 +815,43 @@ mod tests {
         let (tx, _rx) = rtrb::RingBuffer::new(1);
         let mut h = CommandHandOff::new(tx);
         for _ in 0..(1 + PENDING_COMMANDS + 10) {
-            h.push(Command::Heartbeat);
+            h.push(received(Command::Heartbeat));
         }
         assert_eq!(h.dropped(), 10);
         assert_eq!(h.pending.len(), PENDING_COMMANDS);
+    }
+
+    const MS: Nanos = 1_000_000;
+
+    #[test]
+    fn arrival_is_the_last_time_the_port_was_seen_empty() {
+        // Opened at 10 ms; a frame read at 30 ms after a wait that began at 12 ms arrived
+        // after 10 ms, the last time anything showed the port empty.
+        let mut a = ArrivalBound::new(10 * MS);
+        a.byte_read();
+        assert_eq!(a.earliest_ns(), 10 * MS);
+        a.found_empty(31 * MS);
+        // A wait until 51 ms saw nothing: bytes read afterwards arrived after 51 ms.
+        a.wait_timed_out(51 * MS);
+        assert_eq!(a.earliest_ns(), 51 * MS);
+    }
+
+    #[test]
+    fn a_stalled_reader_does_not_make_old_bytes_look_new() {
+        // The port was last seen empty at 100 ms; the reader then stalls for 800 ms and reads
+        // a backlog at 900 ms: the backlog is dated 100 ms, not 900 ms.
+        let mut a = ArrivalBound::new(0);
+        a.found_empty(100 * MS);
+        a.byte_read();
+        assert_eq!(a.earliest_ns(), 100 * MS);
+        // A batch cut short (bytes left in the port): a timed-out wait does not move the
+        // bound past bytes still waiting to be read.
+        a.wait_timed_out(920 * MS);
+        assert_eq!(a.earliest_ns(), 100 * MS);
+        a.found_empty(930 * MS);
+        assert_eq!(a.earliest_ns(), 930 * MS);
+        // Never backwards.
+        a.found_empty(925 * MS);
+        assert_eq!(a.earliest_ns(), 930 * MS);
     }
 }
