@@ -151,7 +151,10 @@ impl Core {
             limits: SafetyLimits::new(&config.safety, &config.control),
             outputs: OutputMap::new(&config.channels),
             controllers,
-            estimator: Estimator::new(&config.estimator),
+            estimator: Estimator::new(
+                &config.estimator,
+                u64::from(config.safety.gnss_timeout_ms) * 1_000_000,
+            ),
             answer: AnswerWindow::new(
                 config.packet_wire_ns(),
                 us(config.sensor.wire_tolerance_us),

@@ -1,0 +1,235 @@
+//! Crafted sensor and command sequences under which the robot must not move, driven through
+//! `Core::step` with a manual clock: a gyro carrying the heading long after its last GNSS
+//! correction, a GNSS time of week that steps backwards, a negative ground speed, a mode
+//! round trip inside one cycle, and one IMU die frozen while the other stays alive.
+
+use dima_core::config::Config;
+use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
+use dima_core::{Command, Core, CoreState, Mode, Nanos};
+use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
+use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
+
+const MS: Nanos = 1_000_000;
+const PERIOD: Nanos = 4 * MS;
+/// Cycles per GNSS epoch (10 Hz at 250 Hz).
+const EPOCH_CYCLES: u64 = 25;
+/// Request to packet complete for a healthy link: just over the 3.151 ms wire time.
+const ANSWER: Nanos = 3_300_000;
+/// Gyroscope counts per °/s at ±2000 °/s.
+const GYRO_COUNTS_PER_DPS: f32 = 16.4;
+
+/// The board's words: GNSS, and each IMU die's base words plus, while it is alive, a little
+/// noise that changes every packet.
+#[derive(Debug, Clone, Copy)]
+struct Board {
+    itow_ms: u32,
+    speed_mm_s: i32,
+    head_deg_e5: i32,
+    accel: [i16; 3],
+    gyro: [i16; 3],
+    accel_alive: bool,
+    gyro_alive: bool,
+    packets: u32,
+}
+
+impl Board {
+    fn new() -> Board {
+        Board {
+            itow_ms: 1_000,
+            speed_mm_s: 0,
+            head_deg_e5: 0,
+            accel: [0, 0, 1_020],
+            gyro: [0, 0, 0],
+            accel_alive: true,
+            gyro_alive: true,
+            packets: 0,
+        }
+    }
+
+    /// The next packet: noise on the X and Y words of each live die (the gyro's Z word, the
+    /// yaw rate, stays exactly what the test set).
+    fn next_raw(&mut self) -> RawPacket {
+        self.packets = self.packets.wrapping_add(1);
+        let n = self.packets as i16;
+        let mut accel = self.accel;
+        let mut gyro = self.gyro;
+        if self.accel_alive {
+            accel[0] += n % 7 - 3;
+            accel[1] += n % 3 - 1;
+        }
+        if self.gyro_alive {
+            gyro[0] += n % 5 - 2;
+            gyro[1] += n % 3 - 1;
+        }
+        let pvt = NavPvt {
+            itow_ms: self.itow_ms,
+            fix_type: 3,
+            flags: FLAG_GNSS_FIX_OK,
+            g_speed_mm_s: self.speed_mm_s,
+            head_mot_deg_e5: self.head_deg_e5,
+            s_acc_mm_s: 150,
+            ..NavPvt::default()
+        };
+        let p = SensorPacket {
+            accel,
+            gyro,
+            gnss: GnssFrame::from_nav_pvt(&pvt),
+            ..SensorPacket::default()
+        };
+        RawPacket::new(p.encode()).expect("a valid packet")
+    }
+}
+
+/// The loop around the step: a manual clock and the board.
+struct Rig {
+    core: Core,
+    state: CoreState,
+    config: Config,
+    now: Nanos,
+    cycles: u64,
+    board: Board,
+    /// A new GNSS epoch (iTOW + 100 ms) every 100 ms; false: the test sets the iTOW.
+    gnss_running: bool,
+    /// The board answers each request in time; false: no answer.
+    answering: bool,
+}
+
+impl Rig {
+    fn new() -> Rig {
+        Rig::with_config(Config::default())
+    }
+
+    fn with_config(config: Config) -> Rig {
+        config.validate().expect("valid test configuration");
+        let mut rig = Rig {
+            core: Core::new(&config).expect("a valid configuration"),
+            state: CoreState::new(),
+            config,
+            now: 1_000 * MS,
+            cycles: 0,
+            board: Board::new(),
+            gnss_running: true,
+            answering: true,
+        };
+        for _ in 0..rig.config.safety.revive_good_packets {
+            rig.cycle(&[]);
+        }
+        rig
+    }
+
+    /// One cycle with `commands`.
+    fn cycle(&mut self, commands: &[Command]) -> CycleOutputs {
+        self.now += PERIOD;
+        self.cycles += 1;
+        if self.gnss_running && self.epoch_starts() {
+            self.board.itow_ms += 100;
+        }
+        let sensor = if self.answering {
+            SensorInput::Packet {
+                raw: self.board.next_raw(),
+                t_request_ns: self.now,
+                t_complete_ns: self.now + ANSWER,
+            }
+        } else {
+            SensorInput::NoAnswer {
+                t_request_ns: self.now,
+            }
+        };
+        let inputs = CycleInputs {
+            missed_periods: 0,
+            commands,
+            sensor,
+            stale_packets: 0,
+        };
+        self.core.step(&mut self.state, &inputs, self.now)
+    }
+
+    /// This cycle is the first of a GNSS epoch.
+    fn epoch_starts(&self) -> bool {
+        self.cycles % EPOCH_CYCLES == 0
+    }
+
+    /// A cycle with a heartbeat every 100 ms (well within the comms timeout).
+    fn quiet_cycle(&mut self) -> CycleOutputs {
+        let hb: &[Command] = if self.cycles % EPOCH_CYCLES == 0 {
+            &[Command::Heartbeat]
+        } else {
+            &[]
+        };
+        self.cycle(hb)
+    }
+
+    /// `n` quiet cycles; the last outputs.
+    fn run(&mut self, n: usize) -> CycleOutputs {
+        let mut out = self.cycle(&[Command::Heartbeat]);
+        for _ in 1..n {
+            out = self.quiet_cycle();
+        }
+        out
+    }
+
+    /// Revived and in AUTO with `speed_mm_s` and heading 90°, driving at 2 m/s on 90°.
+    fn in_auto(&mut self, speed_mm_s: i32) {
+        self.board.speed_mm_s = 2_000;
+        self.board.head_deg_e5 = 9_000_000;
+        assert_eq!(self.cycle(&[Command::Revive]).mode, Mode::Manual);
+        self.run(50);
+        let out = self.cycle(&[
+            Command::SpeedSetpoint { mm_s: speed_mm_s },
+            Command::HeadingSetpoint { deg_e5: 9_000_000 },
+        ]);
+        assert_eq!(out.mode, Mode::Auto);
+        let out = self.run(100);
+        assert_eq!(out.mode, Mode::Auto, "{out:?}");
+    }
+
+    fn neutral_us(&self) -> [u16; 3] {
+        let ch = &self.config.channels;
+        [
+            ch.throttle.neutral_us,
+            ch.steering.neutral_us,
+            ch.tail.neutral_us,
+        ]
+    }
+}
+
+#[test]
+fn below_the_heading_speed_the_gyro_alone_does_not_steer_past_the_gnss_timeout() {
+    let mut rig = Rig::new();
+    // An unlearnt gyro bias of 2 °/s (the car never stood still).
+    rig.board.gyro[2] = (2.0 * GYRO_COUNTS_PER_DPS).round() as i16;
+    rig.in_auto(2_000);
+    // Too slow for a GNSS heading of motion; fixes keep coming (the GNSS stays fresh).
+    rig.board.speed_mm_s = rig.config.estimator.min_heading_speed_mm_s - 200;
+    let slowed_at = rig.now;
+    let timeout = u64::from(rig.config.safety.gnss_timeout_ms) * MS;
+    let neutral = rig.neutral_us()[1];
+    // The steering pulse furthest from neutral, and the last heading, past the timeout.
+    let mut worst: Option<(u16, Nanos)> = None;
+    let mut heading_past_timeout = None;
+    for _ in 0..5_000 {
+        let out = rig.quiet_cycle();
+        assert_eq!(out.mode, Mode::Auto, "{out:?}");
+        // The last GNSS correction is at most one epoch before the slow-down.
+        let since = rig.now - slowed_at;
+        if since > timeout + 100 * MS + PERIOD {
+            let us = out.targets.pulse_us[1];
+            if worst.is_none_or(|(w, _)| us.abs_diff(neutral) > w.abs_diff(neutral)) {
+                worst = Some((us, since));
+            }
+            heading_past_timeout = heading_past_timeout.or(out.estimate.heading_deg);
+        }
+    }
+    let (worst_us, at) = worst.expect("cycles past the timeout");
+    assert!(
+        worst_us.abs_diff(neutral) <= 5 && heading_past_timeout.is_none(),
+        "steering {worst_us} µs (neutral {neutral}) {} ms after the slow-down; heading past \
+         the GNSS timeout: {heading_past_timeout:?}",
+        at / MS
+    );
+    // Back above the heading speed: the next GNSS heading is taken afresh.
+    rig.board.speed_mm_s = 2_000;
+    let out = rig.run(50);
+    let heading = out.estimate.heading_deg.expect("a GNSS heading again");
+    assert!((heading.value - 90.0).abs() < 2.0, "{heading:?}");
+}
