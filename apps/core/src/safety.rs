@@ -21,7 +21,9 @@
 //! - in KILLED or FAILSAFE manual values and setpoints change no mode and are not kept;
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
 //!   missing packets, a stuck IMU, or too many overruns within a second -> FAILSAFE; in AUTO
-//!   also GNSS older than its timeout. FAILSAFE latches until a revive;
+//!   also GNSS older than its timeout (a fix counts only while it is valid and its time of week
+//!   advances past the newest fix used: a repeated or backward iTOW is old data). FAILSAFE
+//!   latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
 //!   from neutral.
 

@@ -16,7 +16,9 @@ use crate::control::{
 };
 use crate::counters::Counters;
 use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
-use crate::monitor::{AnswerWindow, GnssFreshness, ImuStuckDetector, OverrunWindow, PacketVerdict};
+use crate::monitor::{
+    AnswerWindow, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunWindow, PacketVerdict,
+};
 use crate::safety::{CycleHealth, FailsafeCause, Mode, ReviveRefusal, SafetyLimits, SafetyState};
 use crate::Nanos;
 
@@ -224,14 +226,17 @@ impl Core {
             state.imu.update(p.accel, p.gyro, self.imu_stuck_packets);
             state.values.gyro_z_dps = units::gyro_dps_2000(p.gyro[2]);
         }
-        let new_fix = state.gnss.update(
+        let epoch = state.gnss.update(
             packet.as_ref().and_then(SensorPacket::nav_pvt).as_ref(),
             self.max_speed_accuracy_mm_s,
             now,
         );
-        if new_fix.is_some() {
-            state.counters.gnss_fixes += 1;
+        match epoch {
+            GnssEpoch::New(_) => state.counters.gnss_fixes += 1,
+            GnssEpoch::NotAdvancing => state.counters.gnss_backwards += 1,
+            _ => {}
         }
+        let new_fix = epoch.fix();
         state.values.gnss = state.gnss.current(now, self.gnss_timeout_ns);
         state.values.gnss_new = new_fix.is_some();
         let imu = packet.as_ref().map(|p| ImuSample {

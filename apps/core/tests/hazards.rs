@@ -5,7 +5,7 @@
 
 use dima_core::config::Config;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, Mode, Nanos};
+use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos};
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
 
@@ -232,4 +232,40 @@ fn below_the_heading_speed_the_gyro_alone_does_not_steer_past_the_gnss_timeout()
     let out = rig.run(50);
     let heading = out.estimate.heading_deg.expect("a GNSS heading again");
     assert!((heading.value - 90.0).abs() < 2.0, "{heading:?}");
+}
+
+#[test]
+fn a_gnss_time_of_week_stepping_back_and_forth_goes_stale_in_auto() {
+    let mut rig = Rig::new();
+    rig.in_auto(2_000);
+    rig.gnss_running = false;
+    let fixes_before = rig.state.counters.gnss_fixes;
+    let started = rig.now;
+    let high = rig.board.itow_ms;
+    let low = high - 100;
+    let timeout = u64::from(rig.config.safety.gnss_timeout_ms) * MS;
+    let mut tripped = None;
+    for _ in 0..2_500 {
+        if rig.epoch_starts() {
+            rig.board.itow_ms = if rig.board.itow_ms == high { low } else { high };
+        }
+        let out = rig.quiet_cycle();
+        if out.mode != Mode::Auto {
+            tripped = Some((rig.now - started, out));
+            break;
+        }
+    }
+    let fixes = rig.state.counters.gnss_fixes - fixes_before;
+    let (after, out) = tripped.unwrap_or_else(|| panic!("still AUTO after 10 s, {fixes} fixes"));
+    assert_eq!(
+        (out.mode, out.cause),
+        (Mode::Failsafe, Some(FailsafeCause::GnssStale))
+    );
+    assert!(after <= timeout + PERIOD, "{} ms", after / MS);
+    assert_eq!(fixes, 0, "no epoch of the alternation is fresh");
+    assert!(
+        rig.state.counters.gnss_backwards >= 2,
+        "{:?}",
+        rig.state.counters
+    );
 }

@@ -3,7 +3,8 @@
 //!
 //! - [`AnswerWindow`]: pairs a packet with this cycle's request (not sooner than its wire time,
 //!   not later than the deadline);
-//! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances;
+//! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances past the
+//!   newest fix used (modulo the week): a repeated or backward time of week is old data;
 //! - [`ImuStuckDetector`]: identical IMU words packet after packet are a sensor fault;
 //! - [`OverrunWindow`]: missed periods within a sliding second.
 
@@ -13,6 +14,6 @@ mod imu;
 mod overrun;
 
 pub use answer::{AnswerWindow, PacketVerdict};
-pub use gnss::{FreshFix, GnssFreshness};
+pub use gnss::{FreshFix, GnssEpoch, GnssFreshness};
 pub use imu::ImuStuckDetector;
 pub use overrun::OverrunWindow;
