@@ -269,3 +269,28 @@ fn a_gnss_time_of_week_stepping_back_and_forth_goes_stale_in_auto() {
         rig.state.counters
     );
 }
+
+#[test]
+fn a_negative_ground_speed_never_drives_forward() {
+    let mut config = Config::default();
+    config.estimator.accel_bridging = false;
+    let mut rig = Rig::with_config(config);
+    rig.in_auto(2_000);
+    let out = rig.cycle(&[Command::SpeedSetpoint { mm_s: 0 }]);
+    assert_eq!(out.mode, Mode::Auto);
+    rig.board.speed_mm_s = -3_000;
+    let neutral = rig.neutral_us()[0];
+    let (mut most_us, mut least_speed) = (0u16, f32::INFINITY);
+    for _ in 0..500 {
+        let out = rig.quiet_cycle();
+        most_us = most_us.max(out.targets.pulse_us[0]);
+        if let Some(speed) = out.estimate.speed_mm_s {
+            least_speed = least_speed.min(speed.value);
+        }
+    }
+    assert!(
+        most_us <= neutral && least_speed >= 0.0,
+        "setpoint 0, gSpeed -3000: throttle up to {most_us} µs (neutral {neutral}), speed \
+         estimate down to {least_speed} mm/s"
+    );
+}

@@ -8,7 +8,8 @@
 //!   heading of motion at each fix faster than `min_heading_speed_mm_s` by a complementary
 //!   filter with time constant `heading_tau_s` ([`heading::HeadingFilter`]);
 //! - **ground speed**: GNSS ground speed at each fix, bridged between fixes by integrating the
-//!   longitudinal acceleration ([`speed::SpeedBridge`]);
+//!   longitudinal acceleration ([`speed::SpeedBridge`]); never negative, bridged or not (a
+//!   negative GNSS ground speed is not a valid fix in the first place);
 //! - **accelerations**: the accelerometer's X (forward) and Y (left) axes in m/s².
 //!
 //! Heading and speed exist only while the GNSS is fresh (valid, iTOW advancing, within the GNSS
@@ -42,7 +43,8 @@ pub struct Measured {
 /// What the controllers know about the car's motion. `None`: not valid now.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct StateEstimate {
-    /// Ground speed, mm/s (the unit of GNSS and of the speed setpoint); forward only.
+    /// Ground speed, mm/s (the unit of GNSS and of the speed setpoint); never negative: GNSS
+    /// ground speed is a magnitude, whatever a fix or the bridging says.
     pub speed_mm_s: Option<Measured>,
     /// Heading, degrees clockwise from north, `0..360`; its age is that of the last GNSS
     /// correction.
@@ -172,7 +174,7 @@ impl Estimator {
             let mm_s = if self.accel_bridging {
                 state.speed.mm_s()?
             } else {
-                fix.g_speed_mm_s as f32
+                fix.g_speed_mm_s.max(0) as f32
             };
             Some(measured(mm_s, fix.at_ns))
         });
@@ -480,6 +482,26 @@ mod tests {
         );
         assert!(worst[0] < 30.0, "bridged {:.0} mm/s", worst[0]);
         assert!(worst[1] > 150.0, "held {:.0} mm/s", worst[1]);
+    }
+
+    #[test]
+    fn the_speed_is_never_negative_bridged_or_not() {
+        for accel_bridging in [true, false] {
+            let est = estimator(EstimatorConfig {
+                accel_bridging,
+                ..EstimatorConfig::default()
+            });
+            let mut state = EstimatorState::default();
+            let fix = FreshFix {
+                itow_ms: 1_000,
+                g_speed_mm_s: -3_000,
+                head_mot_deg_e5: 0,
+                at_ns: 0,
+            };
+            let e = est.update(&mut state, Some(ImuSample::default()), Some(fix), true, 0);
+            let speed = e.speed_mm_s.expect("a speed");
+            assert_eq!(speed.value, 0.0, "bridging {accel_bridging}");
+        }
     }
 
     #[test]

@@ -1,6 +1,6 @@
 //! GNSS freshness: a NAV-PVT solution counts only while it is valid (gnssFixOK with a 2-D, 3-D
-//! or GNSS + dead-reckoning fix, and a speed accuracy within bounds) and its time of week
-//! advances past the newest fix used. The sensor board repeats its last NAV-PVT when the
+//! or GNSS + dead-reckoning fix, a ground speed that is a magnitude (never negative), and a
+//! speed accuracy within bounds) and its time of week advances past the newest fix used. The sensor board repeats its last NAV-PVT when the
 //! receiver goes quiet, so an unchanged iTOW is old data, however valid it looks; an iTOW that
 //! steps back (or jumps ahead by half a week or more) is no newer than the fix already used, so
 //! it does not refresh either, and alternating between two epochs cannot pass for a live
@@ -60,13 +60,15 @@ pub struct GnssFreshness {
     fix: Option<FreshFix>,
 }
 
-/// Whether `pvt` is a usable position and velocity solution.
+/// Whether `pvt` is a usable position and velocity solution. NAV-PVT's ground speed is a
+/// magnitude: a negative one is a corrupt solution, whatever its flags say.
 pub fn is_valid(pvt: &NavPvt, max_speed_accuracy_mm_s: u32) -> bool {
     pvt.gnss_fix_ok()
         && matches!(
             pvt.fix(),
             FixType::Fix2D | FixType::Fix3D | FixType::GnssDeadReckoning
         )
+        && pvt.g_speed_mm_s >= 0
         && pvt.s_acc_mm_s <= max_speed_accuracy_mm_s
 }
 
@@ -157,6 +159,16 @@ mod tests {
             !is_valid(&pvt(1, 3, FLAG_GNSS_FIX_OK, 1_001), 1_000),
             "sAcc"
         );
+        let reversing = NavPvt {
+            g_speed_mm_s: -1,
+            ..pvt(1, 3, FLAG_GNSS_FIX_OK, 150)
+        };
+        assert!(!is_valid(&reversing, 1_000), "negative gSpeed");
+        let standing = NavPvt {
+            g_speed_mm_s: 0,
+            ..reversing
+        };
+        assert!(is_valid(&standing, 1_000));
     }
 
     #[test]
