@@ -69,7 +69,9 @@ pub struct CycleOutputs {
     pub mode: Mode,
     /// Why FAILSAFE was entered (while in FAILSAFE).
     pub cause: Option<FailsafeCause>,
-    /// The mode changed this cycle.
+    /// The mode after the cycle differs from the mode before it (what the log reports as a
+    /// mode change). A round trip within the cycle (AUTO -> MANUAL -> AUTO) is not one here,
+    /// though it resets the controllers like any transition.
     pub mode_changed: bool,
     /// What became of the sensor packet.
     pub verdict: PacketVerdict,
@@ -255,10 +257,13 @@ impl Core {
     }
 
     /// The controllers, in AUTO on a good packet; the last action is held on a missing one.
-    /// Every mode change resets them.
-    fn control(&mut self, state: &mut CoreState, packet_ok: bool, mode_changed: bool, now: Nanos) {
-        if mode_changed {
+    /// Every mode transition this cycle (`transitioned`, also one that came back to the mode the
+    /// cycle started in) resets them and drops the held action.
+    fn control(&mut self, state: &mut CoreState, packet_ok: bool, transitioned: bool, now: Nanos) {
+        if transitioned {
             self.controllers.reset();
+            state.action = Actuation::default();
+            state.last_step_ns = None;
         }
         if state.safety.mode != Mode::Auto {
             state.action = Actuation::default();
@@ -290,6 +295,7 @@ impl Core {
         now: Nanos,
     ) -> CycleOutputs {
         let mode_before = state.safety.mode;
+        let transitions_before = state.safety.mode_transitions;
         state.counters.cycles += 1;
         state.counters.packets_stale += u64::from(inputs.stale_packets);
         state.counters.missed_periods += u64::from(inputs.missed_periods);
@@ -322,10 +328,11 @@ impl Core {
         };
         state.safety.on_cycle(&self.limits, health, now);
         let mode_changed = state.safety.mode != mode_before;
-        if mode_changed && state.safety.mode == Mode::Failsafe {
+        let transitioned = state.safety.mode_transitions != transitions_before;
+        if transitioned && state.safety.mode == Mode::Failsafe {
             state.counters.failsafes += 1;
         }
-        self.control(state, verdict.is_ok(), mode_changed, now);
+        self.control(state, verdict.is_ok(), transitioned, now);
 
         let targets =
             self.outputs

@@ -6,6 +6,7 @@
 use dima_core::config::Config;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
 use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos};
+use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
 
@@ -17,6 +18,10 @@ const EPOCH_CYCLES: u64 = 25;
 const ANSWER: Nanos = 3_300_000;
 /// Gyroscope counts per °/s at ±2000 °/s.
 const GYRO_COUNTS_PER_DPS: f32 = 16.4;
+
+fn pct(v: u8) -> Percent {
+    Percent::new(v).unwrap()
+}
 
 /// The board's words: GNSS, and each IMU die's base words plus, while it is alive, a little
 /// noise that changes every packet.
@@ -292,5 +297,38 @@ fn a_negative_ground_speed_never_drives_forward() {
         most_us <= neutral && least_speed >= 0.0,
         "setpoint 0, gSpeed -3000: throttle up to {most_us} µs (neutral {neutral}), speed \
          estimate down to {least_speed} mm/s"
+    );
+}
+
+#[test]
+fn auto_to_manual_to_auto_in_one_cycle_resets_the_controllers_and_the_held_action() {
+    let mut rig = Rig::new();
+    rig.in_auto(5_000);
+    // Far below the setpoint: the speed loop drives hard.
+    rig.board.speed_mm_s = 1_000;
+    let out = rig.run(250);
+    let neutral = rig.neutral_us()[0];
+    assert!(out.targets.pulse_us[0] > neutral + 200, "{:?}", out.targets);
+    // Manual, then AUTO again with setpoint 0, in one cycle whose packet is missing, and a few
+    // more without packets (fewer than trip the sensor-loss failsafe): the held action.
+    rig.answering = false;
+    let out = rig.cycle(&[
+        Command::Throttle(pct(50)),
+        Command::SpeedSetpoint { mm_s: 0 },
+    ]);
+    assert_eq!(out.mode, Mode::Auto);
+    let mut throttle = vec![out.targets.pulse_us[0]];
+    for _ in 0..10 {
+        throttle.push(rig.quiet_cycle().targets.pulse_us[0]);
+    }
+    rig.answering = true;
+    for _ in 0..50 {
+        let out = rig.quiet_cycle();
+        assert_eq!(out.mode, Mode::Auto);
+        throttle.push(out.targets.pulse_us[0]);
+    }
+    assert!(
+        throttle.iter().all(|&us| us <= neutral + 10),
+        "throttle after the round trip (setpoint 0): {throttle:?}"
     );
 }
