@@ -20,8 +20,9 @@
 //!   forward-only);
 //! - in KILLED or FAILSAFE manual values and setpoints change no mode and are not kept;
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
-//!   missing packets, a stuck IMU, or too many overruns within a second -> FAILSAFE; in AUTO
-//!   also GNSS older than its timeout (a fix counts only while it is valid and its time of week
+//!   missing packets, a stuck IMU (the accelerometer's or the gyroscope's words frozen, each
+//!   die judged on its own), or too many overruns within a second -> FAILSAFE; in AUTO also
+//!   GNSS older than its timeout (a fix counts only while it is valid and its time of week
 //!   advances past the newest fix used: a repeated or backward iTOW is old data). FAILSAFE
 //!   latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
@@ -102,7 +103,7 @@ pub enum FailsafeCause {
     CommsLoss,
     /// K consecutive bad, missing, stale or late sensor packets.
     SensorLoss,
-    /// Identical accelerometer and gyroscope words for many packets.
+    /// Identical accelerometer words, or identical gyroscope words, for many packets.
     ImuStuck,
     /// More missed periods within a second than the overrun limit.
     Overrun,
@@ -187,7 +188,8 @@ pub struct CycleHealth {
     pub packet_ok: bool,
     /// More missed periods within the last second than the overrun limit.
     pub overrunning: bool,
-    /// The IMU words have not changed for the stuck threshold.
+    /// One IMU die's words (the accelerometer's or the gyroscope's) have not changed for the
+    /// stuck threshold.
     pub imu_stuck: bool,
     /// No fresh GNSS fix within the GNSS timeout.
     pub gnss_stale: bool,

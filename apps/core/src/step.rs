@@ -110,7 +110,7 @@ pub struct CoreState {
     pub values: SensorValues,
     /// GNSS freshness.
     pub gnss: GnssFreshness,
-    /// Stuck-IMU run.
+    /// Stuck-IMU runs, one per die.
     pub imu: ImuStuckDetector,
     /// Missed periods within the last second.
     pub overruns: OverrunWindow,

@@ -332,3 +332,51 @@ fn auto_to_manual_to_auto_in_one_cycle_resets_the_controllers_and_the_held_actio
         "throttle after the round trip (setpoint 0): {throttle:?}"
     );
 }
+
+/// Runs AUTO with one die frozen and returns the packets until FAILSAFE and its outputs.
+fn freeze_one_die(gyro_frozen: bool) -> (u32, CycleOutputs) {
+    let mut rig = Rig::new();
+    rig.in_auto(2_000);
+    if gyro_frozen {
+        // A gyro frozen mid-turn at 40 °/s, the accelerometer still noisy.
+        rig.board.gyro = [-3, 7, (40.0 * GYRO_COUNTS_PER_DPS) as i16];
+        rig.board.gyro_alive = false;
+    } else {
+        rig.board.accel = [55, -12, 990];
+        rig.board.accel_alive = false;
+    }
+    let limit = rig.config.safety.imu_stuck_packets;
+    for packets in 1..=2_500 {
+        let out = rig.quiet_cycle();
+        if out.mode != Mode::Auto {
+            return (packets, out);
+        }
+    }
+    panic!("still AUTO after 10 s with a frozen die (stuck limit {limit} packets)");
+}
+
+#[test]
+fn a_frozen_gyro_beside_a_live_accelerometer_is_a_stuck_imu() {
+    let (packets, out) = freeze_one_die(true);
+    assert_eq!(
+        (out.mode, out.cause),
+        (Mode::Failsafe, Some(FailsafeCause::ImuStuck))
+    );
+    assert!(
+        packets <= Config::default().safety.imu_stuck_packets,
+        "{packets}"
+    );
+}
+
+#[test]
+fn a_frozen_accelerometer_beside_a_live_gyro_is_a_stuck_imu() {
+    let (packets, out) = freeze_one_die(false);
+    assert_eq!(
+        (out.mode, out.cause),
+        (Mode::Failsafe, Some(FailsafeCause::ImuStuck))
+    );
+    assert!(
+        packets <= Config::default().safety.imu_stuck_packets,
+        "{packets}"
+    );
+}

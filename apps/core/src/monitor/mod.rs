@@ -5,7 +5,8 @@
 //!   not later than the deadline);
 //! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances past the
 //!   newest fix used (modulo the week): a repeated or backward time of week is old data;
-//! - [`ImuStuckDetector`]: identical IMU words packet after packet are a sensor fault;
+//! - [`ImuStuckDetector`]: identical words packet after packet from either IMU die (the
+//!   accelerometer or the gyroscope, each on its own) are a sensor fault;
 //! - [`OverrunWindow`]: missed periods within a sliding second.
 
 mod answer;
