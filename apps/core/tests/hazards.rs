@@ -151,12 +151,12 @@ impl Rig {
 
     /// This cycle is the first of a GNSS epoch.
     fn epoch_starts(&self) -> bool {
-        self.cycles % EPOCH_CYCLES == 0
+        self.cycles.is_multiple_of(EPOCH_CYCLES)
     }
 
     /// A cycle with a heartbeat every 100 ms (well within the comms timeout).
     fn quiet_cycle(&mut self) -> CycleOutputs {
-        let hb: &[Command] = if self.cycles % EPOCH_CYCLES == 0 {
+        let hb: &[Command] = if self.epoch_starts() {
             &[Command::Heartbeat]
         } else {
             &[]
