@@ -30,6 +30,10 @@ pub struct Counters {
     pub sensor_errors: u64,
     /// New GNSS fixes used (valid, iTOW advancing).
     pub gnss_fixes: u64,
+    /// GNSS epochs whose time of week changed but did not advance past the newest fix used
+    /// (stepped back, or jumped half a week or more ahead): not used. Absent in older logs.
+    #[serde(default)]
+    pub gnss_backwards: u64,
     /// Maestro writes done.
     pub servo_writes: u64,
     /// Maestro write errors.

@@ -20,10 +20,16 @@
 //!   forward-only);
 //! - in KILLED or FAILSAFE manual values and setpoints change no mode and are not kept;
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
-//!   missing packets, a stuck IMU, or too many overruns within a second -> FAILSAFE; in AUTO
-//!   also GNSS older than its timeout. FAILSAFE latches until a revive;
+//!   missing packets, a stuck IMU (the accelerometer's or the gyroscope's words frozen, each
+//!   die judged on its own), or too many overruns within a second -> FAILSAFE; in AUTO also
+//!   GNSS older than its timeout (a fix counts only while it is valid and its time of week
+//!   advances past the newest fix used: a repeated or backward iTOW is old data). FAILSAFE
+//!   latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
-//!   from neutral.
+//!   from neutral;
+//! - every mode transition is counted ([`SafetyState::mode_transitions`]), also those that come
+//!   back to the mode the cycle started in (AUTO -> MANUAL -> AUTO from two commands in one
+//!   cycle): the step resets the controllers and drops the held action on any of them.
 
 use dima_groundlink::{Command, Percent, HEADING_FULL_TURN_DEG_E5};
 
@@ -97,7 +103,7 @@ pub enum FailsafeCause {
     CommsLoss,
     /// K consecutive bad, missing, stale or late sensor packets.
     SensorLoss,
-    /// Identical accelerometer and gyroscope words for many packets.
+    /// Identical accelerometer words, or identical gyroscope words, for many packets.
     ImuStuck,
     /// More missed periods within a second than the overrun limit.
     Overrun,
@@ -182,7 +188,8 @@ pub struct CycleHealth {
     pub packet_ok: bool,
     /// More missed periods within the last second than the overrun limit.
     pub overrunning: bool,
-    /// The IMU words have not changed for the stuck threshold.
+    /// One IMU die's words (the accelerometer's or the gyroscope's) have not changed for the
+    /// stuck threshold.
     pub imu_stuck: bool,
     /// No fresh GNSS fix within the GNSS timeout.
     pub gnss_stale: bool,
@@ -230,6 +237,10 @@ pub struct SafetyState {
     /// Time of the last kill or accepted revive (the next revive waits
     /// `revive_min_interval_ns` from it).
     pub last_toggle_ns: Option<Nanos>,
+    /// Mode transitions since start-up (wrapping). Commands can leave a mode and come back to
+    /// it within one cycle (AUTO -> MANUAL -> AUTO); comparing this count, not just the mode,
+    /// before and after a cycle sees every transition.
+    pub mode_transitions: u32,
 }
 
 impl Default for SafetyState {
@@ -255,6 +266,7 @@ impl SafetyState {
                 heading_deg_e5: None,
             },
             last_toggle_ns: None,
+            mode_transitions: 0,
         }
     }
 
@@ -273,8 +285,16 @@ impl SafetyState {
         }
     }
 
+    /// Switches to `mode`, counting the transition when it is one.
+    fn switch_to(&mut self, mode: Mode) {
+        if self.mode != mode {
+            self.mode = mode;
+            self.mode_transitions = self.mode_transitions.wrapping_add(1);
+        }
+    }
+
     fn enter_safe(&mut self, mode: Mode, cause: Option<FailsafeCause>) {
-        self.mode = mode;
+        self.switch_to(mode);
         self.cause = cause;
         self.setpoints = Setpoints::default();
     }
@@ -284,7 +304,7 @@ impl SafetyState {
         match self.mode {
             Mode::Manual => {}
             Mode::Auto => {
-                self.mode = Mode::Manual;
+                self.switch_to(Mode::Manual);
                 self.setpoints = Setpoints::default();
             }
             Mode::Killed | Mode::Failsafe => return,
@@ -303,7 +323,7 @@ impl SafetyState {
         match self.mode {
             Mode::Auto => {}
             Mode::Manual => {
-                self.mode = Mode::Auto;
+                self.switch_to(Mode::Auto);
                 self.setpoints = Setpoints::default();
             }
             Mode::Killed | Mode::Failsafe => return,
@@ -346,7 +366,7 @@ impl SafetyState {
                     match refusal {
                         Some(why) => effect.refused = Some(why),
                         None => {
-                            self.mode = Mode::Manual;
+                            self.switch_to(Mode::Manual);
                             self.cause = None;
                             self.setpoints = Setpoints::default();
                             self.last_toggle_ns = Some(now);
@@ -796,6 +816,24 @@ mod tests {
             s.on_command(&LIMITS, Command::Kill, 0, Some(ReviveRefusal::ImuStuck));
             assert_eq!(s.mode, Killed);
         }
+    }
+
+    #[test]
+    fn every_transition_is_counted_even_back_to_the_same_mode() {
+        let mut s = run_table(&[
+            (0, Cmd(Command::Revive), Manual),
+            (4, Cmd(Command::SpeedSetpoint { mm_s: 1_000 }), Auto),
+        ]);
+        let before = s.mode_transitions;
+        s.on_command(&LIMITS, Command::Throttle(pct(50)), 8 * MS, None);
+        s.on_command(&LIMITS, Command::SpeedSetpoint { mm_s: 0 }, 8 * MS, None);
+        assert_eq!((s.mode, s.mode_transitions - before), (Auto, 2));
+        // Commands that change no mode count nothing.
+        s.on_command(&LIMITS, Command::SpeedSetpoint { mm_s: 10 }, 9 * MS, None);
+        s.on_command(&LIMITS, Command::Revive, 9 * MS, None);
+        s.on_command(&LIMITS, Command::Kill, 9 * MS, None);
+        s.on_command(&LIMITS, Command::Kill, 9 * MS, None);
+        assert_eq!((s.mode, s.mode_transitions - before), (Killed, 3));
     }
 
     #[test]

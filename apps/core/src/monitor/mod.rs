@@ -3,8 +3,10 @@
 //!
 //! - [`AnswerWindow`]: pairs a packet with this cycle's request (not sooner than its wire time,
 //!   not later than the deadline);
-//! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances;
-//! - [`ImuStuckDetector`]: identical IMU words packet after packet are a sensor fault;
+//! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances past the
+//!   newest fix used (modulo the week): a repeated or backward time of week is old data;
+//! - [`ImuStuckDetector`]: identical words packet after packet from either IMU die (the
+//!   accelerometer or the gyroscope, each on its own) are a sensor fault;
 //! - [`OverrunWindow`]: missed periods within a sliding second.
 
 mod answer;
@@ -13,6 +15,6 @@ mod imu;
 mod overrun;
 
 pub use answer::{AnswerWindow, PacketVerdict};
-pub use gnss::{FreshFix, GnssFreshness};
+pub use gnss::{FreshFix, GnssEpoch, GnssFreshness};
 pub use imu::ImuStuckDetector;
 pub use overrun::OverrunWindow;
