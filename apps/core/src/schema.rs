@@ -150,6 +150,11 @@ pub struct GroundLinkCounters {
     /// v2 revives accepted but not acted on: repetitions of an operator request the robot
     /// already acted on (taken as heartbeats; included in `v2_accepted`).
     pub revive_repeats: u64,
+    /// v2 manual commands and setpoints accepted but not acted on: their operator request is
+    /// older than the last revive the robot acted on, a value given while the robot was KILLED
+    /// or in FAILSAFE that the station kept repeating (taken as heartbeats; included in
+    /// `v2_accepted`; absent from older logs: read as 0).
+    pub pre_revive_requests: u64,
     /// v1 commands accepted (only with `xbee.require_auth = false`).
     pub v1_accepted: u64,
     /// Valid v1 commands ignored because `xbee.require_auth = true`.
@@ -487,5 +492,33 @@ mod tests {
         }))
         .unwrap();
         assert_eq!(summary.link, GroundLinkCounters::default());
+    }
+
+    #[test]
+    fn link_counters_of_older_logs_read_new_fields_as_zero() {
+        let link = &serde_json::from_str::<serde_json::Value>(&json_schema::<CycleMessage>())
+            .unwrap()["$defs"]["GroundLinkCounters"];
+        let properties = link["properties"].as_object().unwrap();
+        assert!(properties.contains_key("revive_repeats"));
+        assert!(properties["pre_revive_requests"]["description"]
+            .as_str()
+            .unwrap()
+            .contains("older than the last revive"));
+        assert!(link.get("required").is_none(), "{link}");
+        // Written before the counter existed.
+        let old: GroundLinkCounters =
+            serde_json::from_value(serde_json::json!({ "v2_accepted": 5, "revive_repeats": 2 }))
+                .unwrap();
+        assert_eq!((old.revive_repeats, old.pre_revive_requests), (2, 0));
+        let new = GroundLinkCounters {
+            pre_revive_requests: 3,
+            ..GroundLinkCounters::default()
+        };
+        let json = serde_json::to_value(new).unwrap();
+        assert_eq!(json["pre_revive_requests"], 3);
+        assert_eq!(
+            serde_json::from_value::<GroundLinkCounters>(json).unwrap(),
+            new
+        );
     }
 }

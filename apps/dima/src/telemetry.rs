@@ -222,7 +222,7 @@ impl LinkSecurity {
 /// consecutive publications.
 #[derive(Debug, Default)]
 pub struct LinkCounters {
-    counters: [AtomicU64; 11],
+    counters: [AtomicU64; 12],
 }
 
 impl LinkCounters {
@@ -241,6 +241,7 @@ impl LinkCounters {
             v1_rejected: c(8),
             v1_crc_errors: c(9),
             revive_repeats: c(10),
+            pre_revive_requests: c(11),
         }
     }
 
@@ -258,6 +259,7 @@ impl LinkCounters {
             counters.v1_rejected,
             counters.v1_crc_errors,
             counters.revive_repeats,
+            counters.pre_revive_requests,
         ];
         for (slot, value) in self.counters.iter().zip(values) {
             slot.store(value, Ordering::Relaxed);
@@ -348,6 +350,7 @@ impl CommandLink {
             malformed: u64::from(v2.malformed),
             kills_outside_window: u64::from(v2.kills_outside_window),
             revive_repeats: u64::from(v2.revive_repeats),
+            pre_revive_requests: u64::from(v2.pre_revive_requests),
             v1_accepted: self.v1_accepted,
             v1_ignored: self.v1_ignored,
             v1_rejected: u64::from(v1.unknown_type) + u64::from(v1.out_of_range),
@@ -513,13 +516,16 @@ impl TelemetryStats {
         let l = &self.link;
         format!(
             "ground link: v2 accepted {} rejected: bad-tag {} replayed {} stale-session {} \
-             malformed {} | v1 accepted {} ignored {} rejected {} crc-errors {} | \
-             commands dropped {} | display frames {} | port errors {}",
+             malformed {} not acted on: revive-repeats {} pre-revive-requests {} | v1 accepted {} \
+             ignored {} rejected {} crc-errors {} | commands dropped {} | display frames {} | \
+             port errors {}",
             l.v2_accepted,
             l.bad_tag,
             l.replayed,
             l.stale_session,
             l.malformed,
+            l.revive_repeats,
+            l.pre_revive_requests,
             l.v1_accepted,
             l.v1_ignored,
             l.v1_rejected,
@@ -727,6 +733,62 @@ mod tests {
         assert_eq!(fed(&mut both, &stream).len(), 3);
         assert_eq!(both.last_accepted(), 9);
         assert_eq!(both.counters().v2_accepted, 1);
+    }
+
+    #[test]
+    fn a_throttle_requested_before_the_revive_is_counted_and_reaches_the_loop_as_a_heartbeat() {
+        let key = LinkKey::from_bytes([3; 16]);
+        let mut strict = link(true, Some(key.clone()));
+        let throttle = Command::Throttle(Percent::new(80).unwrap());
+        let mut stream = Vec::new();
+        for (command, seq, request) in [
+            (throttle, 1, 1),
+            (Command::Revive, 2, 2),
+            (throttle, 3, 1),
+            (Command::Revive, 4, 2),
+        ] {
+            stream.extend(v2::CommandFrame::repeat(command, 77, seq, request).encode(&key));
+        }
+        assert_eq!(
+            fed(&mut strict, &stream),
+            [
+                throttle,
+                Command::Revive,
+                Command::Heartbeat,
+                Command::Heartbeat
+            ]
+        );
+        let counters = strict.counters();
+        assert_eq!(
+            (
+                counters.v2_accepted,
+                counters.pre_revive_requests,
+                counters.revive_repeats
+            ),
+            (4, 1, 1)
+        );
+        assert_eq!(strict.last_accepted(), 4);
+    }
+
+    #[test]
+    fn shared_link_counters_carry_every_field() {
+        let counters = GroundLinkCounters {
+            v2_accepted: 1,
+            bad_tag: 2,
+            replayed: 3,
+            stale_session: 4,
+            malformed: 5,
+            kills_outside_window: 6,
+            revive_repeats: 7,
+            pre_revive_requests: 8,
+            v1_accepted: 9,
+            v1_ignored: 10,
+            v1_rejected: 11,
+            v1_crc_errors: 12,
+        };
+        let shared = LinkCounters::default();
+        shared.store(&counters);
+        assert_eq!(shared.load(), counters);
     }
 
     #[test]
