@@ -278,10 +278,16 @@ pub struct SafetyConfig {
     /// This many consecutive missing or bad sensor packets trip FAILSAFE: 1..=250, and at most
     /// a second of packets at `realtime.loop_rate_hz`.
     pub sensor_loss_packets: u32,
-    /// More than this many missed periods within any sliding second trip FAILSAFE: 1..=250,
-    /// and at most one in ten periods (`realtime.loop_rate_hz / 10`), so that sustained
-    /// overload trips within a second.
+    /// More than this many late wake-ups (each one that missed one or more periods, however
+    /// many) within any sliding second trip FAILSAFE: 1..=250, and at most one in ten periods
+    /// (`realtime.loop_rate_hz / 10`), so that sustained overload trips within a second.
     pub overrun_limit: u32,
+    /// Periods missed within any sliding second adding up to more than this, in one stall or
+    /// several, trip FAILSAFE (`Overrun`), in milliseconds (measured in whole missed periods).
+    /// 10..=400 and at least two periods: one missed period is an ordinary late wake-up, for
+    /// `overrun_limit`; and stalls just shorter than this, back to back, must add up past it
+    /// within a second.
+    pub max_stall_ms: u32,
     /// In AUTO, no fresh GNSS fix (valid, with an advancing iTOW) for this long trips
     /// FAILSAFE; heading may be carried on the gyro alone only this long. In milliseconds.
     pub gnss_timeout_ms: u32,
@@ -303,6 +309,7 @@ impl Default for SafetyConfig {
             comms_timeout_ms: 1_000,
             sensor_loss_packets: 25,
             overrun_limit: 10,
+            max_stall_ms: 250,
             gnss_timeout_ms: 500,
             imu_stuck_packets: 50,
             revive_good_packets: 25,
@@ -681,6 +688,10 @@ pub const MAX_TRIP_NS: u64 = 1_000_000_000;
 /// second's periods).
 pub const MIN_LOOP_RATE_HZ: u32 = 10;
 
+/// `safety.max_stall_ms`, ms: at most 400, so that two stalls just shorter than it, back to
+/// back, add up past it within a second even at the slowest loop rate.
+pub const STALL_MS: std::ops::RangeInclusive<u32> = 10..=400;
+
 /// Fastest `realtime.loop_rate_hz`.
 pub const MAX_LOOP_RATE_HZ: u32 = 10_000;
 
@@ -1003,6 +1014,24 @@ impl Config {
                      without a failsafe; at most {most} (one in ten periods), so that sustained \
                      overload trips within a second",
                     s.overrun_limit
+                ),
+            ));
+        }
+        within_because(
+            "safety.max_stall_ms",
+            s.max_stall_ms,
+            STALL_MS,
+            "stalls just shorter than it, back to back, must add up past it within a second",
+        )?;
+        let two_periods_ms = 2_000 / u64::from(rate.max(1));
+        if u64::from(s.max_stall_ms) < two_periods_ms {
+            return Err(invalid(
+                "safety.max_stall_ms",
+                s.max_stall_ms,
+                &format!(
+                    "must be at least two periods ({two_periods_ms} ms at realtime.loop_rate_hz = \
+                     {rate}): one missed period is an ordinary late wake-up, counted by \
+                     safety.overrun_limit"
                 ),
             ));
         }
@@ -1369,6 +1398,13 @@ mod tests {
             ("[safety]\nsensor_loss_packets = 251", "safety.sensor_loss_packets", "1..=250"),
             ("[safety]\noverrun_limit = 0", "safety.overrun_limit", "1..=250"),
             ("[safety]\noverrun_limit = 100000", "safety.overrun_limit", "1..=250"),
+            ("[safety]\nmax_stall_ms = 9", "safety.max_stall_ms", "10..=400"),
+            ("[safety]\nmax_stall_ms = 401", "safety.max_stall_ms", "10..=400"),
+            (
+                "[realtime]\nloop_rate_hz = 100\n[safety]\nmax_stall_ms = 10",
+                "safety.max_stall_ms",
+                "at least two periods (20 ms at realtime.loop_rate_hz = 100)",
+            ),
             ("[estimator]\ngyro_yaw_sign = 0", "estimator.gyro_yaw_sign", "1 or -1"),
             ("[estimator]\ngyro_yaw_sign = 0.5", "estimator.gyro_yaw_sign", "1 or -1"),
             ("[estimator]\nheading_tau_s = -1", "estimator.heading_tau_s", "0..=60"),

@@ -20,8 +20,9 @@
 //!   forward-only);
 //! - in KILLED or FAILSAFE manual values and setpoints change no mode and are not kept;
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
-//!   missing packets, a stuck IMU, or too many overruns within a second -> FAILSAFE; in AUTO
-//!   also GNSS older than its timeout. FAILSAFE latches until a revive;
+//!   missing packets, a stuck IMU, or an overrunning loop (too many late wake-ups within a
+//!   second, or too long a stall) -> FAILSAFE; in AUTO also GNSS older than its timeout.
+//!   FAILSAFE latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
 //!   from neutral.
 
@@ -30,7 +31,7 @@ use dima_groundlink::{Command, Percent, HEADING_FULL_TURN_DEG_E5};
 use crate::config::{ControlConfig, SafetyConfig};
 use crate::Nanos;
 
-/// Largest `safety.overrun_limit` (the overrun window keeps that many miss times).
+/// Largest `safety.overrun_limit` (the overrun window keeps that many late wake-ups).
 pub const MAX_OVERRUN_LIMIT: u32 = 250;
 
 /// Operating mode. In logs: `KILLED`, `MANUAL`, `AUTO`, `FAILSAFE`.
@@ -99,7 +100,8 @@ pub enum FailsafeCause {
     SensorLoss,
     /// Identical accelerometer and gyroscope words for many packets.
     ImuStuck,
-    /// More missed periods within a second than the overrun limit.
+    /// The loop overran: more late wake-ups within a second than `safety.overrun_limit`, or
+    /// periods missed within a second adding up to more than `safety.max_stall_ms`.
     Overrun,
     /// In AUTO, no fresh GNSS fix within the GNSS timeout.
     GnssStale,
@@ -180,7 +182,7 @@ pub struct Setpoints {
 pub struct CycleHealth {
     /// A valid packet, paired with this cycle's request, arrived in time.
     pub packet_ok: bool,
-    /// More missed periods within the last second than the overrun limit.
+    /// The loop overran (see [`FailsafeCause::Overrun`]).
     pub overrunning: bool,
     /// The IMU words have not changed for the stuck threshold.
     pub imu_stuck: bool,

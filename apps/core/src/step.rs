@@ -16,7 +16,9 @@ use crate::control::{
 };
 use crate::counters::Counters;
 use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
-use crate::monitor::{AnswerWindow, GnssFreshness, ImuStuckDetector, OverrunWindow, PacketVerdict};
+use crate::monitor::{
+    AnswerWindow, GnssFreshness, ImuStuckDetector, OverrunRule, OverrunWindow, PacketVerdict,
+};
 use crate::safety::{CycleHealth, FailsafeCause, Mode, ReviveRefusal, SafetyLimits, SafetyState};
 use crate::Nanos;
 
@@ -108,7 +110,7 @@ pub struct CoreState {
     pub gnss: GnssFreshness,
     /// Stuck-IMU run.
     pub imu: ImuStuckDetector,
-    /// Missed periods within the last second.
+    /// Late wake-ups within the last second.
     pub overruns: OverrunWindow,
     /// Time of the last controller step.
     pub last_step_ns: Option<Nanos>,
@@ -138,7 +140,7 @@ pub struct Core {
     gnss_timeout_ns: Nanos,
     max_speed_accuracy_mm_s: u32,
     imu_stuck_packets: u32,
-    overrun_limit: u32,
+    overrun: OverrunRule,
 }
 
 impl Core {
@@ -161,7 +163,11 @@ impl Core {
             gnss_timeout_ns: u64::from(config.safety.gnss_timeout_ms) * 1_000_000,
             max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
             imu_stuck_packets: config.safety.imu_stuck_packets,
-            overrun_limit: config.safety.overrun_limit,
+            overrun: OverrunRule {
+                limit: config.safety.overrun_limit,
+                max_stall_ns: u64::from(config.safety.max_stall_ms) * 1_000_000,
+                period_ns: config.period_ns(),
+            },
         })
     }
 
@@ -181,7 +187,7 @@ impl Core {
             Some(ReviveRefusal::RealtimeSetup)
         } else if state.imu.is_stuck(self.imu_stuck_packets) {
             Some(ReviveRefusal::ImuStuck)
-        } else if state.overruns.exceeded(now, self.overrun_limit) {
+        } else if state.overruns.exceeded(now, &self.overrun) {
             Some(ReviveRefusal::Overrun)
         } else {
             None
@@ -287,7 +293,7 @@ impl Core {
         state.counters.missed_periods += u64::from(inputs.missed_periods);
         let overrunning = state
             .overruns
-            .record(inputs.missed_periods, now, self.overrun_limit);
+            .record(inputs.missed_periods, now, &self.overrun);
 
         let mut refused = None;
         let mut rejected = 0;

@@ -2,7 +2,8 @@
 //! rate. For loop rates across the range the configuration accepts, each protection is set to
 //! the most lenient value `Config::validate` accepts at that rate (found by searching, not
 //! copied from the validator), its fault is driven through `Core::step` in virtual time, and
-//! the time to FAILSAFE is measured.
+//! the time to FAILSAFE is measured. The overrun rule, besides, lets one short stall of the
+//! host pass.
 
 use dima_core::config::{Config, ConfigError};
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
@@ -213,19 +214,41 @@ fn check_rate(rate: u32) -> bool {
         |_| 0,
     );
 
+    // The overrun rule with both its keys at their most lenient.
+    let c = most_lenient(&strict, |c, v| c.safety.overrun_limit = v, 1);
+    let c = most_lenient(&c, |c, v| c.safety.max_stall_ms = v, c.safety.max_stall_ms);
+    let s = &c.safety;
+    let what = format!(
+        "overrun_limit = {}, max_stall_ms = {}",
+        s.overrun_limit, s.max_stall_ms
+    );
     // Sustained overload, 1.5 periods of work per cycle (6 ms at 250 Hz): the wake-ups
     // alternate between one that skips a period and one that does not.
-    let c = most_lenient(&strict, |c, v| c.safety.overrun_limit = v, 1);
-    let what = format!(
-        "overrun_limit = {}, alternating skips",
-        c.safety.overrun_limit
-    );
     assert_trips(
         &c,
-        &what,
+        &format!("{what}, alternating skips"),
         FailsafeCause::Overrun,
         |_| {},
         |k| (k % 2) as u32,
+    );
+    // The most periods one stall may skip without tripping by itself.
+    let period = c.period_ns();
+    let stall = (u64::from(s.max_stall_ms) * MS / period) as u32;
+    // One stall just longer.
+    assert_trips(
+        &c,
+        &format!("{what}, one stall of {} periods", stall + 1),
+        FailsafeCause::Overrun,
+        |_| {},
+        |k| if k == 0 { stall + 1 } else { 0 },
+    );
+    // Stalls just shorter, back to back.
+    assert_trips(
+        &c,
+        &format!("{what}, stalls of {stall} periods"),
+        FailsafeCause::Overrun,
+        |_| {},
+        |_| stall,
     );
     true
 }
@@ -254,4 +277,100 @@ proptest! {
     fn every_counted_failsafe_trips_within_a_second_at_any_allowed_rate(rate in 1u32..=10_000) {
         check_rate(rate);
     }
+}
+
+/// The default configuration at `rate` Hz (with a sensor link that fits), with `safety`
+/// keys set from `(key, value)` pairs as a file would set them.
+fn config_at(rate: u32, safety: &[(&str, i64)]) -> Config {
+    let mut c = strict_config(rate);
+    let defaults = Config::default();
+    c.safety = defaults.safety.clone();
+    c.safety.overrun_limit = c.safety.overrun_limit.min(rate / 10);
+    let mut table = toml::Table::try_from(&c).expect("a configuration is a table");
+    let section = table
+        .get_mut("safety")
+        .and_then(toml::Value::as_table_mut)
+        .expect("a [safety] section");
+    for &(key, value) in safety {
+        section.insert(key.into(), toml::Value::Integer(value));
+    }
+    Config::from_toml(&toml::to_string(&table).unwrap(), "test").expect("a valid configuration")
+}
+
+/// Runs `cycles` cycles of (missed periods, commands) after a revive; the first mode other
+/// than MANUAL and its cause, if any.
+fn run_pattern(config: &Config, missed: impl Fn(u64) -> u32, cycles: u64) -> Option<FailsafeCause> {
+    let mut rig = Rig::revived(config);
+    for k in 0..cycles {
+        let out = rig.cycle(missed(k), &[Command::Heartbeat]);
+        if out.mode != Mode::Manual {
+            return Some(out.cause.expect("a failsafe has a cause"));
+        }
+    }
+    None
+}
+
+#[test]
+fn one_host_stall_of_73_ms_at_250_hz_does_not_trip() {
+    // Woke 73 ms late: 18 periods skipped at once, then on time.
+    let config = config_at(250, &[]);
+    assert_eq!(
+        run_pattern(&config, |k| if k == 100 { 18 } else { 0 }, 500),
+        None
+    );
+}
+
+#[test]
+fn one_8_ms_stall_among_a_few_late_wake_ups_at_1_khz_does_not_trip() {
+    // At 1 kHz: one wake-up 8 ms late, and three that skip a single period, within a second.
+    let config = config_at(1_000, &[]);
+    let missed = |k: u64| match k {
+        100 => 8,
+        300 | 500 | 700 => 1,
+        _ => 0,
+    };
+    assert_eq!(run_pattern(&config, missed, 1_500), None);
+}
+
+#[test]
+fn sustained_overload_trips_within_a_second_at_250_hz_and_at_1_khz() {
+    for rate in [250, 1_000] {
+        // 1.5 periods of work per cycle (6 ms at 250 Hz): alternating skips.
+        let config = config_at(rate, &[]);
+        assert_trips(
+            &config,
+            "alternating skips",
+            FailsafeCause::Overrun,
+            |_| {},
+            |k| (k % 2) as u32,
+        );
+        // Every wake-up 20 periods late (80 ms at 250 Hz): each stall is short, together they
+        // are most of the time.
+        assert_trips(
+            &config,
+            "stalls of 20 periods",
+            FailsafeCause::Overrun,
+            |_| {},
+            |_| 20,
+        );
+    }
+}
+
+#[test]
+fn a_stall_longer_than_max_stall_ms_trips() {
+    // 250 Hz: 25 periods are 100 ms, 26 are 104 ms.
+    let config = config_at(250, &[("max_stall_ms", 100)]);
+    let stall = |periods: u32| move |k: u64| if k == 100 { periods } else { 0 };
+    assert_eq!(run_pattern(&config, stall(25), 500), None);
+    assert_eq!(
+        run_pattern(&config, stall(26), 500),
+        Some(FailsafeCause::Overrun)
+    );
+    // The default, 250 ms: 62 periods (248 ms) pass, 63 (252 ms) trip.
+    let config = config_at(250, &[]);
+    assert_eq!(run_pattern(&config, stall(62), 500), None);
+    assert_eq!(
+        run_pattern(&config, stall(63), 500),
+        Some(FailsafeCause::Overrun)
+    );
 }

@@ -5,7 +5,7 @@
 //!   not later than the deadline);
 //! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances;
 //! - [`ImuStuckDetector`]: identical IMU words packet after packet are a sensor fault;
-//! - [`OverrunWindow`]: missed periods within a sliding second.
+//! - [`OverrunWindow`]: late wake-ups within a sliding second, and the periods they missed.
 
 mod answer;
 pub mod gnss;
@@ -15,4 +15,4 @@ mod overrun;
 pub use answer::{AnswerWindow, PacketVerdict};
 pub use gnss::{FreshFix, GnssFreshness};
 pub use imu::ImuStuckDetector;
-pub use overrun::OverrunWindow;
+pub use overrun::{OverrunRule, OverrunWindow};
