@@ -336,7 +336,7 @@ fn maestro_seeds() -> Vec<(&'static str, Vec<u8>)> {
 
 fn config_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let pca = "[servo]\nkind = \"pca9685\"\n\n[pca9685]\npwm_frequency_hz = 50\n\n\
-               [realtime]\nloop_rate_hz = 50\n";
+               [realtime]\nloop_rate_hz = 50\n\n[safety]\noverrun_limit = 5\n";
     vec![
         (
             "default",

@@ -21,10 +21,10 @@
 //! - in KILLED or FAILSAFE manual values and setpoints change no mode and are not kept;
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
 //!   missing packets, a stuck IMU (the accelerometer's or the gyroscope's words frozen, each
-//!   die judged on its own), or too many overruns within a second -> FAILSAFE; in AUTO also
-//!   GNSS older than its timeout (a fix counts only while it is valid and its time of week
-//!   advances past the newest fix used: a repeated or backward iTOW is old data). FAILSAFE
-//!   latches until a revive;
+//!   die judged on its own), or an overrunning loop (too many late wake-ups within a second, or
+//!   too long a stall) -> FAILSAFE; in AUTO also GNSS older than its timeout (a fix counts only
+//!   while it is valid and its time of week advances past the newest fix used: a repeated or
+//!   backward iTOW is old data). FAILSAFE latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
 //!   from neutral;
 //! - every mode transition is counted ([`SafetyState::mode_transitions`]), also those that come
@@ -36,7 +36,7 @@ use dima_groundlink::{Command, Percent, HEADING_FULL_TURN_DEG_E5};
 use crate::config::{ControlConfig, SafetyConfig};
 use crate::Nanos;
 
-/// Largest `safety.overrun_limit` (the overrun window keeps that many miss times).
+/// Largest `safety.overrun_limit` (the overrun window keeps that many late wake-ups).
 pub const MAX_OVERRUN_LIMIT: u32 = 250;
 
 /// Operating mode. In logs: `KILLED`, `MANUAL`, `AUTO`, `FAILSAFE`.
@@ -105,7 +105,8 @@ pub enum FailsafeCause {
     SensorLoss,
     /// Identical accelerometer words, or identical gyroscope words, for many packets.
     ImuStuck,
-    /// More missed periods within a second than the overrun limit.
+    /// The loop overran: more late wake-ups within a second than `safety.overrun_limit`, or
+    /// periods missed within a second adding up to more than `safety.max_stall_ms`.
     Overrun,
     /// In AUTO, no fresh GNSS fix within the GNSS timeout.
     GnssStale,
@@ -186,7 +187,7 @@ pub struct Setpoints {
 pub struct CycleHealth {
     /// A valid packet, paired with this cycle's request, arrived in time.
     pub packet_ok: bool,
-    /// More missed periods within the last second than the overrun limit.
+    /// The loop overran (see [`FailsafeCause::Overrun`]).
     pub overrunning: bool,
     /// One IMU die's words (the accelerometer's or the gyroscope's) have not changed for the
     /// stuck threshold.

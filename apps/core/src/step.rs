@@ -17,7 +17,8 @@ use crate::control::{
 use crate::counters::Counters;
 use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
 use crate::monitor::{
-    AnswerWindow, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunWindow, PacketVerdict,
+    AnswerWindow, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule, OverrunWindow,
+    PacketVerdict,
 };
 use crate::safety::{CycleHealth, FailsafeCause, Mode, ReviveRefusal, SafetyLimits, SafetyState};
 use crate::Nanos;
@@ -112,7 +113,7 @@ pub struct CoreState {
     pub gnss: GnssFreshness,
     /// Stuck-IMU runs, one per die.
     pub imu: ImuStuckDetector,
-    /// Missed periods within the last second.
+    /// Late wake-ups within the last second.
     pub overruns: OverrunWindow,
     /// Time of the last controller step.
     pub last_step_ns: Option<Nanos>,
@@ -142,7 +143,7 @@ pub struct Core {
     gnss_timeout_ns: Nanos,
     max_speed_accuracy_mm_s: u32,
     imu_stuck_packets: u32,
-    overrun_limit: u32,
+    overrun: OverrunRule,
 }
 
 impl Core {
@@ -168,7 +169,11 @@ impl Core {
             gnss_timeout_ns: u64::from(config.safety.gnss_timeout_ms) * 1_000_000,
             max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
             imu_stuck_packets: config.safety.imu_stuck_packets,
-            overrun_limit: config.safety.overrun_limit,
+            overrun: OverrunRule {
+                limit: config.safety.overrun_limit,
+                max_stall_ns: u64::from(config.safety.max_stall_ms) * 1_000_000,
+                period_ns: config.period_ns(),
+            },
         })
     }
 
@@ -188,7 +193,7 @@ impl Core {
             Some(ReviveRefusal::RealtimeSetup)
         } else if state.imu.is_stuck(self.imu_stuck_packets) {
             Some(ReviveRefusal::ImuStuck)
-        } else if state.overruns.exceeded(now, self.overrun_limit) {
+        } else if state.overruns.exceeded(now, &self.overrun) {
             Some(ReviveRefusal::Overrun)
         } else {
             None
@@ -301,7 +306,7 @@ impl Core {
         state.counters.missed_periods += u64::from(inputs.missed_periods);
         let overrunning = state
             .overruns
-            .record(inputs.missed_periods, now, self.overrun_limit);
+            .record(inputs.missed_periods, now, &self.overrun);
 
         let mut refused = None;
         let mut rejected = 0;

@@ -142,7 +142,8 @@ fn cycle() -> impl Strategy<Value = Cycle> {
 }
 
 /// A channel table that passes validation: any limits within 1..=4000 µs, neutral and safe
-/// inside them (or, with `allow_off`, safe "off" on steering and tail).
+/// inside them (or, with `allow_off`, safe "off" on steering and tail; a throttle safe pulse
+/// other than neutral with `allow_safe_not_neutral`).
 fn channel(number: u8, may_be_off: bool) -> impl Strategy<Value = ChannelConfig> {
     (
         500u16..2_000,
@@ -166,6 +167,7 @@ fn channel(number: u8, may_be_off: bool) -> impl Strategy<Value = ChannelConfig>
                     SafeOutput::PulseUs(at(s))
                 },
                 allow_off: off,
+                allow_safe_not_neutral: at(s) != at(n),
             }
         })
 }

@@ -7,7 +7,7 @@
 //!   newest fix used (modulo the week): a repeated or backward time of week is old data;
 //! - [`ImuStuckDetector`]: identical words packet after packet from either IMU die (the
 //!   accelerometer or the gyroscope, each on its own) are a sensor fault;
-//! - [`OverrunWindow`]: missed periods within a sliding second.
+//! - [`OverrunWindow`]: late wake-ups within a sliding second, and the periods they missed.
 
 mod answer;
 pub mod gnss;
@@ -17,4 +17,4 @@ mod overrun;
 pub use answer::{AnswerWindow, PacketVerdict};
 pub use gnss::{FreshFix, GnssEpoch, GnssFreshness};
 pub use imu::ImuStuckDetector;
-pub use overrun::OverrunWindow;
+pub use overrun::{OverrunRule, OverrunWindow};
