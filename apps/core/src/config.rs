@@ -291,8 +291,8 @@ pub struct SafetyConfig {
     /// In AUTO, no fresh GNSS fix (valid, with an advancing iTOW) for this long trips
     /// FAILSAFE; heading may be carried on the gyro alone only this long. In milliseconds.
     pub gnss_timeout_ms: u32,
-    /// This many consecutive packets with identical accelerometer and gyroscope words are a
-    /// stuck IMU: FAILSAFE, and revives are refused while it lasts. 2..=10000, and at most a
+    /// This many consecutive packets with identical accelerometer words, or with identical
+    /// gyroscope words (each die judged on its own), are a stuck IMU: FAILSAFE, and revives are refused while it lasts. 2..=10000, and at most a
     /// second of packets at `realtime.loop_rate_hz`.
     pub imu_stuck_packets: u32,
     /// A revive needs this many good sensor packets since the link was last lost
