@@ -108,7 +108,10 @@ fn delivery_colour(delivery: Delivery) -> Color32 {
         Delivery::Acknowledged { .. } => GOOD,
         Delivery::Pending => WARN,
         Delivery::Unacknowledged | Delivery::RobotRestarted => BAD,
-        Delivery::Superseded | Delivery::Cancelled => Color32::GRAY,
+        Delivery::Superseded
+        | Delivery::Cancelled
+        | Delivery::CancelledByRevive
+        | Delivery::CancelledRobotSafe => Color32::GRAY,
     }
 }
 
