@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use eframe::egui::{self, Color32, RichText};
 
 use super::GroundApp;
+use crate::downlink::Severity;
 use crate::link::{LinkControl, LinkState};
 use crate::serial::{list_ports, COMMON_BAUDS};
 
@@ -15,6 +16,15 @@ pub const GOOD: Color32 = Color32::from_rgb(60, 180, 90);
 pub const WARN: Color32 = Color32::from_rgb(230, 160, 40);
 /// Colour of a fault.
 pub const BAD: Color32 = Color32::from_rgb(220, 50, 50);
+
+/// The colour of a severity: green only for [`Severity::Good`].
+pub fn severity_colour(severity: Severity) -> Color32 {
+    match severity {
+        Severity::Good => GOOD,
+        Severity::Warning => WARN,
+        Severity::Fault => BAD,
+    }
+}
 
 pub fn top_bar(ui: &mut egui::Ui, app: &mut GroundApp) {
     egui::Panel::top("connection").show(ui, |ui| {
@@ -115,7 +125,13 @@ pub fn top_bar(ui: &mut egui::Ui, app: &mut GroundApp) {
             ui.label(RichText::new(text).color(colour));
         });
         ui.horizontal_wrapped(|ui| {
-            let colour = if app.status.authenticated { GOOD } else { WARN };
+            // Green only while authentic reports arrive: a key file alone proves nothing.
+            let health = app.status.downlink(std::time::Instant::now());
+            let colour = match health.severity() {
+                Severity::Good => GOOD,
+                _ if app.status.authenticated => BAD,
+                _ => WARN,
+            };
             ui.small(RichText::new(&app.link_note).color(colour));
             ui.separator();
             ui.small(&app.recording_note);
