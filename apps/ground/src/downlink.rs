@@ -131,6 +131,20 @@ impl DownlinkHealth {
         }
     }
 
+    /// The same in a few words, for a status bar or a table row.
+    pub fn short(self) -> &'static str {
+        match self {
+            DownlinkHealth::NotConnected => "not connected",
+            DownlinkHealth::Waiting => "waiting for a report",
+            DownlinkHealth::Authentic => "authenticated reports arriving",
+            DownlinkHealth::V1NoReport => "mode unknown (v1 has no report)",
+            DownlinkHealth::KeyMismatch => "no authenticated report: wrong or missing key?",
+            DownlinkHealth::RobotSpeaksV2 => "no authenticated report: robot requires a key",
+            DownlinkHealth::Garbled => "no report: bytes but no frame",
+            DownlinkHealth::Silent => "no report: nothing received",
+        }
+    }
+
     /// How bad it is: only [`DownlinkHealth::Authentic`] is good.
     pub fn severity(self) -> Severity {
         match self {
@@ -232,6 +246,7 @@ mod tests {
             .text()
             .starts_with("no authenticated report from the robot: wrong or missing key?"));
         assert_eq!(health.severity(), Severity::Fault);
+        assert!(health.short().contains("wrong or missing key?"));
         // Authentic frames stopped and rejected ones go on (the robot got another key).
         let rekeyed = DownlinkObservation {
             since_valid_frame: s(30.0),

@@ -17,15 +17,6 @@ pub const WARN: Color32 = Color32::from_rgb(230, 160, 40);
 /// Colour of a fault.
 pub const BAD: Color32 = Color32::from_rgb(220, 50, 50);
 
-/// The colour of a severity: green only for [`Severity::Good`].
-pub fn severity_colour(severity: Severity) -> Color32 {
-    match severity {
-        Severity::Good => GOOD,
-        Severity::Warning => WARN,
-        Severity::Fault => BAD,
-    }
-}
-
 pub fn top_bar(ui: &mut egui::Ui, app: &mut GroundApp) {
     egui::Panel::top("connection").show(ui, |ui| {
         ui.horizontal_wrapped(|ui| {

@@ -9,7 +9,7 @@ use dima_groundlink::v2::RobotMode;
 use dima_groundlink::CommandType;
 use eframe::egui::{self, Color32, RichText};
 
-use super::connection::{severity_colour, BAD, GOOD, WARN};
+use super::connection::{BAD, GOOD, WARN};
 use super::GroundApp;
 use crate::downlink::{DownlinkHealth, Severity};
 use crate::link::{station_time, LinkState, LinkStatus, RobotReport, UplinkView};
@@ -56,7 +56,7 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
                 None => {
                     let health = s.downlink(now);
                     ui.label(
-                        RichText::new(format!("robot: {}", health.text()))
+                        RichText::new(format!("robot: {}", health.short()))
                             .strong()
                             .color(problem_colour(health)),
                     );
@@ -121,12 +121,11 @@ fn problem_colour(health: DownlinkHealth) -> Color32 {
 
 /// Why the robot's state is unknown, large, in place of its mode.
 fn health_banner(ui: &mut egui::Ui, health: DownlinkHealth) {
-    ui.label(
-        RichText::new(health.text())
-            .size(18.0)
-            .strong()
-            .color(problem_colour(health)),
-    );
+    let text = RichText::new(health.text())
+        .size(18.0)
+        .strong()
+        .color(problem_colour(health));
+    ui.add(egui::Label::new(text).wrap());
 }
 
 pub fn right_panel(ui: &mut egui::Ui, app: &GroundApp) {
@@ -178,11 +177,6 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
                     (true, _) => RichText::new("v2: no authentic frame").color(BAD),
                     (false, _) => RichText::new("not authenticated (v1)").color(WARN),
                 },
-            );
-            row(
-                ui,
-                "robot reports",
-                RichText::new(health.text()).color(severity_colour(health.severity())),
             );
             let age =
                 match s.frame_age(now) {
