@@ -20,13 +20,22 @@
 //!   setpoint) is therefore repeated in every slot, last in the slot and in place of the
 //!   heartbeat, each time with a new number, until the acknowledgement is exactly one of its
 //!   numbers (or, for a revive, the robot reports MANUAL or AUTO after one of them). It is
-//!   given up after [`CONFIRM_TIMEOUT`] and counted as unacknowledged. Repeating is harmless:
-//!   the robot treats a repeated value or setpoint as no change, and a revive's frames all
-//!   carry the number of its first frame (its request), so the robot acts on one revive
-//!   request once: a repetition that arrives after the robot failed safe again does not lift
-//!   that failsafe. Once the robot acknowledged a revive it is not sent again; if a later
+//!   given up after [`CONFIRM_TIMEOUT`] and counted as unacknowledged. Every frame of a
+//!   request carries the number of its first frame (its request; a held value's frames each
+//!   their own number), so the robot can tell how old a request is: it acts on one revive
+//!   request once (a repetition that arrives after the robot failed safe again does not lift
+//!   that failsafe). Once the robot acknowledged a revive it is not sent again; if a later
 //!   display frame still shows KILLED or FAILSAFE the robot refused it (the frame says why)
 //!   and the operator decides whether to revive again.
+//! - **Nothing asked for before a revive drives after it**: a repeated manual value or
+//!   setpoint is not harmless across a revive (an acknowledgement of the revive's frame is
+//!   not one of its own, so it would be repeated into MANUAL or AUTO). Manual values and
+//!   setpoints waiting for their acknowledgement, and the values held, are therefore
+//!   cancelled when a revive goes out ([`Delivery::CancelledByRevive`]) and whenever an
+//!   authentic display frame reports KILLED or FAILSAFE ([`Delivery::CancelledRobotSafe`]),
+//!   except a frame built before an outstanding revive's first frame could have been
+//!   accepted (its acknowledgement is older): what the operator asked for after that revive
+//!   went out is meant for the revived robot.
 //! - **Conflicts**: a newer command of the same type replaces a waiting one; a manual value
 //!   (sent or held) replaces waiting setpoints and a setpoint replaces waiting manual values, so
 //!   a repetition never switches the robot back to a mode the operator has left. A kill drops
@@ -73,6 +82,12 @@ pub enum Delivery {
     Cancelled,
     /// Dropped because the robot restarted (new session id).
     RobotRestarted,
+    /// A manual value or setpoint (requested or held) dropped because a revive went out: what
+    /// was asked for before a revive never drives the revived robot.
+    CancelledByRevive,
+    /// A manual value or setpoint (requested or held) dropped because the robot reported
+    /// KILLED or FAILSAFE.
+    CancelledRobotSafe,
 }
 
 impl Delivery {
@@ -85,6 +100,8 @@ impl Delivery {
             Delivery::Superseded => "superseded",
             Delivery::Cancelled => "cancelled by kill",
             Delivery::RobotRestarted => "dropped: robot restarted",
+            Delivery::CancelledByRevive => "cancelled by revive",
+            Delivery::CancelledRobotSafe => "cancelled: robot KILLED or FAILSAFE",
         }
     }
 }
@@ -112,7 +129,7 @@ pub struct CommandStatus {
 }
 
 impl CommandStatus {
-    fn new(command: Command, now: StationTime) -> CommandStatus {
+    pub(super) fn new(command: Command, now: StationTime) -> CommandStatus {
         CommandStatus {
             command,
             requested_at: now,
@@ -158,6 +175,9 @@ pub struct UplinkStats {
     pub old_display_frames: u64,
     /// Session ids seen (more than one: the robot restarted while the station ran).
     pub sessions: u32,
+    /// Authentic display frames reporting KILLED or FAILSAFE that cancelled manual values and
+    /// setpoints (see the module docs).
+    pub safe_reports: u64,
 }
 
 /// A requested command that was settled (for the session recording).
@@ -194,6 +214,8 @@ pub struct Uplink {
     last_downlink_seq: u32,
     mode: Option<RobotMode>,
     outstanding: Vec<Outstanding>,
+    /// The values held in the last slot (one per command type), with their frames.
+    held: Vec<CommandStatus>,
     /// The latest kill, while it is the station's latest decision about the robot's mode.
     kill: Option<CommandStatus>,
     /// The last slot was a kill slot (a repetition is not a new kill).
@@ -220,6 +242,7 @@ impl Uplink {
             last_downlink_seq: 0,
             mode: None,
             outstanding: Vec::new(),
+            held: Vec::new(),
             kill: None,
             killing: false,
             last_command: None,
@@ -287,6 +310,7 @@ impl Uplink {
                     self.retired.push(previous);
                     self.next_seq = 1;
                     self.settle_all(Delivery::RobotRestarted, now);
+                    self.held.clear();
                 }
                 self.session = Some(frame.session);
                 DownlinkVerdict::NewSession { previous }
@@ -297,7 +321,40 @@ impl Uplink {
         self.mode = Some(frame.mode);
         self.next_seq = self.next_seq.max(frame.ack_seq.saturating_add(1));
         self.confirm(frame, now);
+        if self.reports_safe(frame) {
+            self.stats.safe_reports = self.stats.safe_reports.saturating_add(1);
+            self.cancel_driving(Delivery::CancelledRobotSafe, now);
+        }
         verdict
+    }
+
+    /// Whether `frame` reports the robot KILLED or FAILSAFE after the last revive that went
+    /// out could have been acted on (a frame whose acknowledgement is older than an
+    /// outstanding revive's first frame was built before it).
+    fn reports_safe(&self, frame: &DisplayFrame) -> bool {
+        let safe = matches!(frame.mode, RobotMode::Killed | RobotMode::Failsafe);
+        let predates_revive = self.outstanding.iter().any(|o| {
+            o.status.command == Command::Revive
+                && o.status.first_seq.is_none_or(|first| frame.ack_seq < first)
+        });
+        safe && !predates_revive
+    }
+
+    /// Cancels every manual value and setpoint waiting for its acknowledgement and every held
+    /// value, settling them as `delivery` (see the module docs).
+    pub fn cancel_driving(&mut self, delivery: Delivery, now: StationTime) {
+        let mut i = 0;
+        while i < self.outstanding.len() {
+            if super::drives(self.outstanding[i].status.command) {
+                let o = self.outstanding.remove(i);
+                self.settle(o.status, delivery, now);
+            } else {
+                i += 1;
+            }
+        }
+        for held in core::mem::take(&mut self.held) {
+            self.settle(held, delivery, now);
+        }
     }
 
     /// Acknowledgements in `frame` for what is waiting.
@@ -384,8 +441,15 @@ impl Uplink {
             self.stats.held_back = self.stats.held_back.saturating_add(waiting as u64);
             return out;
         };
+        // A value no longer in the slot was let go (or replaced by a request of its type).
+        self.held.retain(|h| {
+            let kind = h.command.command_type();
+            slot.iter().any(|s| s.command.command_type() == kind)
+        });
         for command in held {
-            out.push(self.number(command, session));
+            let frame = self.number(command, session);
+            self.held_sent(command, frame.seq, now);
+            out.push(frame);
         }
         for i in 0..self.outstanding.len() {
             if self.outstanding[i].acted_on.is_some() {
@@ -418,11 +482,33 @@ impl Uplink {
         out
     }
 
+    /// Notes a frame of a held value: the same value again, or a new one.
+    fn held_sent(&mut self, command: Command, seq: u32, now: StationTime) {
+        let kind = command.command_type();
+        let same = self.held.iter().position(|h| h.command == command);
+        let i = match same {
+            Some(i) => i,
+            None => {
+                self.held.retain(|h| h.command.command_type() != kind);
+                let mut status = CommandStatus::new(command, now);
+                status.first_seq = Some(seq);
+                self.held.push(status);
+                self.held.len() - 1
+            }
+        };
+        let status = &mut self.held[i];
+        status.transmissions = status.transmissions.saturating_add(1);
+        status.last_seq = Some(seq);
+    }
+
     /// Notes a kill frame: the first of a kill (not a repetition) drops everything waiting.
     fn kill_sent(&mut self, seq: u32, now: StationTime) {
         if !self.killing {
             self.killing = true;
             self.settle_all(Delivery::Cancelled, now);
+            for held in core::mem::take(&mut self.held) {
+                self.settle(held, Delivery::Cancelled, now);
+            }
             self.kill = Some(CommandStatus::new(Command::Kill, now));
         }
         let Some(mut kill) = self.kill.take() else {
@@ -445,10 +531,14 @@ impl Uplink {
         CommandFrame::new(command, session, seq)
     }
 
-    /// A requested command starts waiting for its acknowledgement.
+    /// A requested command starts waiting for its acknowledgement (a revive first cancels the
+    /// manual values and setpoints asked for before it).
     fn track(&mut self, command: Command, now: StationTime) {
         if command == Command::Heartbeat {
             return;
+        }
+        if command == Command::Revive {
+            self.cancel_driving(Delivery::CancelledByRevive, now);
         }
         self.supersede_for(command, now);
         let status = CommandStatus::new(command, now);
