@@ -553,6 +553,9 @@ impl LinkWorker {
                     Protocol::V2 { decoder, .. } => decoder.reset(),
                 }
                 self.resyncing = false;
+                if let Protocol::V2 { station, .. } = &mut self.protocol {
+                    station.set_link_baud(self.status.baud);
+                }
                 self.protocol.restart();
                 self.connected_at = Some(now);
                 self.status.connected_at = Some(now);

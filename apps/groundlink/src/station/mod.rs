@@ -37,7 +37,8 @@ pub use scheduler::{
     REVIVE_AFTER_KILL,
 };
 pub use uplink::{
-    CommandStatus, Delivery, DownlinkVerdict, Settled, Uplink, UplinkStats, CONFIRM_TIMEOUT,
+    frames_per_slot, CommandStatus, Delivery, DownlinkVerdict, Settled, Uplink, UplinkStats,
+    CONFIRM_TIMEOUT, DEFAULT_LINK_BAUD, SLOT_BUDGET_PERCENT,
 };
 
 /// A point in time on the station's clock: the time since an arbitrary fixed epoch on a
@@ -127,6 +128,14 @@ impl Station {
             Delivery::CancelledByRevive
         };
         self.settle_dropped(reason, now);
+    }
+
+    /// Fits every slot within its share of the wire at the radio link's `baud` (8N1), so
+    /// bytes never queue up from one slot to the next; see [`uplink::frames_per_slot`]. The
+    /// default assumes the XBee's 9600 baud.
+    pub fn set_link_baud(&mut self, baud: u32) {
+        self.uplink
+            .set_frames_per_slot(uplink::frames_per_slot(baud, HEARTBEAT_PERIOD));
     }
 
     /// How many times the station dropped the pending and held manual values and setpoints

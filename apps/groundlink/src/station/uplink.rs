@@ -50,9 +50,9 @@
 use core::time::Duration;
 use std::vec::Vec;
 
-use super::scheduler::{Origin, Scheduled};
+use super::scheduler::{Origin, Scheduled, HEARTBEAT_PERIOD};
 use super::StationTime;
-use crate::v2::{CommandFrame, DisplayFrame, RobotMode};
+use crate::v2::{CommandFrame, DisplayFrame, RobotMode, COMMAND_FRAME_LEN};
 use crate::{Command, CommandType};
 
 /// How long a requested command is repeated without its acknowledgement before it is given up
@@ -223,6 +223,27 @@ pub struct Uplink {
     last_command: Option<CommandStatus>,
     settled: Vec<Settled>,
     stats: UplinkStats,
+    /// Most frames one slot may carry (see [`frames_per_slot`]).
+    frames_per_slot: usize,
+    /// Where the held values' turn starts when a slot cannot carry them all.
+    held_turn: usize,
+}
+
+/// The baud rate the station's budget assumes unless told otherwise: the XBee's default.
+pub const DEFAULT_LINK_BAUD: u32 = 9_600;
+
+/// Share of a slot's time on the wire the station fills at most, in percent. The rest is room
+/// for the radio's own overhead and for a kill sent between slots, so bytes never queue up
+/// from one slot to the next (a queue would delay every later kill by its length).
+pub const SLOT_BUDGET_PERCENT: u64 = 80;
+
+/// Most command frames v2 one slot of `period` may carry at `baud` (8N1: ten bits a byte) within
+/// [`SLOT_BUDGET_PERCENT`] of the slot; at least one, so a heartbeat always goes out. At the
+/// XBee's default 9600 baud a 100 ms slot carries two 28-byte frames (58 ms).
+pub fn frames_per_slot(baud: u32, period: Duration) -> usize {
+    let bytes = u128::from(baud) / 10 * period.as_micros() / 1_000_000;
+    let budget = bytes * u128::from(SLOT_BUDGET_PERCENT) / 100;
+    (budget / COMMAND_FRAME_LEN as u128).clamp(1, 64) as usize
 }
 
 impl Default for Uplink {
@@ -248,7 +269,26 @@ impl Uplink {
             last_command: None,
             settled: Vec::new(),
             stats: UplinkStats::default(),
+            frames_per_slot: frames_per_slot(DEFAULT_LINK_BAUD, HEARTBEAT_PERIOD),
+            held_turn: 0,
         }
+    }
+
+    /// The same, with slots of at most `frames` frames (at least one); see
+    /// [`frames_per_slot`].
+    pub fn with_frames_per_slot(mut self, frames: usize) -> Uplink {
+        self.frames_per_slot = frames.max(1);
+        self
+    }
+
+    /// Slots of at most `frames` frames from now on (at least one); see [`frames_per_slot`].
+    pub fn set_frames_per_slot(&mut self, frames: usize) {
+        self.frames_per_slot = frames.max(1);
+    }
+
+    /// Most frames one slot carries.
+    pub fn slot_frames(&self) -> usize {
+        self.frames_per_slot
     }
 
     /// The robot's session id, once an authenticated display frame told it.
@@ -446,15 +486,42 @@ impl Uplink {
             let kind = h.command.command_type();
             slot.iter().any(|s| s.command.command_type() == kind)
         });
+        // The slot's budget: what waits for an acknowledgement first (in request order), then
+        // the held values, taking turns when they do not all fit (the robot keeps a manual
+        // value between its frames).
+        let waiting = self
+            .outstanding
+            .iter()
+            .filter(|o| o.acted_on.is_none())
+            .count()
+            .min(self.frames_per_slot);
+        let room = self.frames_per_slot - waiting;
+        let held = if held.len() > room {
+            let turn = self.held_turn % held.len();
+            self.held_turn = self.held_turn.wrapping_add(room.max(1));
+            let mut order: Vec<Command> =
+                held[turn..].iter().chain(&held[..turn]).copied().collect();
+            order.truncate(room);
+            // Keep the slot's channel order.
+            held.retain(|c| order.contains(c));
+            held
+        } else {
+            held
+        };
         for command in held {
             let frame = self.number(command, session);
             self.held_sent(command, frame.seq, now);
             out.push(frame);
         }
+        let mut sent = 0;
         for i in 0..self.outstanding.len() {
             if self.outstanding[i].acted_on.is_some() {
                 continue;
             }
+            if sent == waiting {
+                break;
+            }
+            sent += 1;
             let command = self.outstanding[i].status.command;
             let mut frame = self.number(command, session);
             let o = &mut self.outstanding[i];
@@ -686,6 +753,85 @@ mod tests {
 
     fn commands(frames: &[CommandFrame]) -> Vec<Command> {
         frames.iter().map(|f| f.command).collect()
+    }
+
+    #[test]
+    fn a_slot_fits_its_share_of_the_wire_and_held_values_take_turns() {
+        // Three held channels and a setpoint waiting for its acknowledgement: four 28-byte
+        // frames are 117 ms at 9600 baud, more than the 100 ms slot, so bytes would queue up
+        // slot after slot and delay every later kill by the queue.
+        let t0 = StationTime::from_secs(1_000);
+        let mut u = connected(0, t0);
+        let held = [
+            Command::Throttle(pct(70)),
+            Command::Steering(pct(30)),
+            Command::Tail(pct(60)),
+        ];
+        let slot: Vec<Scheduled> = held.iter().map(|&c| at(c, Origin::Held)).collect();
+        let mut with_request = slot.clone();
+        with_request.push(at(Command::Tail(pct(60)), Origin::Request));
+        let budget_bytes = 9_600 / 10 * 100 / 1_000 * SLOT_BUDGET_PERCENT as usize / 100;
+        let mut seen = [0u32; 3];
+        for k in 0..30u64 {
+            let s = if k == 0 { &with_request } else { &slot };
+            let frames = u.frames(s, ms(t0, 100 * k));
+            let bytes = frames.len() * COMMAND_FRAME_LEN;
+            assert!(
+                bytes <= budget_bytes,
+                "slot {k}: {bytes} bytes, budget {budget_bytes}: {:?}",
+                commands(&frames)
+            );
+            for f in &frames {
+                if let Some(i) = held.iter().position(|&c| c == f.command) {
+                    seen[i] += 1;
+                }
+            }
+        }
+        // Every held value goes out in turn (two of three per slot).
+        for (i, n) in seen.iter().enumerate() {
+            assert!(*n >= 18, "{:?} went out {n} times in 30 slots", held[i]);
+        }
+        assert_eq!(frames_per_slot(9_600, HEARTBEAT_PERIOD), 2);
+        assert_eq!(frames_per_slot(115_200, HEARTBEAT_PERIOD), 32);
+        assert_eq!(frames_per_slot(1_200, HEARTBEAT_PERIOD), 1);
+    }
+
+    #[test]
+    fn a_request_waiting_for_its_acknowledgement_goes_out_in_every_slot_within_the_budget() {
+        let t0 = StationTime::from_secs(1_000);
+        let mut u = connected(0, t0);
+        let slot = [
+            at(Command::Throttle(pct(70)), Origin::Held),
+            at(Command::Steering(pct(30)), Origin::Held),
+        ];
+        let speed = Command::SpeedSetpoint { mm_s: 900 };
+        let mut first = slot.to_vec();
+        first.push(at(Command::Revive, Origin::Request));
+        let f = u.frames(&first, t0);
+        assert_eq!(f.len(), 2);
+        assert!(commands(&f).contains(&Command::Revive));
+        for k in 1..5u64 {
+            let f = u.frames(&slot, ms(t0, 100 * k));
+            assert!(commands(&f).contains(&Command::Revive), "slot {k}");
+            assert_eq!(f.len(), 2, "slot {k}");
+        }
+        // A larger budget carries everything.
+        let mut wide = connected(0, t0).with_frames_per_slot(8);
+        let mut all = slot.to_vec();
+        all.push(at(Command::Revive, Origin::Request));
+        assert_eq!(wide.frames(&all, t0).len(), 3);
+        // A budget of one: the request alone, then the held values in turn once it is
+        // acknowledged.
+        let mut narrow = connected(0, t0).with_frames_per_slot(1);
+        let mut with_speed = slot.to_vec();
+        with_speed.push(at(speed, Origin::Request));
+        let f = narrow.frames(&with_speed, t0);
+        assert_eq!(commands(&f), vec![speed]);
+        narrow.on_display(&display(SESSION, 2, f[0].seq, RobotMode::Auto), ms(t0, 50));
+        let a = commands(&narrow.frames(&slot, ms(t0, 100)));
+        let b = commands(&narrow.frames(&slot, ms(t0, 200)));
+        assert_eq!((a.len(), b.len()), (1, 1));
+        assert_ne!(a, b, "the held values take turns");
     }
 
     #[test]
