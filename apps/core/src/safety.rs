@@ -205,6 +205,26 @@ impl CycleHealth {
     };
 }
 
+/// A command as a cycle takes it: what, and when its frame arrived.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReceivedCommand {
+    /// The command.
+    pub command: Command,
+    /// When its frame arrived, ns, on the clock of the cycle's time (the application takes the
+    /// earliest time the frame can have been complete at the port).
+    pub arrival_ns: Nanos,
+}
+
+impl ReceivedCommand {
+    /// `command`, arrived at `arrival_ns`.
+    pub const fn new(command: Command, arrival_ns: Nanos) -> ReceivedCommand {
+        ReceivedCommand {
+            command,
+            arrival_ns,
+        }
+    }
+}
+
 /// What a command did besides changing the state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct CommandEffect {
@@ -336,15 +356,16 @@ impl SafetyState {
         }
     }
 
-    /// A valid command arrived at `now`; `blocked` says what besides the sensor link would
-    /// refuse a revive.
+    /// A valid command, taken by a cycle at `now`; `blocked` says what besides the sensor link
+    /// would refuse a revive.
     pub fn on_command(
         &mut self,
         limits: &SafetyLimits,
-        command: Command,
+        received: ReceivedCommand,
         now: Nanos,
         blocked: Option<ReviveRefusal>,
     ) -> CommandEffect {
+        let command = received.command;
         self.last_link_ns = Some(now);
         let mut effect = CommandEffect::default();
         match command {
@@ -456,7 +477,16 @@ mod tests {
         Cycle(CycleHealth),
     }
 
-    /// Start-up, after one good packet.
+    /// `command`, taken by a cycle at `now`, the time it arrived.
+    fn fresh(
+        s: &mut SafetyState,
+        command: Command,
+        now: Nanos,
+        blocked: Option<ReviveRefusal>,
+    ) -> CommandEffect {
+        s.on_command(&LIMITS, ReceivedCommand::new(command, now), now, blocked)
+    }
+
     /// After start-up, as many good packets as a revive needs.
     fn healthy() -> SafetyState {
         let mut s = SafetyState::new();
@@ -472,7 +502,7 @@ mod tests {
         for (i, (t, ev, want)) in rows.iter().enumerate() {
             match ev {
                 Ev::Cmd(c) => {
-                    s.on_command(&LIMITS, *c, t * MS, None);
+                    fresh(&mut s, *c, t * MS, None);
                 }
                 Ev::Cycle(h) => s.on_cycle(&LIMITS, *h, t * MS),
             }
@@ -557,18 +587,18 @@ mod tests {
     #[test]
     fn speed_setpoints_outside_zero_to_max_are_rejected_and_change_nothing() {
         let mut s = healthy();
-        s.on_command(&LIMITS, Command::Revive, 0, None);
-        s.on_command(&LIMITS, Command::Throttle(pct(55)), 1, None);
+        fresh(&mut s, Command::Revive, 0, None);
+        fresh(&mut s, Command::Throttle(pct(55)), 1, None);
         let before = s;
         for mm_s in [-1, -1000, 5_001, i32::MAX, i32::MIN] {
-            let effect = s.on_command(&LIMITS, Command::SpeedSetpoint { mm_s }, 2, None);
+            let effect = fresh(&mut s, Command::SpeedSetpoint { mm_s }, 2, None);
             assert!(effect.rejected, "{mm_s}");
             assert_eq!(s.mode, Manual, "{mm_s}: no mode change");
             assert_eq!(s.setpoints, before.setpoints, "{mm_s}");
         }
         for mm_s in [0, 5_000] {
             let mut t = before;
-            let effect = t.on_command(&LIMITS, Command::SpeedSetpoint { mm_s }, 3, None);
+            let effect = fresh(&mut t, Command::SpeedSetpoint { mm_s }, 3, None);
             assert!(!effect.rejected, "{mm_s}");
             assert_eq!((t.mode, t.setpoints.speed_mm_s), (Auto, Some(mm_s)));
         }
@@ -635,10 +665,8 @@ mod tests {
     #[test]
     fn revive_toggling_is_rate_limited_and_kill_never_is() {
         let mut s = healthy();
-        let revive = |s: &mut SafetyState, t_ms: u64| {
-            s.on_command(&LIMITS, Command::Revive, t_ms * MS, None)
-                .refused
-        };
+        let revive =
+            |s: &mut SafetyState, t_ms: u64| fresh(s, Command::Revive, t_ms * MS, None).refused;
         assert_eq!(
             revive(&mut s, 0),
             None,
@@ -646,7 +674,7 @@ mod tests {
         );
         assert_eq!(s.mode, Manual);
         // A kill right after the revive: never delayed.
-        s.on_command(&LIMITS, Command::Kill, MS, None);
+        fresh(&mut s, Command::Kill, MS, None);
         assert_eq!(s.mode, Killed);
         // A revive 249 ms after the kill: refused; at 250 ms: accepted.
         assert_eq!(revive(&mut s, 250), Some(ReviveRefusal::TooSoon));
@@ -658,14 +686,14 @@ mod tests {
         s.on_cycle(&LIMITS, OK, 300 * MS);
         s.on_cycle(&LIMITS, OK, 1_400 * MS); // comms loss: no command since 251 ms
         assert_eq!(s.mode, Failsafe);
-        s.on_command(&LIMITS, Command::Kill, 1_400 * MS, None);
+        fresh(&mut s, Command::Kill, 1_400 * MS, None);
         assert_eq!(revive(&mut s, 1_500), Some(ReviveRefusal::TooSoon));
         assert_eq!(revive(&mut s, 1_649), Some(ReviveRefusal::TooSoon));
         assert_eq!(revive(&mut s, 1_650), None);
         // Kills repeated for a second (as the ground station sends them) each restart the
         // wait; each of them kills.
         for t in (1_700..2_700).step_by(100) {
-            s.on_command(&LIMITS, Command::Kill, t * MS, None);
+            fresh(&mut s, Command::Kill, t * MS, None);
             assert_eq!(s.mode, Killed);
         }
         assert_eq!(revive(&mut s, 2_700), Some(ReviveRefusal::TooSoon));
@@ -679,12 +707,12 @@ mod tests {
     fn out_of_range_heading_setpoints_are_rejected_in_the_core() {
         let mut s = run_table(&[(0, Cmd(Command::Revive), Manual)]);
         for deg_e5 in [-1, i32::MIN, HEADING_FULL_TURN_DEG_E5, i32::MAX] {
-            let effect = s.on_command(&LIMITS, Command::HeadingSetpoint { deg_e5 }, MS, None);
+            let effect = fresh(&mut s, Command::HeadingSetpoint { deg_e5 }, MS, None);
             assert!(effect.rejected, "{deg_e5}");
             assert_eq!((s.mode, s.setpoints.heading_deg_e5), (Manual, None));
         }
         for deg_e5 in [0, HEADING_FULL_TURN_DEG_E5 - 1] {
-            let effect = s.on_command(&LIMITS, Command::HeadingSetpoint { deg_e5 }, MS, None);
+            let effect = fresh(&mut s, Command::HeadingSetpoint { deg_e5 }, MS, None);
             assert!(!effect.rejected);
             assert_eq!((s.mode, s.setpoints.heading_deg_e5), (Auto, Some(deg_e5)));
         }
@@ -698,7 +726,7 @@ mod tests {
             ReviveRefusal::RealtimeSetup,
         ] {
             let mut s = healthy();
-            let effect = s.on_command(&LIMITS, Command::Revive, 0, Some(why));
+            let effect = fresh(&mut s, Command::Revive, 0, Some(why));
             assert_eq!((s.mode, effect.refused), (Killed, Some(why)));
         }
     }
@@ -722,7 +750,7 @@ mod tests {
             ),
         ] {
             let mut s = healthy();
-            s.on_command(&LIMITS, Command::Revive, 0, None);
+            fresh(&mut s, Command::Revive, 0, None);
             s.on_cycle(&LIMITS, health, 4 * MS);
             assert_eq!((s.mode, s.cause), (Failsafe, Some(cause)));
         }
@@ -735,15 +763,10 @@ mod tests {
             ..OK
         };
         let mut s = healthy();
-        s.on_command(&LIMITS, Command::Revive, 0, None);
+        fresh(&mut s, Command::Revive, 0, None);
         s.on_cycle(&LIMITS, stale, MS);
         assert_eq!(s.mode, Manual, "manual driving needs no GNSS");
-        s.on_command(
-            &LIMITS,
-            Command::HeadingSetpoint { deg_e5: 0 },
-            2 * MS,
-            None,
-        );
+        fresh(&mut s, Command::HeadingSetpoint { deg_e5: 0 }, 2 * MS, None);
         s.on_cycle(&LIMITS, stale, 3 * MS);
         assert_eq!(
             (s.mode, s.cause),
@@ -754,18 +777,18 @@ mod tests {
     #[test]
     fn no_revive_before_the_first_good_packet() {
         let mut s = SafetyState::new();
-        let effect = s.on_command(&LIMITS, Command::Revive, 0, None);
+        let effect = fresh(&mut s, Command::Revive, 0, None);
         assert_eq!(
             (s.mode, effect.refused),
             (Killed, Some(ReviveRefusal::SensorLoss))
         );
         s.on_cycle(&LIMITS, BAD, MS);
-        s.on_command(&LIMITS, Command::Revive, 2 * MS, None);
+        fresh(&mut s, Command::Revive, 2 * MS, None);
         assert_eq!(s.mode, Killed);
         for _ in 0..LIMITS.revive_good_packets {
             s.on_cycle(&LIMITS, OK, 3 * MS);
         }
-        s.on_command(&LIMITS, Command::Revive, 4 * MS, None);
+        fresh(&mut s, Command::Revive, 4 * MS, None);
         assert_eq!(s.mode, Manual);
     }
 
@@ -781,7 +804,7 @@ mod tests {
                 t += 4 * MS;
                 s.on_cycle(&LIMITS, health, t);
             }
-            let effect = s.on_command(&LIMITS, Command::Revive, t + 1, None);
+            let effect = fresh(&mut s, Command::Revive, t + 1, None);
             assert_eq!(
                 (s.mode, effect.refused),
                 (Killed, Some(ReviveRefusal::SensorLoss))
@@ -791,7 +814,7 @@ mod tests {
             t += 4 * MS;
             s.on_cycle(&LIMITS, OK, t);
         }
-        s.on_command(&LIMITS, Command::Revive, t + 1, None);
+        fresh(&mut s, Command::Revive, t + 1, None);
         assert_eq!(s.mode, Manual);
     }
 
@@ -802,7 +825,7 @@ mod tests {
         for (i, health) in [OK, BAD, OK, BAD, BAD, OK].into_iter().enumerate() {
             s.on_cycle(&LIMITS, health, i as Nanos * 4 * MS);
         }
-        s.on_command(&LIMITS, Command::Revive, 30 * MS, None);
+        fresh(&mut s, Command::Revive, 30 * MS, None);
         assert_eq!(s.mode, Manual);
     }
 
@@ -813,7 +836,7 @@ mod tests {
                 mode: start,
                 ..SafetyState::new()
             };
-            s.on_command(&LIMITS, Command::Kill, 0, Some(ReviveRefusal::ImuStuck));
+            fresh(&mut s, Command::Kill, 0, Some(ReviveRefusal::ImuStuck));
             assert_eq!(s.mode, Killed);
         }
     }
@@ -825,14 +848,14 @@ mod tests {
             (4, Cmd(Command::SpeedSetpoint { mm_s: 1_000 }), Auto),
         ]);
         let before = s.mode_transitions;
-        s.on_command(&LIMITS, Command::Throttle(pct(50)), 8 * MS, None);
-        s.on_command(&LIMITS, Command::SpeedSetpoint { mm_s: 0 }, 8 * MS, None);
+        fresh(&mut s, Command::Throttle(pct(50)), 8 * MS, None);
+        fresh(&mut s, Command::SpeedSetpoint { mm_s: 0 }, 8 * MS, None);
         assert_eq!((s.mode, s.mode_transitions - before), (Auto, 2));
         // Commands that change no mode count nothing.
-        s.on_command(&LIMITS, Command::SpeedSetpoint { mm_s: 10 }, 9 * MS, None);
-        s.on_command(&LIMITS, Command::Revive, 9 * MS, None);
-        s.on_command(&LIMITS, Command::Kill, 9 * MS, None);
-        s.on_command(&LIMITS, Command::Kill, 9 * MS, None);
+        fresh(&mut s, Command::SpeedSetpoint { mm_s: 10 }, 9 * MS, None);
+        fresh(&mut s, Command::Revive, 9 * MS, None);
+        fresh(&mut s, Command::Kill, 9 * MS, None);
+        fresh(&mut s, Command::Kill, 9 * MS, None);
         assert_eq!((s.mode, s.mode_transitions - before), (Killed, 3));
     }
 

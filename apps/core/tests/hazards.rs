@@ -5,7 +5,7 @@
 
 use dima_core::config::Config;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos};
+use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
@@ -122,8 +122,23 @@ impl Rig {
         rig
     }
 
-    /// One cycle with `commands`.
+    /// One cycle with `commands`, arrived at the cycle's time.
     fn cycle(&mut self, commands: &[Command]) -> CycleOutputs {
+        let now = self.next_cycle_ns();
+        let received: Vec<ReceivedCommand> = commands
+            .iter()
+            .map(|&c| ReceivedCommand::new(c, now))
+            .collect();
+        self.cycle_received(&received)
+    }
+
+    /// The time of the next cycle.
+    fn next_cycle_ns(&self) -> Nanos {
+        self.now + PERIOD
+    }
+
+    /// One cycle with `commands` and their own arrival times.
+    fn cycle_received(&mut self, commands: &[ReceivedCommand]) -> CycleOutputs {
         self.now += PERIOD;
         self.cycles += 1;
         if self.gnss_running && self.epoch_starts() {

@@ -326,7 +326,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         self.simulated_work(tick.wake_ns);
 
         // Acquire: commands in arrival order, then the packet.
-        let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
+        let mut commands = [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE];
         let mut n = 0;
         let mut newest_arrival_ns = None;
         for _ in 0..MAX_COMMANDS_PER_CYCLE {
@@ -338,7 +338,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
                 continue;
             }
             newest_arrival_ns = Some(received.arrival_ns);
-            commands[n] = received.command;
+            commands[n] = received;
             n += 1;
         }
         let link_before_ns = self.state.safety.last_link_ns;
@@ -542,7 +542,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             info: None,
             outputs,
             setpoints: Default::default(),
-            commands: [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE],
+            commands: [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE],
             n_commands: 0,
             stale_passed: 0,
             counters: self.state.counters,

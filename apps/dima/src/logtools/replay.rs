@@ -14,7 +14,7 @@ use dima_core::config::Config;
 use dima_core::monitor::PacketVerdict;
 use dima_core::schema::{self, ActionMessage, CycleMessage, Event, ReplayMessage};
 use dima_core::step::{CycleInputs, SensorInput};
-use dima_core::{Command, Core, CoreState, Mode};
+use dima_core::{Core, CoreState, Mode, ReceivedCommand};
 use dima_sensorboard::RawPacket;
 
 use super::read::LoggedRun;
@@ -86,8 +86,8 @@ pub struct RecordedCycle {
     pub wake_ns: u64,
     /// Periods missed before the wake-up.
     pub missed_periods: u32,
-    /// Commands applied.
-    pub commands: Vec<Command>,
+    /// Commands handed to the step, with their arrival times.
+    pub commands: Vec<ReceivedCommand>,
     /// The sensor phase.
     pub sensor: RecordedSensor,
     /// Stale packets passed over.
@@ -148,7 +148,12 @@ pub fn recorded_cycles(run: &LoggedRun) -> anyhow::Result<(Vec<RecordedCycle>, b
             cycle: m.cycle,
             wake_ns: m.wake_ns,
             missed_periods: m.missed_periods,
-            commands: m.commands.iter().filter_map(|c| c.command()).collect(),
+            commands: m
+                .commands
+                .iter()
+                .filter_map(|c| c.command())
+                .map(|c| ReceivedCommand::new(c, m.wake_ns))
+                .collect(),
             sensor: recorded_sensor(m, run.raw.get(&c.t_ns))?,
             stale_packets: m.stale_passed,
             mode: m.mode,
