@@ -5,7 +5,12 @@
 //! an argument, so tests drive it like a table.
 //!
 //! Rules:
-//! - any valid command frame is link activity;
+//! - any valid command frame is link activity, as of when it arrived (a command the step takes
+//!   later, after waiting in the port, a thread or a ring, proves the link only up to its
+//!   arrival);
+//! - a command that arrived longer than the comms timeout before the cycle that takes it is
+//!   stale: no link activity and no instruction the operator still stands by, so it is not acted
+//!   on (a kill always is);
 //! - kill -> KILLED from any state, immediately;
 //! - revive leaves KILLED or FAILSAFE for MANUAL at neutral, only while nothing blocks it (see
 //!   [`ReviveRefusal`]: among others, enough good packets since the sensor link was last lost,
@@ -223,6 +228,11 @@ impl ReceivedCommand {
             arrival_ns,
         }
     }
+
+    /// It arrived longer than `comms_timeout_ns` before `now`.
+    pub fn is_stale(&self, now: Nanos, comms_timeout_ns: Nanos) -> bool {
+        now.saturating_sub(self.arrival_ns) > comms_timeout_ns
+    }
 }
 
 /// What a command did besides changing the state.
@@ -232,6 +242,8 @@ pub struct CommandEffect {
     pub rejected: bool,
     /// A revive was refused, and why.
     pub refused: Option<ReviveRefusal>,
+    /// The command arrived longer than the comms timeout before the cycle: not acted on.
+    pub stale: bool,
 }
 
 /// The whole state of the safety logic.
@@ -242,7 +254,8 @@ pub struct SafetyState {
     /// Why FAILSAFE was entered, while in FAILSAFE (a revive or a kill clears it; the
     /// application keeps the last cause for the operator until a revive).
     pub cause: Option<FailsafeCause>,
-    /// Time of the last valid command frame.
+    /// Arrival time of the newest valid command frame acted on (never later than the cycle
+    /// that took it).
     pub last_link_ns: Option<Nanos>,
     /// Consecutive bad or missing packets (`u32::MAX` until the first good packet: the
     /// sensor link is not healthy before it has delivered anything).
@@ -358,6 +371,12 @@ impl SafetyState {
 
     /// A valid command, taken by a cycle at `now`; `blocked` says what besides the sensor link
     /// would refuse a revive.
+    ///
+    /// The link was last seen when the command arrived (an arrival after `now` counts as
+    /// `now`; the link time never moves back). A command other than a kill that arrived longer
+    /// than the comms timeout before `now` is stale: it changes nothing, not even the link
+    /// time. Kills and revives are dated `now` for the revive rate limit: the time the robot
+    /// acted on them.
     pub fn on_command(
         &mut self,
         limits: &SafetyLimits,
@@ -366,8 +385,13 @@ impl SafetyState {
         blocked: Option<ReviveRefusal>,
     ) -> CommandEffect {
         let command = received.command;
-        self.last_link_ns = Some(now);
         let mut effect = CommandEffect::default();
+        if command != Command::Kill && received.is_stale(now, limits.comms_timeout_ns) {
+            effect.stale = true;
+            return effect;
+        }
+        let seen_ns = received.arrival_ns.min(now);
+        self.last_link_ns = Some(self.last_link_ns.map_or(seen_ns, |t| t.max(seen_ns)));
         match command {
             Command::Heartbeat => {}
             Command::Kill => {
@@ -857,6 +881,48 @@ mod tests {
         fresh(&mut s, Command::Kill, 9 * MS, None);
         fresh(&mut s, Command::Kill, 9 * MS, None);
         assert_eq!((s.mode, s.mode_transitions - before), (Killed, 3));
+    }
+
+    #[test]
+    fn the_link_is_seen_when_a_command_arrived_never_later_than_the_cycle_never_back() {
+        let heartbeat = |s: &mut SafetyState, arrival_ms: u64, now_ms: u64| {
+            let received = ReceivedCommand::new(Command::Heartbeat, arrival_ms * MS);
+            s.on_command(&LIMITS, received, now_ms * MS, None)
+        };
+        let mut s = run_table(&[(0, Cmd(Command::Revive), Manual)]);
+        heartbeat(&mut s, 500, 600);
+        assert_eq!(s.last_link_ns, Some(500 * MS));
+        // An earlier arrival taken later does not move the link time back.
+        heartbeat(&mut s, 400, 600);
+        assert_eq!(s.last_link_ns, Some(500 * MS));
+        // An arrival after the cycle's time counts as the cycle's time.
+        heartbeat(&mut s, 900, 700);
+        assert_eq!(s.last_link_ns, Some(700 * MS));
+    }
+
+    #[test]
+    fn a_stale_command_changes_nothing_and_a_stale_kill_still_kills() {
+        let mut s = run_table(&[(0, Cmd(Command::Revive), Manual)]);
+        let before = s;
+        for command in [
+            Command::Heartbeat,
+            Command::Throttle(pct(90)),
+            Command::SpeedSetpoint { mm_s: 1_000 },
+            Command::Revive,
+        ] {
+            let received = ReceivedCommand::new(command, 700 * MS);
+            // 1 000 ms old acts; 1 000 ms and 1 ns old does not.
+            let mut t = s;
+            let effect = t.on_command(&LIMITS, received, 1_700 * MS, None);
+            assert!(!effect.stale, "{command:?}");
+            assert_eq!(t.last_link_ns, Some(700 * MS), "{command:?}");
+            let effect = s.on_command(&LIMITS, received, 1_700 * MS + 1, None);
+            assert!(effect.stale, "{command:?}");
+            assert_eq!(s, before, "{command:?}");
+        }
+        let received = ReceivedCommand::new(Command::Kill, 0);
+        let effect = s.on_command(&LIMITS, received, 5_000 * MS, None);
+        assert_eq!((s.mode, effect.stale), (Killed, false));
     }
 
     #[test]

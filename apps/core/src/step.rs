@@ -312,6 +312,10 @@ impl Core {
             let effect = state
                 .safety
                 .on_command(&self.limits, received, now, blocked);
+            if effect.stale {
+                state.counters.commands_stale += 1;
+                continue;
+            }
             state.counters.commands += 1;
             if effect.rejected {
                 rejected += 1;
