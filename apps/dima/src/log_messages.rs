@@ -61,7 +61,7 @@ pub fn cycle_message(r: &CycleRecord) -> CycleMessage {
         commands: r
             .commands()
             .iter()
-            .map(|c| CommandMessage::from(c.command))
+            .map(|&c| CommandMessage::from(c))
             .collect(),
         compute_us: us(r.t_compute_ns.saturating_sub(compute_from)),
         servo_write_us: since(r.t_write_ns, r.t_compute_ns),
