@@ -42,6 +42,10 @@ pub struct Counters {
     pub servo_missing: u64,
     /// Commands applied.
     pub commands: u64,
+    /// Commands not acted on because they arrived longer than the comms timeout before the
+    /// cycle that took them (a kill always acts). Absent in older logs.
+    #[serde(default)]
+    pub commands_stale: u64,
     /// Setpoints rejected as out of range: speed below 0 or above `control.max_speed_mm_s`,
     /// heading outside 0..36 000 000 (1e-5 degrees).
     pub setpoints_rejected: u64,

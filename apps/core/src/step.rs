@@ -7,7 +7,6 @@
 //! Tests and replays call the step directly, thousands of cycles per second, with no devices,
 //! threads or clocks.
 
-use dima_groundlink::Command;
 use dima_sensorboard::{units, RawPacket, SensorPacket};
 
 use crate::config::{Config, ConfigError};
@@ -20,7 +19,9 @@ use crate::monitor::{
     AnswerWindow, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule, OverrunWindow,
     PacketVerdict,
 };
-use crate::safety::{CycleHealth, FailsafeCause, Mode, ReviveRefusal, SafetyLimits, SafetyState};
+use crate::safety::{
+    CycleHealth, FailsafeCause, Mode, ReceivedCommand, ReviveRefusal, SafetyLimits, SafetyState,
+};
 use crate::Nanos;
 
 /// What the acquire phase got from the sensor board this cycle.
@@ -52,8 +53,9 @@ pub enum SensorInput {
 pub struct CycleInputs<'a> {
     /// Whole periods the clock skipped before this cycle's wake-up.
     pub missed_periods: u32,
-    /// Valid command frames from the ground link, in arrival order.
-    pub commands: &'a [Command],
+    /// Valid command frames from the ground link, in arrival order, each with its arrival
+    /// time.
+    pub commands: &'a [ReceivedCommand],
     /// The sensor packet, or why there is none.
     pub sensor: SensorInput,
     /// Valid packets that completed too soon after this cycle's request to answer it (an
@@ -310,9 +312,15 @@ impl Core {
 
         let mut refused = None;
         let mut rejected = 0;
-        for &command in inputs.commands {
+        for &received in inputs.commands {
             let blocked = self.revive_blocker(state, now);
-            let effect = state.safety.on_command(&self.limits, command, now, blocked);
+            let effect = state
+                .safety
+                .on_command(&self.limits, received, now, blocked);
+            if effect.stale {
+                state.counters.commands_stale += 1;
+                continue;
+            }
             state.counters.commands += 1;
             if effect.rejected {
                 rejected += 1;

@@ -1,11 +1,12 @@
 //! Crafted sensor and command sequences under which the robot must not move, driven through
 //! `Core::step` with a manual clock: a gyro carrying the heading long after its last GNSS
 //! correction, a GNSS time of week that steps backwards, a negative ground speed, a mode
-//! round trip inside one cycle, and one IMU die frozen while the other stays alive.
+//! round trip inside one cycle, one IMU die frozen while the other stays alive, and commands
+//! that reach the step long after they arrived.
 
 use dima_core::config::Config;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos};
+use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
@@ -122,8 +123,23 @@ impl Rig {
         rig
     }
 
-    /// One cycle with `commands`.
+    /// One cycle with `commands`, arrived at the cycle's time.
     fn cycle(&mut self, commands: &[Command]) -> CycleOutputs {
+        let now = self.next_cycle_ns();
+        let received: Vec<ReceivedCommand> = commands
+            .iter()
+            .map(|&c| ReceivedCommand::new(c, now))
+            .collect();
+        self.cycle_received(&received)
+    }
+
+    /// The time of the next cycle.
+    fn next_cycle_ns(&self) -> Nanos {
+        self.now + PERIOD
+    }
+
+    /// One cycle with `commands` and their own arrival times.
+    fn cycle_received(&mut self, commands: &[ReceivedCommand]) -> CycleOutputs {
         self.now += PERIOD;
         self.cycles += 1;
         if self.gnss_running && self.epoch_starts() {
@@ -147,6 +163,27 @@ impl Rig {
             stale_packets: 0,
         };
         self.core.step(&mut self.state, &inputs, self.now)
+    }
+
+    /// The loop stalls: the next cycle comes `ns` later than its period would bring it.
+    fn stall(&mut self, ns: Nanos) {
+        self.now += ns;
+    }
+
+    /// Cycles without commands while the mode stays `mode` (at most 10 s); the time and outputs
+    /// of the first cycle in another mode.
+    fn silent_while(&mut self, mode: Mode) -> (Nanos, CycleOutputs) {
+        for _ in 0..2_500 {
+            let out = self.cycle(&[]);
+            if out.mode != mode {
+                return (self.now, out);
+            }
+        }
+        panic!("still {mode:?} after 10 s without commands");
+    }
+
+    fn comms_timeout_ns(&self) -> Nanos {
+        u64::from(self.config.safety.comms_timeout_ms) * MS
     }
 
     /// This cycle is the first of a GNSS epoch.
@@ -378,5 +415,124 @@ fn a_frozen_accelerometer_beside_a_live_gyro_is_a_stuck_imu() {
     assert!(
         packets <= Config::default().safety.imu_stuck_packets,
         "{packets}"
+    );
+}
+
+#[test]
+fn a_command_that_waited_keeps_the_link_only_from_its_arrival() {
+    let mut rig = Rig::new();
+    let timeout = rig.comms_timeout_ns();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    // A heartbeat arrives 50 ms after the revive, then the radio goes silent; the heartbeat
+    // reaches the step only 750 ms after it arrived (the reader or the ring fell behind).
+    let arrival = rig.now + 50 * MS;
+    while rig.next_cycle_ns() < arrival + 750 * MS {
+        assert_eq!(rig.cycle(&[]).mode, Mode::Manual);
+    }
+    let out = rig.cycle_received(&[ReceivedCommand::new(Command::Heartbeat, arrival)]);
+    assert_eq!(out.mode, Mode::Manual);
+    assert_eq!(rig.state.safety.last_link_ns, Some(arrival));
+    // The link ends one comms timeout after the heartbeat arrived, not after the step took it.
+    let (at, out) = rig.silent_while(Mode::Manual);
+    assert_eq!(
+        (out.mode, out.cause),
+        (Mode::Failsafe, Some(FailsafeCause::CommsLoss))
+    );
+    assert!(
+        at > arrival + timeout && at <= arrival + timeout + PERIOD,
+        "comms loss {} ms after the heartbeat arrived (timeout {} ms)",
+        (at - arrival) / MS,
+        timeout / MS
+    );
+}
+
+#[test]
+fn commands_older_than_the_comms_timeout_do_not_act_but_a_kill_does() {
+    let full = pct(100);
+
+    // The link is alive (a heartbeat in the same cycle), but a throttle that waited longer
+    // than the comms timeout is no instruction the operator still stands by: counted, not
+    // acted on. One exactly as old as the timeout still acts.
+    let mut rig = Rig::new();
+    let timeout = rig.comms_timeout_ns();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    rig.run(300);
+    let neutral = rig.neutral_us()[0];
+    let now = rig.next_cycle_ns();
+    let out = rig.cycle_received(&[
+        ReceivedCommand::new(Command::Throttle(full), now - timeout - 1),
+        ReceivedCommand::new(Command::Heartbeat, now),
+    ]);
+    assert_eq!((out.mode, out.targets.pulse_us[0]), (Mode::Manual, neutral));
+    assert_eq!(rig.state.safety.setpoints.throttle, None);
+    assert_eq!(rig.state.counters.commands_stale, 1);
+    let now = rig.next_cycle_ns();
+    let out = rig.cycle_received(&[ReceivedCommand::new(Command::Throttle(full), now - timeout)]);
+    assert_eq!(rig.state.safety.setpoints.throttle, Some(full));
+    assert!(out.targets.pulse_us[0] > neutral, "{:?}", out.targets);
+    assert_eq!(rig.state.counters.commands_stale, 1);
+
+    // The loop stalls for longer than the comms timeout after the revive; a throttle that
+    // arrived just after the revive reaches the step only then. It is no link activity: the
+    // link was lost, and nothing drives.
+    let mut rig = Rig::new();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    let arrival = rig.now + MS;
+    rig.stall(timeout + 200 * MS);
+    let out = rig.cycle_received(&[ReceivedCommand::new(Command::Throttle(full), arrival)]);
+    assert_eq!(
+        (out.mode, out.cause),
+        (Mode::Failsafe, Some(FailsafeCause::CommsLoss))
+    );
+    assert_eq!(out.targets, rig.core.safe_targets());
+    assert_eq!(rig.state.counters.commands_stale, 1);
+
+    // A revive that waited as long does not revive (the sensor link is healthy and nothing
+    // else blocks a revive, so only its age can refuse it).
+    let mut rig = Rig::new();
+    let now = rig.next_cycle_ns();
+    let out = rig.cycle_received(&[ReceivedCommand::new(Command::Revive, now - timeout - MS)]);
+    assert_eq!((out.mode, out.refused), (Mode::Killed, None));
+    assert_eq!(rig.state.counters.commands_stale, 1);
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+
+    // A kill is honoured however old.
+    let mut rig = Rig::new();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    rig.run(300);
+    let now = rig.next_cycle_ns();
+    let out = rig.cycle_received(&[
+        ReceivedCommand::new(Command::Kill, now - timeout - 200 * MS),
+        ReceivedCommand::new(Command::Heartbeat, now),
+    ]);
+    assert_eq!((out.mode, out.cause), (Mode::Killed, None));
+    assert_eq!(rig.state.counters.commands_stale, 0);
+}
+
+#[test]
+fn fresh_commands_act_and_keep_the_link_from_their_arrival() {
+    let mut rig = Rig::new();
+    let timeout = rig.comms_timeout_ns();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    let neutral = rig.neutral_us()[0];
+    for _ in 0..5 {
+        rig.cycle(&[]);
+    }
+    // A throttle that arrived 10 ms before the cycle that takes it (after the revive).
+    let arrival = rig.next_cycle_ns() - 10 * MS;
+    let out = rig.cycle_received(&[ReceivedCommand::new(Command::Throttle(pct(100)), arrival)]);
+    assert_eq!(out.mode, Mode::Manual);
+    assert!(out.targets.pulse_us[0] > neutral, "{:?}", out.targets);
+    assert_eq!(rig.state.safety.last_link_ns, Some(arrival));
+    let (at, out) = rig.silent_while(Mode::Manual);
+    assert_eq!(
+        (out.mode, out.cause),
+        (Mode::Failsafe, Some(FailsafeCause::CommsLoss))
+    );
+    assert!(
+        at > arrival + timeout && at <= arrival + timeout + PERIOD,
+        "comms loss {} ms after the throttle arrived (timeout {} ms)",
+        (at - arrival) / MS,
+        timeout / MS
     );
 }

@@ -144,9 +144,6 @@ pub struct LoopMetrics {
     pub servo_write: Stat,
     /// Counters (a copy of the control state's, updated every cycle).
     pub counters: Counters,
-    /// Commands dropped unread because they arrived longer than the comms timeout before the
-    /// loop took them (a kill is never dropped).
-    pub stale_commands: u64,
 }
 
 impl LoopMetrics {
@@ -157,7 +154,6 @@ impl LoopMetrics {
             request_to_packet: Stat::default(),
             compute: Stat::default(),
             servo_write: Stat::default(),
-            stale_commands: 0,
             counters: Counters::default(),
         }
     }
@@ -225,7 +221,7 @@ impl LoopMetrics {
             c.revives_refused,
             c.log_dropped,
             c.failsafes,
-            self.stale_commands,
+            c.commands_stale,
         )
     }
 }

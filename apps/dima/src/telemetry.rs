@@ -66,15 +66,10 @@ pub fn display_frame(packet: Option<&SensorPacket>) -> DisplayFrame {
 /// Commands waiting for room in the ring to the loop, at most this many.
 pub const PENDING_COMMANDS: usize = 64;
 
-/// A command as it travels to the loop: what, and when it arrived.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ReceivedCommand {
-    /// The command.
-    pub command: Command,
-    /// The earliest time its frame can have been complete at the port, ns
-    /// (CLOCK_MONOTONIC): never later than its real arrival (see [`ArrivalBound`]).
-    pub arrival_ns: Nanos,
-}
+/// A command as it travels to the loop: what, and when it arrived (`arrival_ns`: the earliest
+/// time its frame can have been complete at the port, CLOCK_MONOTONIC, never later than its
+/// real arrival; see [`ArrivalBound`]). The control step judges its age.
+pub use dima_core::ReceivedCommand;
 
 /// The earliest time the bytes read from the port now can have arrived: the last time the
 /// reader found the port empty. A byte read after the port was seen empty at `t` arrived after

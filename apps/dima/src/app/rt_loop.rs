@@ -64,8 +64,6 @@ pub struct LoopParams {
     pub channels: [u8; 3],
     /// Simulated overload, if any.
     pub busy: Option<BusyFault>,
-    /// Comms timeout, ns: a command that arrived longer ago than this is no link activity.
-    pub comms_timeout_ns: Nanos,
 }
 
 impl LoopParams {
@@ -82,7 +80,6 @@ impl LoopParams {
             channels: core.outputs().channel_numbers(),
             core,
             busy: None,
-            comms_timeout_ns: u64::from(config.safety.comms_timeout_ms) * 1_000_000,
         })
     }
 }
@@ -325,23 +322,17 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         }
         self.simulated_work(tick.wake_ns);
 
-        // Acquire: commands in arrival order, then the packet.
-        let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
+        // Acquire: commands in arrival order, with their arrival times (the step judges their
+        // age), then the packet.
+        let mut commands = [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE];
         let mut n = 0;
-        let mut newest_arrival_ns = None;
-        for _ in 0..MAX_COMMANDS_PER_CYCLE {
+        while n < MAX_COMMANDS_PER_CYCLE {
             let Ok(received) = self.ends.commands.pop() else {
                 break;
             };
-            if !admit(&received, tick.wake_ns, self.params.comms_timeout_ns) {
-                self.metrics.stale_commands += 1;
-                continue;
-            }
-            newest_arrival_ns = Some(received.arrival_ns);
-            commands[n] = received.command;
+            commands[n] = received;
             n += 1;
         }
-        let link_before_ns = self.state.safety.last_link_ns;
         let sensor = self.acquire_sensor(&mut ev);
         let stale_packets = std::mem::take(&mut self.stale_packets);
 
@@ -356,14 +347,6 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             },
             tick.wake_ns,
         );
-        if let Some(arrival_ns) = newest_arrival_ns {
-            // The step dates link activity at the cycle's time; the link was last seen when
-            // the newest command arrived. Every command taken arrived within the comms timeout,
-            // so this cycle's comms verdict is the same either way; later cycles count from
-            // the arrival.
-            self.state.safety.last_link_ns =
-                Some(link_before_ns.map_or(arrival_ns, |t| t.max(arrival_ns)));
-        }
         ev |= decision_events(&out, self.state.realtime_fault && self.cycle == 0);
         if let Some(p) = out.packet {
             self.last_packet = Some(p);
@@ -542,7 +525,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             info: None,
             outputs,
             setpoints: Default::default(),
-            commands: [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE],
+            commands: [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE],
             n_commands: 0,
             stale_passed: 0,
             counters: self.state.counters,
@@ -557,15 +540,6 @@ impl<P: OutputPin, S: ServoOutput> Drop for RealtimeLoop<P, S> {
     fn drop(&mut self) {
         self.shutdown();
     }
-}
-
-/// Whether a command that arrived at `received.arrival_ns` is acted on in a cycle at `now_ns`:
-/// a kill always; anything else only if it arrived within the comms timeout (a command that
-/// waited longer, in the port, the telemetry thread or the ring, proves no live link and is no
-/// instruction the operator still stands by).
-pub fn admit(received: &ReceivedCommand, now_ns: Nanos, comms_timeout_ns: Nanos) -> bool {
-    received.command == Command::Kill
-        || now_ns.saturating_sub(received.arrival_ns) <= comms_timeout_ns
 }
 
 /// The event bits of what the step decided.
@@ -590,7 +564,8 @@ fn decision_events(out: &CycleOutputs, realtime_fault_reported: bool) -> u16 {
 mod tests {
     //! The loop in-process: no sensor board (never connected), a recording servo output,
     //! commands pushed into the ring with explicit arrival times, and cycles driven with
-    //! explicit wake-up times. The step judges everything at the tick's time.
+    //! explicit wake-up times. The step judges everything at the tick's time; the loop's part
+    //! is to hand each command to it, and to the log, with its arrival time.
 
     use std::sync::Mutex;
     use std::time::Duration;
@@ -630,7 +605,7 @@ mod tests {
         servo: Servo,
         servo_sup: Supervisor<Servo>,
         _sensor_sup: Supervisor<SensorDevice<Pin>>,
-        _log: rtrb::Consumer<CycleRecord>,
+        log: rtrb::Consumer<CycleRecord>,
     }
 
     impl Harness {
@@ -665,7 +640,7 @@ mod tests {
                 servo,
                 servo_sup,
                 _sensor_sup: sensor_sup,
-                _log: log,
+                log,
             }
         }
 
@@ -720,6 +695,31 @@ mod tests {
     }
 
     #[test]
+    fn each_command_reaches_the_step_and_the_record_with_its_arrival_time() {
+        let mut h = Harness::new();
+        h.manual(100 * MS);
+        let sent = [
+            ReceivedCommand::new(Command::Throttle(dima_groundlink::Percent::MAX), 0),
+            ReceivedCommand::new(Command::Heartbeat, 150 * MS),
+            ReceivedCommand::new(Command::Steering(dima_groundlink::Percent::MIN), 890 * MS),
+        ];
+        for r in sent {
+            h.send(r.command, r.arrival_ns);
+        }
+        h.cycle_at(1_050 * MS);
+        let record = h.log.pop().unwrap();
+        assert_eq!(record.commands(), sent);
+        // The step judged each by its own age: the throttle (1.05 s old) did not act.
+        assert_eq!(h.rt.state.counters.commands_stale, 1);
+        assert_eq!(h.rt.state.safety.last_link_ns, Some(890 * MS));
+        let sp = h.rt.state.safety.setpoints;
+        assert_eq!(
+            (sp.throttle, sp.steering),
+            (None, Some(dima_groundlink::Percent::MIN))
+        );
+    }
+
+    #[test]
     fn commands_older_than_the_comms_timeout_do_not_act_but_a_kill_does() {
         // A throttle that arrived at 0 and reaches the loop 1.2 s later is no link activity
         // and no instruction: the link was lost at 1 s.
@@ -729,7 +729,7 @@ mod tests {
         h.cycle_at(1_200 * MS);
         assert_eq!(h.mode(), (Mode::Failsafe, Some(FailsafeCause::CommsLoss)));
         assert_eq!(h.rt.state.safety.setpoints.throttle, None);
-        assert_eq!(h.rt.metrics().stale_commands, 1);
+        assert_eq!(h.rt.state.counters.commands_stale, 1);
 
         // A revive that waited as long does not revive (the sensor link is healthy here, so
         // only its age can refuse it).
@@ -746,7 +746,7 @@ mod tests {
         h.send(Command::Kill, 0);
         h.cycle_at(1_200 * MS);
         assert_eq!(h.mode(), (Mode::Killed, None));
-        assert_eq!(h.rt.metrics().stale_commands, 0);
+        assert_eq!(h.rt.state.counters.commands_stale, 0);
     }
 
     #[test]

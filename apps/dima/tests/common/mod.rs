@@ -131,10 +131,12 @@ pub fn nav_pvt(itow_ms: u32) -> NavPvt {
     }
 }
 
+/// Packet `n` of a live board: the accelerometer's and the gyroscope's words both change from
+/// packet to packet (a die whose words stay the same is a stuck IMU).
 pub fn packet(n: u64) -> SensorPacket {
     SensorPacket {
         accel: [(n % 1000) as i16, -512, 1000],
-        gyro: [1, -2, -164],
+        gyro: [(n % 5) as i16 - 2, -2, -164],
         mag: [-300, 200, -1000],
         rhall: 7000,
         press_raw: 415_148,
