@@ -33,6 +33,9 @@ pub struct CycleEntry {
     pub packet_ok: bool,
     /// Valid command frames applied so far.
     pub commands: u64,
+    /// When the newest command taken this cycle arrived, in log time (the cycle's own time
+    /// for a log that does not record arrivals).
+    pub last_arrival_ns: Option<u64>,
     /// Periods missed before this cycle's wake-up.
     pub missed: u64,
     /// Outputs, µs.
@@ -105,6 +108,14 @@ impl LogSummary {
                     mode: v.mode,
                     packet_ok: v.packet_ok,
                     commands: v.counters.commands,
+                    last_arrival_ns: v
+                        .commands
+                        .iter()
+                        .map(|c| c.arrival_ns.unwrap_or(v.wake_ns))
+                        .max()
+                        .map(|arrival| {
+                            m.log_time.saturating_sub(v.wake_ns.saturating_sub(arrival))
+                        }),
                     missed: u64::from(v.missed_periods),
                     targets_us: v.targets_us,
                 });
@@ -170,13 +181,14 @@ impl LogSummary {
             .sum()
     }
 
-    /// Time of the last cycle at or before `t_ns` in which a command was applied.
+    /// When the last command applied at or before `t_ns` arrived (the link time the step took
+    /// from it), or its cycle's time in a log that does not record arrivals.
     pub fn last_command_before(&self, t_ns: u64) -> Option<u64> {
         let mut last = None;
         let mut count = None;
         for c in self.cycles.iter().take_while(|c| c.t_ns <= t_ns) {
             if count.is_some_and(|n| c.commands > n) {
-                last = Some(c.t_ns);
+                last = Some(c.last_arrival_ns.unwrap_or(c.t_ns));
             }
             count = Some(c.commands);
         }
@@ -223,6 +235,7 @@ mod tests {
             mode: Mode::Manual,
             packet_ok: true,
             commands,
+            last_arrival_ns: None,
             missed,
             targets_us: [1500, 1545, 1500],
         }
@@ -265,6 +278,10 @@ mod tests {
         assert_eq!(log.last_command_before(5), Some(4));
         assert_eq!(log.last_command_before(1), None);
         assert_eq!(log.missed_between(2, 5), 3);
+        // A logged arrival is the link time the step took: the failsafe counts from it.
+        let mut log = log;
+        log.cycles[3].last_arrival_ns = Some(3);
+        assert_eq!(log.last_command_before(5), Some(3));
     }
 
     #[test]

@@ -886,6 +886,7 @@ mod tests {
             mode,
             packet_ok: true,
             commands: 0,
+            last_arrival_ns: None,
             missed: 0,
             targets_us: SAFE_US,
         };
