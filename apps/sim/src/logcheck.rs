@@ -37,6 +37,10 @@ pub struct CycleEntry {
     pub missed: u64,
     /// Outputs, µs.
     pub targets_us: [u16; 3],
+    /// When the newest command frame handed to this cycle's step arrived, on the log's clock
+    /// (its arrival before the wake-up taken off `t_ns`); `None` without commands. Logs
+    /// without arrival times give the cycle's own time.
+    pub link_ns: Option<u64>,
 }
 
 /// What a log holds.
@@ -107,6 +111,12 @@ impl LogSummary {
                     commands: v.counters.commands,
                     missed: u64::from(v.missed_periods),
                     targets_us: v.targets_us,
+                    link_ns: v
+                        .commands
+                        .iter()
+                        .map(|c| c.arrival_ns.unwrap_or(v.wake_ns).min(v.wake_ns))
+                        .max()
+                        .map(|arrival| m.log_time.saturating_sub(v.wake_ns - arrival)),
                 });
             }
         }
@@ -170,6 +180,16 @@ impl LogSummary {
             .sum()
     }
 
+    /// When the newest command frame handed to a cycle at or before `t_ns` arrived (the time
+    /// the robot's comms timeout runs from), on the log's clock.
+    pub fn last_link_before(&self, t_ns: u64) -> Option<u64> {
+        self.cycles
+            .iter()
+            .take_while(|c| c.t_ns <= t_ns)
+            .filter_map(|c| c.link_ns)
+            .max()
+    }
+
     /// Time of the last cycle at or before `t_ns` in which a command was applied.
     pub fn last_command_before(&self, t_ns: u64) -> Option<u64> {
         let mut last = None;
@@ -225,6 +245,7 @@ mod tests {
             commands,
             missed,
             targets_us: [1500, 1545, 1500],
+            link_ns: None,
         }
     }
 
@@ -265,6 +286,28 @@ mod tests {
         assert_eq!(log.last_command_before(5), Some(4));
         assert_eq!(log.last_command_before(1), None);
         assert_eq!(log.missed_between(2, 5), 3);
+    }
+
+    #[test]
+    fn the_link_time_is_the_newest_arrival_not_the_cycle_that_took_it() {
+        let with_link = |t_ns, link_ns| CycleEntry {
+            link_ns,
+            ..cycle(t_ns, 0, 0)
+        };
+        let log = LogSummary {
+            cycles: vec![
+                with_link(100, Some(90)),
+                with_link(200, None),
+                // Taken late: a frame that arrived at 150 in the cycle of 300.
+                with_link(300, Some(150)),
+                with_link(400, Some(380)),
+            ],
+            ..LogSummary::default()
+        };
+        assert_eq!(log.last_link_before(50), None);
+        assert_eq!(log.last_link_before(299), Some(90));
+        assert_eq!(log.last_link_before(300), Some(150));
+        assert_eq!(log.last_link_before(1_000), Some(380));
     }
 
     #[test]
