@@ -938,7 +938,10 @@ mod tests {
         };
         // The last frame arrived at 100 ms and the loop took it in its cycle of 116 ms.
         let log = |failsafe_ms| LogSummary {
-            cycles: vec![cycle(ms(4), 1, Some(ms(2))), cycle(ms(116), 2, Some(ms(100)))],
+            cycles: vec![
+                cycle(ms(4), 1, Some(ms(2))),
+                cycle(ms(116), 2, Some(ms(100))),
+            ],
             states: vec![failsafe_at(ms(failsafe_ms))],
             ..LogSummary::default()
         };
