@@ -14,6 +14,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
+use dima_groundlink::station::{Station, StationTime};
 use dima_groundlink::v2::{self, LinkKey};
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use pololu_maestro::{CommandDecoder, DecoderConfig};
@@ -422,7 +423,10 @@ pub fn spawn_maestro(
 /// One step of a ground-station script.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum GroundAction {
-    /// Send a command (it replaces the heartbeat of its 100 ms slot).
+    /// Send a command. Version 1: once, in place of the heartbeat of its 100 ms slot.
+    /// Version 2: requested from the ground station's [`Station`] at its time, which sends it
+    /// the way the ground station does (a kill at once and repeated, a revive no sooner than
+    /// its wait after a kill, the others in the next slot, repeated until acknowledged).
     Send(Command),
     /// Stop sending anything (the operator's radio is off).
     Silence,
@@ -446,7 +450,8 @@ pub struct ScriptStep {
 pub struct GroundStats {
     /// Frames sent (heartbeats and commands).
     pub frames_sent: AtomicU64,
-    /// Commands other than heartbeats sent, with their times.
+    /// The command of every frame sent other than a heartbeat (v2: every repetition too),
+    /// with the time it went out, s: when a kill or a revive actually reached the link.
     pub commands: Mutex<Vec<(f64, Command)>>,
     /// Time of the last frame sent, s (NaN before the first).
     pub last_sent_s: Mutex<Option<f64>>,
@@ -476,39 +481,84 @@ pub enum GroundProtocol {
         /// The heartbeat frame.
         heartbeat: [u8; 10],
     },
-    /// Version 2 with this key. The station learns the robot's session from its display
-    /// frames and sends nothing but kills (with session 0) before it knows it; commands due
-    /// before then wait, in order.
+    /// Version 2 with this key, run by the ground station's own [`Station`]: it learns the
+    /// robot's session from its display frames and sends nothing but kills (with session 0)
+    /// before it knows it; what was asked for before then waits.
     V2 {
         /// The pre-shared key.
         key: LinkKey,
     },
 }
 
-/// The scripted station's side of the link: display frames in, command frames out.
-struct Station {
-    protocol: GroundProtocol,
-    v1: DisplayDecoder,
-    v2: Option<v2::DisplayDecoder>,
-    session: Option<u32>,
-    seq: u32,
+/// One frame the scripted station sends: the command it carries (none for heartbeats and
+/// captured frames) and its bytes.
+struct Outgoing {
+    command: Option<Command>,
+    bytes: Vec<u8>,
 }
 
-impl Station {
-    fn new(protocol: GroundProtocol) -> Station {
-        let v2 = match &protocol {
-            GroundProtocol::V2 { key } => Some(v2::DisplayDecoder::new(key.clone())),
-            GroundProtocol::V1 { .. } => None,
+/// The scripted station's side of the link: display frames in, command frames out.
+enum StationSide {
+    /// Ground link v1: each command of the script goes out once, in the slot it falls due in;
+    /// an idle slot carries the heartbeat.
+    V1 {
+        heartbeat: [u8; 10],
+        decoder: DisplayDecoder,
+        /// Start of the next 100 ms slot, s.
+        next_slot: f64,
+    },
+    /// Ground link v2: the ground station's own [`Station`] decides what goes out when.
+    V2 {
+        key: LinkKey,
+        decoder: v2::DisplayDecoder,
+        station: Box<Station>,
+    },
+}
+
+/// The scripted ground station: its script and its side of the link.
+struct ScriptedStation {
+    side: StationSide,
+    script: Vec<ScriptStep>,
+    /// The next script step to take.
+    step: usize,
+    /// False from a [`GroundAction::Silence`] to the next [`GroundAction::Resume`].
+    sending: bool,
+}
+
+/// Simulation time `t_s` on the station clock (the epoch is the start of the run).
+fn station_time(t_s: f64) -> StationTime {
+    StationTime::from_secs_f64(t_s.max(0.0))
+}
+
+impl ScriptedStation {
+    /// A station speaking `protocol` on a radio link of `pace`.
+    fn new(protocol: GroundProtocol, script: Vec<ScriptStep>, pace: LinePace) -> ScriptedStation {
+        let side = match protocol {
+            GroundProtocol::V1 { heartbeat } => StationSide::V1 {
+                heartbeat,
+                decoder: DisplayDecoder::new(),
+                next_slot: 0.0,
+            },
+            GroundProtocol::V2 { key } => {
+                let mut station = Box::new(Station::new());
+                station.set_link_baud(pace.baud_8n1());
+                StationSide::V2 {
+                    decoder: v2::DisplayDecoder::new(key.clone()),
+                    key,
+                    station,
+                }
+            }
         };
-        Station {
-            protocol,
-            v1: DisplayDecoder::new(),
-            v2,
-            session: None,
-            seq: 0,
+        ScriptedStation {
+            side,
+            script,
+            step: 0,
+            sending: true,
         }
     }
 
+    /// Takes the bytes received at `at` (s): display frames to the statistics (v2: and to the
+    /// station).
     fn receive(&mut self, bytes: &[u8], at: f64, stats: &GroundStats) {
         let count = |ok: bool| {
             let counter = if ok {
@@ -518,59 +568,128 @@ impl Station {
             };
             counter.fetch_add(1, Ordering::Relaxed);
         };
-        if let Some(decoder) = self.v2.as_mut() {
-            for result in decoder.feed(bytes) {
-                count(result.is_ok());
-                if let Ok(frame) = result {
-                    self.session = Some(frame.session);
-                    *lock(&stats.last_display) = Some((at, frame.sensors));
-                    *lock(&stats.last_status) = Some((at, frame));
+        match &mut self.side {
+            StationSide::V2 {
+                decoder, station, ..
+            } => {
+                for result in decoder.feed(bytes) {
+                    count(result.is_ok());
+                    if let Ok(frame) = result {
+                        station.on_display(&frame, station_time(at));
+                        *lock(&stats.last_display) = Some((at, frame.sensors));
+                        *lock(&stats.last_status) = Some((at, frame));
+                    }
+                }
+                // Nothing here records what became of each request.
+                station.take_settled();
+            }
+            StationSide::V1 { decoder, .. } => {
+                for result in decoder.feed(bytes) {
+                    count(result.is_ok());
+                    if let Ok(frame) = result {
+                        *lock(&stats.last_display) = Some((at, frame));
+                    }
                 }
             }
-            return;
-        }
-        for result in self.v1.feed(bytes) {
-            count(result.is_ok());
-            if let Ok(frame) = result {
-                *lock(&stats.last_display) = Some((at, frame));
-            }
         }
     }
 
-    /// Whether `command` can go out now (v2: only kills before the session is known).
-    fn can_send(&self, command: Command) -> bool {
-        match self.protocol {
-            GroundProtocol::V1 { .. } => true,
-            GroundProtocol::V2 { .. } => self.session.is_some() || command == Command::Kill,
+    /// The time something falls due at the latest, s: the next script step or slot (`t_s`
+    /// when one is due already).
+    fn next_due_s(&self, t_s: f64) -> f64 {
+        let slot = match &self.side {
+            StationSide::V1 { next_slot, .. } => *next_slot,
+            StationSide::V2 { station, .. } => station.next_due(station_time(t_s)).as_secs_f64(),
+        };
+        let step = self.script.get(self.step).map_or(f64::INFINITY, |s| s.at_s);
+        slot.min(step)
+    }
+
+    /// The port was reopened: the first slot is immediate.
+    fn reconnected(&mut self) {
+        if let StationSide::V2 { station, .. } = &mut self.side {
+            station.restart();
         }
     }
 
-    /// The frame for `command`.
-    fn encode(&mut self, command: Command) -> Vec<u8> {
-        match &self.protocol {
-            GroundProtocol::V1 { .. } => command.encode().to_vec(),
-            GroundProtocol::V2 { key } => {
-                self.seq += 1;
-                v2::CommandFrame::new(command, self.session.unwrap_or(0), self.seq)
-                    .encode(key)
-                    .to_vec()
+    /// Takes the script steps due at `t_s` and returns the frames due. Version 1 takes the
+    /// steps at its slots; version 2 hands each command to the station at its time, and
+    /// polls the station only while the port is `connected` (a closed port sends nothing,
+    /// and the station keeps what was asked for).
+    fn due(&mut self, t_s: f64, connected: bool) -> Vec<Outgoing> {
+        let mut frames = Vec::new();
+        match &mut self.side {
+            StationSide::V1 {
+                heartbeat,
+                next_slot,
+                ..
+            } => {
+                if t_s < *next_slot {
+                    return frames;
+                }
+                *next_slot += GROUND_PERIOD_S;
+                if *next_slot < t_s {
+                    *next_slot = t_s + GROUND_PERIOD_S;
+                }
+                while let Some(s) = self.script.get(self.step).filter(|s| s.at_s <= t_s) {
+                    match s.action {
+                        GroundAction::Send(c) => frames.push(Outgoing {
+                            command: Some(c),
+                            bytes: c.encode().to_vec(),
+                        }),
+                        GroundAction::Raw(bytes) => frames.push(Outgoing {
+                            command: None,
+                            bytes: bytes.to_vec(),
+                        }),
+                        GroundAction::Silence => self.sending = false,
+                        GroundAction::Resume => self.sending = true,
+                    }
+                    self.step += 1;
+                }
+                if frames.is_empty() {
+                    frames.push(Outgoing {
+                        command: None,
+                        bytes: heartbeat.to_vec(),
+                    });
+                }
+            }
+            StationSide::V2 { key, station, .. } => {
+                let now = station_time(t_s);
+                let mut polled = Vec::new();
+                while let Some(s) = self.script.get(self.step).filter(|s| s.at_s <= t_s) {
+                    match s.action {
+                        GroundAction::Send(c) => {
+                            station.request(c, now);
+                            // A kill goes out at once, whatever follows it.
+                            if c == Command::Kill && connected {
+                                polled.extend(station.poll(now));
+                            }
+                        }
+                        GroundAction::Raw(bytes) => frames.push(Outgoing {
+                            command: None,
+                            bytes: bytes.to_vec(),
+                        }),
+                        GroundAction::Silence => self.sending = false,
+                        GroundAction::Resume => self.sending = true,
+                    }
+                    self.step += 1;
+                }
+                if connected {
+                    polled.extend(station.poll(now));
+                }
+                station.take_settled();
+                frames.extend(polled.iter().map(|f| Outgoing {
+                    command: (f.command != Command::Heartbeat).then_some(f.command),
+                    bytes: f.encode(key).to_vec(),
+                }));
             }
         }
-    }
-
-    /// The frame for an idle slot, if one goes out.
-    fn heartbeat(&mut self) -> Option<Vec<u8>> {
-        match &self.protocol {
-            GroundProtocol::V1 { heartbeat } => Some(heartbeat.to_vec()),
-            GroundProtocol::V2 { .. } if self.session.is_some() => {
-                Some(self.encode(Command::Heartbeat))
-            }
-            GroundProtocol::V2 { .. } => None,
-        }
+        frames
     }
 }
 
-/// Runs the scripted ground station until `stop`.
+/// Runs the scripted ground station until `stop`. `pace` is the radio link's: the station
+/// sends at its pace and (v2) fits each slot's frames within it.
 #[allow(clippy::too_many_arguments)]
 pub fn spawn_ground(
     world: Arc<World>,
@@ -587,60 +706,46 @@ pub fn spawn_ground(
         .name("sim-ground".into())
         .spawn(move || {
             let mut injector = FaultInjector::new(spec.clone(), rng.fork(4));
-            let mut station = Station::new(protocol);
-            let mut next_slot = 0.0f64;
-            let mut step = 0usize;
-            let mut sending = true;
+            let mut ground = ScriptedStation::new(protocol, script, pace);
+            let mut opens = port.opens;
+            let mut next_sample = 0.0f64;
             let mut buf = [0u8; 512];
             let mut out = Vec::with_capacity(64);
             let mut wire = Vec::with_capacity(256);
             while !stop.load(Ordering::Relaxed) {
                 let t = world.now_s();
                 let connected = port.update(&spec, t).is_some();
+                if port.opens != opens {
+                    opens = port.opens;
+                    ground.reconnected();
+                }
                 if let Some(pty) = port.pty() {
-                    let wait = (next_slot - t).clamp(0.0, 0.01);
+                    let wait = (ground.next_due_s(t).min(next_sample) - t).clamp(0.0, 0.01);
                     let n = pty
                         .read(&mut buf, Duration::from_secs_f64(wait))
                         .unwrap_or(0);
-                    station.receive(&buf[..n], world.now_s(), &stats);
+                    ground.receive(&buf[..n], world.now_s(), &stats);
                 } else {
                     std::thread::sleep(Duration::from_millis(5));
                 }
                 let t = world.now_s();
-                if t < next_slot {
-                    continue;
-                }
-                next_slot += GROUND_PERIOD_S;
-                if next_slot < t {
-                    next_slot = t + GROUND_PERIOD_S;
-                }
-                if !stats.counts_only {
-                    lock(&stats.truth).push(world.state());
-                }
-                // Everything due now, in script order.
-                let mut frames: Vec<(Option<Command>, Vec<u8>)> = Vec::new();
-                while let Some(s) = script.get(step).filter(|s| s.at_s <= t) {
-                    match s.action {
-                        GroundAction::Send(c) if !station.can_send(c) => break,
-                        GroundAction::Send(c) => frames.push((Some(c), station.encode(c))),
-                        GroundAction::Raw(bytes) => frames.push((None, bytes.to_vec())),
-                        GroundAction::Silence => sending = false,
-                        GroundAction::Resume => sending = true,
+                if t >= next_sample {
+                    next_sample += GROUND_PERIOD_S;
+                    if next_sample < t {
+                        next_sample = t + GROUND_PERIOD_S;
                     }
-                    step += 1;
-                }
-                if !sending || !connected || spec.silent_at(t) {
-                    continue;
-                }
-                if frames.is_empty() {
-                    match station.heartbeat() {
-                        Some(bytes) => frames.push((None, bytes)),
-                        None => continue,
+                    if !stats.counts_only {
+                        lock(&stats.truth).push(world.state());
                     }
+                }
+                let frames = ground.due(t, connected);
+                // Silent: the frames are lost on the way (the station does not know).
+                if frames.is_empty() || !ground.sending || !connected || spec.silent_at(t) {
+                    continue;
                 }
                 wire.clear();
-                for (_, bytes) in &frames {
-                    injector.mangle(bytes, &mut out);
+                for frame in &frames {
+                    injector.mangle(&frame.bytes, &mut out);
                     wire.extend_from_slice(&out);
                 }
                 let delay = injector.delay();
@@ -659,7 +764,7 @@ pub fn spawn_ground(
                         *lock(&stats.last_sent_s) = Some(sent_at);
                         if !stats.counts_only {
                             let mut log = lock(&stats.commands);
-                            for c in frames.iter().filter_map(|(c, _)| *c) {
+                            for c in frames.iter().filter_map(|f| f.command) {
                                 log.push((sent_at, c));
                             }
                         }

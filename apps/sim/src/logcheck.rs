@@ -33,13 +33,14 @@ pub struct CycleEntry {
     pub packet_ok: bool,
     /// Valid command frames applied so far.
     pub commands: u64,
-    /// When the newest command taken this cycle arrived, in log time (the cycle's own time
-    /// for a log that does not record arrivals).
-    pub last_arrival_ns: Option<u64>,
     /// Periods missed before this cycle's wake-up.
     pub missed: u64,
     /// Outputs, µs.
     pub targets_us: [u16; 3],
+    /// When the newest command frame handed to this cycle's step arrived, on the log's clock
+    /// (its arrival before the wake-up taken off `t_ns`); `None` without commands. Logs
+    /// without arrival times give the cycle's own time.
+    pub link_ns: Option<u64>,
 }
 
 /// What a log holds.
@@ -108,16 +109,14 @@ impl LogSummary {
                     mode: v.mode,
                     packet_ok: v.packet_ok,
                     commands: v.counters.commands,
-                    last_arrival_ns: v
-                        .commands
-                        .iter()
-                        .map(|c| c.arrival_ns.unwrap_or(v.wake_ns))
-                        .max()
-                        .map(|arrival| {
-                            m.log_time.saturating_sub(v.wake_ns.saturating_sub(arrival))
-                        }),
                     missed: u64::from(v.missed_periods),
                     targets_us: v.targets_us,
+                    link_ns: v
+                        .commands
+                        .iter()
+                        .map(|c| c.arrival_ns.unwrap_or(v.wake_ns).min(v.wake_ns))
+                        .max()
+                        .map(|arrival| m.log_time.saturating_sub(v.wake_ns - arrival)),
                 });
             }
         }
@@ -181,14 +180,23 @@ impl LogSummary {
             .sum()
     }
 
-    /// When the last command applied at or before `t_ns` arrived (the link time the step took
-    /// from it), or its cycle's time in a log that does not record arrivals.
+    /// When the newest command frame handed to a cycle at or before `t_ns` arrived (the time
+    /// the robot's comms timeout runs from), on the log's clock.
+    pub fn last_link_before(&self, t_ns: u64) -> Option<u64> {
+        self.cycles
+            .iter()
+            .take_while(|c| c.t_ns <= t_ns)
+            .filter_map(|c| c.link_ns)
+            .max()
+    }
+
+    /// Time of the last cycle at or before `t_ns` in which a command was applied.
     pub fn last_command_before(&self, t_ns: u64) -> Option<u64> {
         let mut last = None;
         let mut count = None;
         for c in self.cycles.iter().take_while(|c| c.t_ns <= t_ns) {
             if count.is_some_and(|n| c.commands > n) {
-                last = Some(c.last_arrival_ns.unwrap_or(c.t_ns));
+                last = Some(c.t_ns);
             }
             count = Some(c.commands);
         }
@@ -235,9 +243,9 @@ mod tests {
             mode: Mode::Manual,
             packet_ok: true,
             commands,
-            last_arrival_ns: None,
             missed,
             targets_us: [1500, 1545, 1500],
+            link_ns: None,
         }
     }
 
@@ -278,10 +286,28 @@ mod tests {
         assert_eq!(log.last_command_before(5), Some(4));
         assert_eq!(log.last_command_before(1), None);
         assert_eq!(log.missed_between(2, 5), 3);
-        // A logged arrival is the link time the step took: the failsafe counts from it.
-        let mut log = log;
-        log.cycles[3].last_arrival_ns = Some(3);
-        assert_eq!(log.last_command_before(5), Some(3));
+    }
+
+    #[test]
+    fn the_link_time_is_the_newest_arrival_not_the_cycle_that_took_it() {
+        let with_link = |t_ns, link_ns| CycleEntry {
+            link_ns,
+            ..cycle(t_ns, 0, 0)
+        };
+        let log = LogSummary {
+            cycles: vec![
+                with_link(100, Some(90)),
+                with_link(200, None),
+                // Taken late: a frame that arrived at 150 in the cycle of 300.
+                with_link(300, Some(150)),
+                with_link(400, Some(380)),
+            ],
+            ..LogSummary::default()
+        };
+        assert_eq!(log.last_link_before(50), None);
+        assert_eq!(log.last_link_before(299), Some(90));
+        assert_eq!(log.last_link_before(300), Some(150));
+        assert_eq!(log.last_link_before(1_000), Some(380));
     }
 
     #[test]

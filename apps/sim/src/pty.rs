@@ -195,6 +195,14 @@ mod tests {
         drop(pty);
         std::fs::remove_dir_all(&dir).unwrap();
     }
+
+    #[test]
+    fn a_pace_names_the_8n1_baud_rate_of_its_byte_rate() {
+        assert_eq!(LinePace::new(9_600, 10).baud_8n1(), 9_600);
+        assert_eq!(LinePace::new(115_200, 10).baud_8n1(), 115_200);
+        // 8N2 at 9600 baud: 872.7 bytes a second, as many as 8N1 at 8730 baud.
+        assert_eq!(LinePace::new(9_600, 11).baud_8n1(), 8_730);
+    }
 }
 
 /// The pace of a UART line: the time one byte takes on the wire.
@@ -210,6 +218,13 @@ impl LinePace {
         LinePace {
             byte_ns: bits_per_byte * 1_000_000_000 / u64::from(baud.max(1)),
         }
+    }
+
+    /// The baud rate of an 8N1 line that carries bytes at this pace (rounded): what a ground
+    /// station's frame budget is reckoned in.
+    pub fn baud_8n1(&self) -> u32 {
+        let bytes_per_s = (1_000_000_000 + self.byte_ns / 2) / self.byte_ns.max(1);
+        u32::try_from(bytes_per_s * 10).unwrap_or(u32::MAX)
     }
 
     /// Time `n` bytes take on the wire.

@@ -633,13 +633,18 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
                     "no FAILSAFE for comms loss after {after_s} s in the log"
                 )));
             };
-            let Some(t_cmd) = log.last_command_before(t_fs) else {
+            // The timeout runs from the newest frame's arrival (a log without arrival times:
+            // the cycle that applied it).
+            let last = log
+                .last_link_before(t_fs)
+                .or_else(|| log.last_command_before(t_fs));
+            let Some(t_cmd) = last else {
                 return Some(Err("no command before the failsafe in the log".into()));
             };
-            let waited = (t_fs - t_cmd) as f64 * 1e-9;
-            // The loop sees the last frame in the cycle after it arrived and decides once per
-            // cycle: between the timeout and the timeout plus two periods, plus any periods
-            // the loop itself counted as missed in between (a stalled machine).
+            let waited = t_fs.saturating_sub(t_cmd) as f64 * 1e-9;
+            // The loop decides once per cycle: between the timeout and the timeout plus two
+            // periods after the last frame arrived, plus any periods the loop itself counted
+            // as missed in between (a stalled machine).
             let missed = log.missed_between(t_cmd, t_fs) as f64;
             let (lo, hi) = (
                 *timeout_s - e.period_s,
@@ -649,7 +654,7 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
                 Ok(())
             } else {
                 Err(format!(
-                    "FAILSAFE {waited:.4} s after the last command; expected {lo:.4}..{hi:.4} s"
+                    "FAILSAFE {waited:.4} s after the last command arrived; expected {lo:.4}..{hi:.4} s"
                 ))
             }
         }
@@ -886,9 +891,9 @@ mod tests {
             mode,
             packet_ok: true,
             commands: 0,
-            last_arrival_ns: None,
             missed: 0,
             targets_us: SAFE_US,
+            link_ns: None,
         };
         let check = Check::SafeThroughout {
             from_s: 0.2,
@@ -903,6 +908,50 @@ mod tests {
             cycles: vec![cycle(0.3, Mode::Killed), cycle(0.5, Mode::Manual)],
             ..LogSummary::default()
         });
+        assert!(evaluate(&check, &e).unwrap().is_err());
+    }
+
+    #[test]
+    fn the_comms_failsafe_is_timed_from_the_last_frames_arrival() {
+        use crate::logcheck::{CycleEntry, LogSummary, StateChange};
+        let mut e = evidence(vec![change(0.1, SAFE_US)]);
+        e.complete = true;
+        let ms = |n: u64| 1_000_000_000 + n * 1_000_000;
+        let cycle = |t_ns, commands, link_ns| CycleEntry {
+            t_ns,
+            mode: Mode::Manual,
+            packet_ok: true,
+            commands,
+            missed: 0,
+            targets_us: [1600, 1545, 1500],
+            link_ns,
+        };
+        let failsafe_at = |t_ns| StateChange {
+            t_ns,
+            mode: Mode::Failsafe,
+            cause: Some(FailsafeCause::CommsLoss),
+            events: Vec::new(),
+        };
+        let check = Check::CommsFailsafe {
+            after_s: 0.0,
+            timeout_s: 1.0,
+        };
+        // The last frame arrived at 100 ms and the loop took it in its cycle of 116 ms.
+        let log = |failsafe_ms| LogSummary {
+            cycles: vec![
+                cycle(ms(4), 1, Some(ms(2))),
+                cycle(ms(116), 2, Some(ms(100))),
+            ],
+            states: vec![failsafe_at(ms(failsafe_ms))],
+            ..LogSummary::default()
+        };
+        e.log = Some(log(1_102));
+        assert!(evaluate(&check, &e).unwrap().is_ok());
+        // Later than the timeout plus two periods after the arrival: too late.
+        e.log = Some(log(1_116));
+        assert!(evaluate(&check, &e).unwrap().is_err());
+        // Sooner than the timeout after the arrival: too soon.
+        e.log = Some(log(1_090));
         assert!(evaluate(&check, &e).unwrap().is_err());
     }
 

@@ -245,18 +245,40 @@ fn v2_ground_station_learns_the_session_then_sends_authenticated_frames() {
     app.write_all(&display.encode(&key)).unwrap();
     let later = read_for(&mut app, 10_000, Duration::from_millis(450));
     let frames: Vec<v2::CommandFrame> = decoder.feed(&later).map(|f| f.unwrap()).collect();
-    stop.store(true, Ordering::Relaxed);
-    t.join().unwrap();
-    assert_eq!(frames[0].command, Command::Revive);
+    // The revive, repeated in every slot until the robot acknowledges it, every frame naming
+    // the first; numbered on from the kill's 1.
     assert!(frames.len() >= 3, "{frames:?}");
-    assert!(frames[1..].iter().all(|f| f.command == Command::Heartbeat));
+    assert!(frames
+        .iter()
+        .all(|f| (f.command, f.request) == (Command::Revive, 2)));
     assert!(frames.iter().all(|f| f.session == 0xDEAD_BEEF));
-    // Sequence numbers go up by one per frame, after the kill's 1.
     let seqs: Vec<u32> = frames.iter().map(|f| f.seq).collect();
     assert_eq!(seqs, (2..2 + frames.len() as u32).collect::<Vec<_>>());
-    assert_eq!(stats.displays.load(Ordering::Relaxed), 1);
+    // The robot acts on it: heartbeats from then on.
+    let manual = v2::DisplayFrame {
+        mode: v2::RobotMode::Manual,
+        seq: 2,
+        ack_seq: 2,
+        ..display
+    };
+    app.write_all(&manual.encode(&key)).unwrap();
+    let _ = read_for(&mut app, 10_000, Duration::from_millis(150));
+    let after = read_for(&mut app, 10_000, Duration::from_millis(350));
+    let frames: Vec<v2::CommandFrame> = decoder.feed(&after).map(|f| f.unwrap()).collect();
+    stop.store(true, Ordering::Relaxed);
+    t.join().unwrap();
+    assert!(frames.len() >= 2, "{frames:?}");
+    assert!(
+        frames.iter().all(|f| f.command == Command::Heartbeat),
+        "{frames:?}"
+    );
+    assert_eq!(stats.displays.load(Ordering::Relaxed), 2);
     let status = lock_status(&stats);
     assert_eq!(status.map(|s| s.session), Some(0xDEAD_BEEF));
+    // Every frame's command other than the heartbeats went out on record.
+    let sent: Vec<Command> = stats.commands.lock().unwrap().iter().map(|c| c.1).collect();
+    assert_eq!(sent[0], Command::Kill);
+    assert!(sent.len() >= 4 && sent[1..].iter().all(|c| *c == Command::Revive));
     std::fs::remove_dir_all(&d).unwrap();
 }
 
