@@ -1,0 +1,1 @@
+//! Seeds that found a defect, replayed: each must now run without a violation.
