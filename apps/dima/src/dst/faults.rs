@@ -67,12 +67,14 @@ pub struct FaultPlan {
 
 impl FaultPlan {
     /// Windows between `start_ns` and `end_ns`: for each fault a random mean gap (20 s to
-    /// 3 min) and windows of random length one after another.
-    pub fn draw(rng: &mut SimRng, start_ns: Nanos, end_ns: Nanos) -> FaultPlan {
+    /// 3 min) and windows of random length one after another. Each fault draws from its own
+    /// stream, so a longer run has the same windows as a shorter one, and more.
+    pub fn draw(rng: &SimRng, start_ns: Nanos, end_ns: Nanos) -> FaultPlan {
         let ms = 1_000_000;
         let windows = Fault::ALL
             .iter()
             .map(|f| {
+                let rng = &mut rng.fork(*f as u64);
                 let mean_gap = (20_000 + rng.below(160_000)) * ms;
                 let (lo, hi) = f.duration_ms();
                 let mut out = Vec::new();
@@ -124,7 +126,7 @@ mod tests {
     #[test]
     fn windows_are_ordered_and_found() {
         let s = 1_000_000_000;
-        let mut plan = FaultPlan::draw(&mut SimRng::new(5), 0, 1_200 * s);
+        let mut plan = FaultPlan::draw(&SimRng::new(5), 0, 1_200 * s);
         for f in Fault::ALL {
             let w = plan.windows(f).to_vec();
             assert!(!w.is_empty(), "{f:?}");

@@ -207,7 +207,7 @@ impl Checker {
                 gnss_timeout_ns: ms(config.safety.gnss_timeout_ms),
                 max_speed_mm_s: config.control.max_speed_mm_s,
                 max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
-                min_heading_speed_mm_s: config.estimator.min_heading_speed_mm_s as i32,
+                min_heading_speed_mm_s: config.estimator.min_heading_speed_mm_s,
             },
             revived_by: None,
             used_revives: Vec::new(),
@@ -408,17 +408,20 @@ impl Checker {
                 })
             }
             Mode::Auto => {
-                let after = self
-                    .revived_by
-                    .unwrap_or(0)
-                    .max(self.manual_by.unwrap_or(0));
+                let revived = self.revived_by.unwrap_or(0);
+                let after = revived.max(self.manual_by.unwrap_or(0));
+                let since = if after == revived {
+                    "the revive request"
+                } else {
+                    "the last manual value, asked"
+                };
                 let speed = intent.positive_speed_after(after, self.limits.max_speed_mm_s);
                 let heading = intent.heading_after(after);
                 let asked = [speed, heading, speed || heading];
                 (0..3).find_map(|i| {
                     (pulses[i] != neutral[i] && !asked[i]).then(|| {
                         format!(
-                            "AUTO {} at {} µs: no {} asked after {} ms",
+                            "AUTO {} at {} µs: no {} asked after {since} at {} ms",
                             ManualChannel::ALL[i].name(),
                             pulses[i],
                             ["speed setpoint above 0", "heading setpoint", "setpoint"][i],

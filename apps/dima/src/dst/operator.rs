@@ -1,5 +1,5 @@
 //! The randomised operator: what a person at the ground station does, at random intervals
-//! (100 ms to 3 s), drawn from the seed. Revives (often again and again), kills, one-off manual
+//! (100 ms to 3 s, log-uniform: quick successions too), drawn from the seed. Revives (often again and again), kills, one-off manual
 //! values, values held on a key or slider (and released), speed and heading setpoints, all of
 //! it also while the robot is KILLED or in FAILSAFE, and held keys kept across failsafes.
 
@@ -58,7 +58,7 @@ impl Operator {
         // An operator looking at a KILLED or FAILSAFE robot mostly revives it, but also
         // moves sliders and keys before doing so.
         let revive_weight = if safe { 30 } else { 3 };
-        let weights = [revive_weight, 2, 14, 14, 6, 12, 6];
+        let weights = [revive_weight, 2, 12, 6, 10, 14, 8];
         let total: u64 = weights.iter().sum();
         let mut pick = r.below(total);
         let mut kind = 0;
@@ -80,8 +80,8 @@ impl Operator {
             5 => {
                 // Mostly forward speeds, sometimes a stop, rarely an invalid reverse speed.
                 let mm_s = match r.below(10) {
-                    0 => 0,
-                    1 => -(r.below(3_000) as i32) - 1,
+                    0 | 1 => 0,
+                    2 => -(r.below(3_000) as i32) - 1,
                     _ => r.below(self.max_speed_mm_s as u64 + 1) as i32,
                 };
                 Action::Request(Command::SpeedSetpoint { mm_s })
@@ -93,8 +93,11 @@ impl Operator {
     }
 }
 
+/// Log-uniform between the bounds: quick successions of actions are as likely as slow ones.
 fn interval(rng: &mut SimRng) -> Nanos {
-    MIN_INTERVAL_NS + rng.below(MAX_INTERVAL_NS - MIN_INTERVAL_NS + 1)
+    let (lo, hi) = (MIN_INTERVAL_NS as f64, MAX_INTERVAL_NS as f64);
+    let t = lo * (hi / lo).powf(rng.uniform());
+    (t as Nanos).clamp(MIN_INTERVAL_NS, MAX_INTERVAL_NS)
 }
 
 #[cfg(test)]

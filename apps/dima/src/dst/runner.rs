@@ -63,7 +63,13 @@ pub struct Simulation {
     downlink: Channel<DownlinkMeta>,
     // Robot.
     link: CommandLink,
-    handed_over: VecDeque<Applied>,
+    /// Commands handed to the loop, with when the telemetry thread handed each over.
+    handed_over: VecDeque<(Nanos, Applied)>,
+    /// The telemetry thread's hold-ups (it runs below the loop's priority): per frame the
+    /// chance that it is held up, and until when it is.
+    telemetry_rng: SimRng,
+    telemetry_stall: f64,
+    telemetry_busy_until: Nanos,
     display_period_ns: Nanos,
     next_display_ns: Nanos,
     display_seq: u32,
@@ -112,7 +118,7 @@ impl Simulation {
         };
         let period_ns = config.period_ns();
         let plan = if faults {
-            FaultPlan::draw(&mut root.fork(1), START_NS, end_ns)
+            FaultPlan::draw(&root.fork(1), START_NS, end_ns)
         } else {
             FaultPlan::none()
         };
@@ -139,6 +145,13 @@ impl Simulation {
             downlink: Channel::new(down, root.fork(6)),
             link: CommandLink::new(&security),
             handed_over: VecDeque::new(),
+            telemetry_stall: if faults {
+                0.005 + root.fork(8).uniform() * 0.025
+            } else {
+                0.0
+            },
+            telemetry_rng: root.fork(9),
+            telemetry_busy_until: 0,
             display_period_ns,
             next_display_ns: START_NS,
             display_seq: 0,
@@ -161,6 +174,11 @@ impl Simulation {
     /// The configuration the robot runs.
     pub fn config(&self) -> &Config {
         &self.config
+    }
+
+    /// Virtual time run so far: up to the next deadline, ns.
+    pub fn elapsed_ns(&self) -> Nanos {
+        self.clock.next_deadline_ns().saturating_sub(START_NS)
     }
 
     /// Cycles run so far.
@@ -209,8 +227,13 @@ impl Simulation {
         let tick = self.clock.advance(wake);
 
         // Acquire: commands in arrival order (at most a cycle's worth), then the packet.
-        let n = self.handed_over.len().min(MAX_COMMANDS_PER_CYCLE);
-        let applied: Vec<Applied> = self.handed_over.drain(..n).collect();
+        let ready = self
+            .handed_over
+            .iter()
+            .take_while(|(at, _)| *at <= wake)
+            .count();
+        let n = ready.min(MAX_COMMANDS_PER_CYCLE);
+        let applied: Vec<Applied> = self.handed_over.drain(..n).map(|(_, a)| a).collect();
         let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
         for (slot, a) in commands.iter_mut().zip(&applied) {
             *slot = a.command;
@@ -393,6 +416,10 @@ impl Simulation {
         let Some(frame) = self.uplink.receive(t) else {
             return;
         };
+        if self.telemetry_rng.chance(self.telemetry_stall) {
+            self.telemetry_busy_until = t + 20_000_000 + self.telemetry_rng.below(400_000_000);
+        }
+        let handed_at = t.max(self.telemetry_busy_until);
         let mut got = Vec::new();
         for &b in &frame.bytes {
             self.link.push(b, &mut |c| got.push(c));
@@ -403,7 +430,8 @@ impl Simulation {
             let asked_at = (command == frame.meta.command || command == Command::Heartbeat)
                 .then_some(frame.meta.asked_at)
                 .flatten();
-            self.handed_over.push_back(Applied { command, asked_at });
+            self.handed_over
+                .push_back((handed_at, Applied { command, asked_at }));
         }
     }
 
@@ -435,6 +463,11 @@ impl Simulation {
                     .check_display(self.cycle, t, display.mode, frame.meta.mode);
             }
         }
+    }
+
+    /// Debug.
+    pub fn intent_debug(&self) -> String {
+        format!("{:?}", self.intent)
     }
 
     /// The sensor faults on at `t_ns` (to tell which one a violation follows).
