@@ -162,13 +162,23 @@ fn v1_commands() -> Vec<u8> {
     stream
 }
 
-fn v2_command(command: Command, session: u32, seq: u32, key: &LinkKey) -> [u8; 24] {
-    CommandFrame::new(command, session, seq)
-    .encode(key)
+fn v2_command(
+    command: Command,
+    session: u32,
+    seq: u32,
+    key: &LinkKey,
+) -> [u8; v2::COMMAND_FRAME_LEN] {
+    CommandFrame::new(command, session, seq).encode(key)
+}
+
+/// A repetition, under `seq`, of the request whose first frame was `request`.
+fn v2_repeat(command: Command, seq: u32, request: u32) -> [u8; v2::COMMAND_FRAME_LEN] {
+    CommandFrame::repeat(command, SESSION, seq, request).encode(&LinkKey::from_bytes(LINK_KEY))
 }
 
 /// A v2 session: revive, drive, a replay, a forgery, a kill from a station without the session,
-/// a stale session, then a kill.
+/// a stale session, a kill; then a throttle given while KILLED, a revive, and repetitions of
+/// both after it (heartbeats to the gate), and a throttle given after the revive.
 fn v2_commands() -> Vec<u8> {
     let key = LinkKey::from_bytes(LINK_KEY);
     let other = LinkKey::from_bytes([0x42; 16]);
@@ -187,6 +197,13 @@ fn v2_commands() -> Vec<u8> {
         &key,
     ));
     stream.extend(v2_command(Command::Kill, SESSION, 5, &key));
+    let drive = Command::Throttle(Percent::new(80).unwrap());
+    stream.extend(v2_repeat(drive, 6, 6));
+    stream.extend(v2_repeat(Command::Revive, 7, 7));
+    stream.extend(v2_repeat(drive, 8, 6));
+    stream.extend(v2_repeat(Command::Revive, 9, 7));
+    stream.extend(v2_repeat(Command::SpeedSetpoint { mm_s: 3_000 }, 10, 4));
+    stream.extend(v2_repeat(drive, 11, 11));
     stream
 }
 
@@ -319,7 +336,7 @@ fn maestro_seeds() -> Vec<(&'static str, Vec<u8>)> {
 
 fn config_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let pca = "[servo]\nkind = \"pca9685\"\n\n[pca9685]\npwm_frequency_hz = 50\n\n\
-               [realtime]\nloop_rate_hz = 50\n";
+               [realtime]\nloop_rate_hz = 50\n\n[safety]\noverrun_limit = 5\n";
     vec![
         (
             "default",

@@ -13,12 +13,14 @@
 //! For v2 (key [`LINK_KEY`], robot session [`SESSION`]):
 //! - the decoder delivers exactly the authentic frames a reference scan finds (every offset
 //!   tried, an authentic frame taken whole, anything else costing one byte), so no forged
-//!   frame ever gets through and none hides an authentic one; 24 bytes per frame, plus skipped
-//!   and pending bytes, add up to the input;
+//!   frame ever gets through and none hides an authentic one; 28 bytes per frame, plus skipped
+//!   and pending bytes, add up to the input; every delivered frame's request is 1 to its
+//!   sequence number, unless it is a kill;
 //! - the gate accepts exactly what the rules say: an authentic frame of the current session
-//!   with a newer sequence number (a revive of a request it already acted on as a
-//!   heartbeat), or an authentic kill; fed the same bytes again, it accepts
-//!   nothing but kills (a frame accepted once is never accepted again unless it is a kill);
+//!   with a newer sequence number (as a heartbeat: a revive of a request it already acted on,
+//!   and a manual command or setpoint requested before the last revive it acted on), or an
+//!   authentic kill; fed the same bytes again, it accepts nothing but kills (a frame accepted
+//!   once is never accepted again unless it is a kill);
 //! - an authentic frame with any one byte changed is refused.
 #![no_main]
 
@@ -89,7 +91,9 @@ fn reference_v2(data: &[u8], key: &LinkKey) -> Vec<Result<CommandFrame, FrameErr
         let window: &[u8; v2::COMMAND_FRAME_LEN] = window.try_into().unwrap();
         match CommandFrame::decode(window, key) {
             Ok(frame) => found.push(Ok(frame)),
-            Err(error @ FrameError::Command(_)) => found.push(Err(error)),
+            Err(error @ (FrameError::Command(_) | FrameError::BadRequest { .. })) => {
+                found.push(Err(error))
+            }
             Err(_) => {
                 at += 1;
                 continue;
@@ -117,6 +121,12 @@ fn check_v2(data: &[u8]) {
         .filter(|r| *r != Err(FrameError::BadTag))
         .collect();
     assert_eq!(authentic, reference);
+    for frame in reference.iter().flatten() {
+        assert!(
+            frame.command == Command::Kill || (1..=frame.seq).contains(&frame.request),
+            "{frame:?}"
+        );
+    }
     assert_eq!(
         stats.frames as usize * v2::COMMAND_FRAME_LEN
             + stats.skipped_bytes as usize
@@ -130,12 +140,26 @@ fn check_v2(data: &[u8]) {
     let accepted: Vec<Command> = gate.feed(data).filter_map(Result::ok).collect();
     let mut last_seq = 0;
     let mut last_revive_request = 0;
+    let (mut revive_repeats, mut pre_revive_requests) = (0, 0);
     let mut expected = Vec::new();
     for frame in reference.iter().flatten() {
         if frame.session == SESSION && frame.seq > last_seq {
             last_seq = frame.seq;
-            // A revive request is acted on once; its repetitions are heartbeats.
+            let value = matches!(
+                frame.command,
+                Command::Throttle(_)
+                    | Command::Steering(_)
+                    | Command::Tail(_)
+                    | Command::SpeedSetpoint { .. }
+                    | Command::HeadingSetpoint { .. }
+            );
+            // A revive request is acted on once; its repetitions are heartbeats. So are the
+            // values requested before the last revive acted on.
             if frame.command == Command::Revive && frame.request <= last_revive_request {
+                revive_repeats += 1;
+                expected.push(Command::Heartbeat);
+            } else if value && frame.request < last_revive_request {
+                pre_revive_requests += 1;
                 expected.push(Command::Heartbeat);
             } else {
                 if frame.command == Command::Revive {
@@ -150,6 +174,8 @@ fn check_v2(data: &[u8]) {
     assert_eq!(accepted, expected);
     assert_eq!(gate.last_accepted(), last_seq);
     assert_eq!(gate.stats().accepted as usize, accepted.len());
+    assert_eq!(gate.stats().revive_repeats, revive_repeats);
+    assert_eq!(gate.stats().pre_revive_requests, pre_revive_requests);
     // The same bytes again, from a clean stream: without the reset, a frame whose start ends
     // `data` and whose rest begins it would be whole for the first time, and rightly accepted.
     gate.reset_stream();

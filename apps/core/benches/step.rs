@@ -10,7 +10,7 @@ use std::hint::black_box;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use dima_core::config::Config;
 use dima_core::step::{CycleInputs, SensorInput};
-use dima_core::{Command, Core, CoreState};
+use dima_core::{Command, Core, CoreState, ReceivedCommand};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
@@ -54,11 +54,15 @@ fn run(core: &mut Core, packets: &[RawPacket], setup: &[Command]) -> u64 {
             _ if i % 25 == 0 => &[Command::Heartbeat],
             _ => &[],
         };
+        let mut received = [ReceivedCommand::new(Command::Heartbeat, now); 4];
+        for (r, &command) in received.iter_mut().zip(commands) {
+            r.command = command;
+        }
         let out = core.step(
             &mut state,
             &CycleInputs {
                 missed_periods: 0,
-                commands,
+                commands: &received[..commands.len()],
                 sensor: SensorInput::Packet {
                     raw: *raw,
                     t_request_ns: now,

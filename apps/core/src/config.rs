@@ -175,7 +175,9 @@ pub struct XbeeConfig {
     pub port: PathBuf,
     /// Baud rate (the XBee's `BD` setting).
     pub baud: u32,
-    /// Display frames sent per second.
+    /// Display frames sent per second, 1..=100: they carry the acknowledgements the ground
+    /// station waits for (2.5 s before it gives a command up), so fewer than one a second would
+    /// leave it no room for a lost frame.
     pub display_rate_hz: f64,
     /// Pause between attempts to reopen a missing device, in milliseconds.
     pub reopen_interval_ms: u32,
@@ -225,7 +227,8 @@ impl XbeeConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct RealtimeConfig {
-    /// Control-loop rate, in Hz.
+    /// Control-loop rate, in Hz, 10..=10000: the failsafes that count packets and periods
+    /// must trip within a second, which they cannot below 10 Hz.
     pub loop_rate_hz: u32,
     /// The realtime setup (SCHED_FIFO at `priority`, pinning to `cpus`, `mlockall`) must
     /// succeed: if any part fails the robot stays KILLED, says why, and refuses every revive.
@@ -272,15 +275,25 @@ impl Default for RealtimeConfig {
 pub struct SafetyConfig {
     /// No valid command frame for this long trips FAILSAFE, in milliseconds.
     pub comms_timeout_ms: u32,
-    /// This many consecutive missing or bad sensor packets trip FAILSAFE.
+    /// This many consecutive missing or bad sensor packets trip FAILSAFE: 1..=250, and at most
+    /// a second of packets at `realtime.loop_rate_hz`.
     pub sensor_loss_packets: u32,
-    /// More than this many missed periods within any sliding second trip FAILSAFE.
+    /// More than this many late wake-ups (each one that missed one or more periods, however
+    /// many) within any sliding second trip FAILSAFE: 1..=250, and at most one in ten periods
+    /// (`realtime.loop_rate_hz / 10`), so that sustained overload trips within a second.
     pub overrun_limit: u32,
+    /// Periods missed within any sliding second adding up to more than this, in one stall or
+    /// several, trip FAILSAFE (`Overrun`), in milliseconds (measured in whole missed periods).
+    /// 10..=400 and at least two periods: one missed period is an ordinary late wake-up, for
+    /// `overrun_limit`; and stalls just shorter than this, back to back, must add up past it
+    /// within a second.
+    pub max_stall_ms: u32,
     /// In AUTO, no fresh GNSS fix (valid, with an advancing iTOW) for this long trips
     /// FAILSAFE; heading may be carried on the gyro alone only this long. In milliseconds.
     pub gnss_timeout_ms: u32,
-    /// This many consecutive packets with identical accelerometer and gyroscope words are a
-    /// stuck IMU: FAILSAFE, and revives are refused while it lasts.
+    /// This many consecutive packets with identical accelerometer words, or with identical
+    /// gyroscope words (each die judged on its own), are a stuck IMU: FAILSAFE, and revives are refused while it lasts. 2..=10000, and at most a
+    /// second of packets at `realtime.loop_rate_hz`.
     pub imu_stuck_packets: u32,
     /// A revive needs this many good sensor packets since the link was last lost
     /// (`sensor_loss_packets` bad ones in a row) or since start-up.
@@ -296,6 +309,7 @@ impl Default for SafetyConfig {
             comms_timeout_ms: 1_000,
             sensor_loss_packets: 25,
             overrun_limit: 10,
+            max_stall_ms: 250,
             gnss_timeout_ms: 500,
             imu_stuck_packets: 50,
             revive_good_packets: 25,
@@ -353,6 +367,11 @@ pub struct ChannelConfig {
     /// pulses holds whatever it last did, so "off" is never the default for the throttle.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub allow_off: bool,
+    /// A throttle `safe` pulse other than `neutral_us` is accepted only with this set: the
+    /// ESC runs the motor at whatever the safe pulse says, so FAILSAFE and KILLED would drive
+    /// the car. Steering and tail hold a position, not a speed; it changes nothing there.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub allow_safe_not_neutral: bool,
 }
 
 /// The three outputs of the DIMA car.
@@ -377,6 +396,7 @@ impl Default for ChannelsConfig {
                 neutral_us: 1500,
                 safe: SafeOutput::PulseUs(1500),
                 allow_off: false,
+                allow_safe_not_neutral: false,
             },
             steering: ChannelConfig {
                 channel: 1,
@@ -385,6 +405,7 @@ impl Default for ChannelsConfig {
                 neutral_us: 1545,
                 safe: SafeOutput::PulseUs(1545),
                 allow_off: false,
+                allow_safe_not_neutral: false,
             },
             tail: ChannelConfig {
                 channel: 2,
@@ -393,6 +414,7 @@ impl Default for ChannelsConfig {
                 neutral_us: 1500,
                 safe: SafeOutput::PulseUs(1500),
                 allow_off: false,
+                allow_safe_not_neutral: false,
             },
         }
     }
@@ -513,8 +535,9 @@ pub struct ControlConfig {
     /// Largest speed setpoint accepted, in mm/s; setpoints below 0 (AUTO is forward-only) or
     /// above this are rejected, counted and change nothing.
     pub max_speed_mm_s: i32,
-    /// A GNSS fix is used only while its speed accuracy estimate (`sAcc`) is at most this, in
-    /// mm/s.
+    /// A GNSS fix is used only while its speed accuracy estimate (`sAcc`, the receiver's
+    /// estimate of its speed error) is at most this, in mm/s, 1..=2000: beyond 2 m/s the speed
+    /// and heading of motion are noise at the car's speeds.
     pub max_speed_accuracy_mm_s: u32,
     /// Throttle controller.
     pub throttle: ControllerConfig,
@@ -581,7 +604,9 @@ pub struct EstimatorConfig {
     /// Sign from gyro Z to heading rate (clockwise positive): -1 when the board's Z axis
     /// points up. The accelerometer's X axis points forward and Y to the left.
     pub gyro_yaw_sign: f32,
-    /// Below this ground speed the GNSS heading of motion is not trusted, in mm/s.
+    /// Below this ground speed the GNSS heading of motion is not trusted, in mm/s,
+    /// 200..=20000: the heading of motion is the direction of the velocity, and below
+    /// 200 mm/s a receiver's speed error of a few hundred mm/s makes it noise.
     pub min_heading_speed_mm_s: i32,
     /// Time constant of the complementary filter pulling the gyro heading towards the GNSS
     /// heading of motion, in seconds; 0 takes each GNSS heading as it is.
@@ -654,6 +679,33 @@ pub const MIN_FILE_DURATION_S: u32 = 10;
 /// Longest `log.max_file_duration_s`, s (a day).
 pub const MAX_FILE_DURATION_S: u32 = 86_400;
 
+/// Longest time a failsafe that counts packets or periods may take to trip, ns: at any
+/// `realtime.loop_rate_hz` its count must amount to at most this.
+pub const MAX_TRIP_NS: u64 = 1_000_000_000;
+
+/// Slowest `realtime.loop_rate_hz`: below it the counted failsafes cannot trip within
+/// [`MAX_TRIP_NS`] (the stuck-IMU rule needs two packets, the overrun rule a tenth of a
+/// second's periods).
+pub const MIN_LOOP_RATE_HZ: u32 = 10;
+
+/// `safety.max_stall_ms`, ms: at most 400, so that two stalls just shorter than it, back to
+/// back, add up past it within a second even at the slowest loop rate.
+pub const STALL_MS: std::ops::RangeInclusive<u32> = 10..=400;
+
+/// Fastest `realtime.loop_rate_hz`.
+pub const MAX_LOOP_RATE_HZ: u32 = 10_000;
+
+/// Largest `control.max_speed_accuracy_mm_s`: a fix whose speed may be 2 m/s off says
+/// nothing about a car driving at a few m/s.
+pub const MAX_SPEED_ACCURACY_MM_S: u32 = 2_000;
+
+/// Smallest `estimator.min_heading_speed_mm_s`: slower, the heading of motion is noise.
+pub const MIN_HEADING_SPEED_MM_S: i32 = 200;
+
+/// Display frames per second (`xbee.display_rate_hz`): at least one a second, as the ground
+/// station gives a command up after 2.5 s without an acknowledgement.
+pub const DISPLAY_RATE_HZ: std::ops::RangeInclusive<f64> = 1.0..=100.0;
+
 /// The commented default configuration file.
 pub const DEFAULT_TOML: &str = include_str!("default-config.toml");
 
@@ -711,9 +763,49 @@ where
     }
 }
 
+/// As [`within`], with the reason for the range after it.
+fn within_because<T>(
+    key: &str,
+    value: T,
+    range: std::ops::RangeInclusive<T>,
+    reason: &str,
+) -> Result<(), ConfigError>
+where
+    T: PartialOrd + std::fmt::Display + Copy,
+{
+    within(key, value, range).map_err(|e| match e {
+        ConfigError::Invalid {
+            key,
+            value,
+            allowed,
+        } => ConfigError::Invalid {
+            key,
+            value,
+            allowed: format!("{allowed}: {reason}"),
+        },
+        other => other,
+    })
+}
+
+/// `seconds` as text, to the millisecond: `25 s`, `0.2 s`.
+fn seconds_text(ns: u64) -> String {
+    format!("{} s", (ns as f64 / 1e6).round() / 1e3)
+}
+
 /// Bits one byte takes on an 8-data-bit, no-parity UART line: start, data and stop bits.
 pub fn bits_per_byte(stop_bits: u8) -> u64 {
     1 + 8 + u64::from(stop_bits)
+}
+
+/// The most packets (or periods) that take at most `ns` at `rate_hz`.
+pub fn most_packets_within(rate_hz: u32, ns: u64) -> u32 {
+    (u64::from(rate_hz) * ns / 1_000_000_000).min(u64::from(u32::MAX)) as u32
+}
+
+/// Largest `safety.overrun_limit` at `rate_hz`: one late wake-up in ten periods, and no more
+/// than the overrun window holds.
+pub fn max_overrun_limit(rate_hz: u32) -> u32 {
+    (rate_hz / 10).min(crate::safety::MAX_OVERRUN_LIMIT)
 }
 
 impl Config {
@@ -803,7 +895,13 @@ impl Config {
 
     fn validate_realtime(&self) -> Result<(), ConfigError> {
         let rt = &self.realtime;
-        within("realtime.loop_rate_hz", rt.loop_rate_hz, 1..=10_000)?;
+        within_because(
+            "realtime.loop_rate_hz",
+            rt.loop_rate_hz,
+            MIN_LOOP_RATE_HZ..=MAX_LOOP_RATE_HZ,
+            "the failsafes count packets and periods, and below 10 Hz they cannot trip within a \
+             second",
+        )?;
         within("realtime.priority", rt.priority, 0..=99)?;
         within("realtime.telemetry_priority", rt.telemetry_priority, 0..=99)?;
         if rt.priority != 0 && rt.telemetry_priority >= rt.priority {
@@ -880,8 +978,17 @@ impl Config {
         )?;
         self.validate_pca9685()?;
         let rate = self.xbee.display_rate_hz;
-        if !(rate > 0.0 && rate <= 100.0) {
-            return Err(invalid("xbee.display_rate_hz", rate, "expected (0, 100]"));
+        if !DISPLAY_RATE_HZ.contains(&rate) {
+            return Err(invalid(
+                "xbee.display_rate_hz",
+                rate,
+                &format!(
+                    "expected {}..={}: display frames carry the acknowledgements the ground \
+                     station gives a command up without after 2.5 s",
+                    DISPLAY_RATE_HZ.start(),
+                    DISPLAY_RATE_HZ.end()
+                ),
+            ));
         }
         Ok(())
     }
@@ -890,19 +997,73 @@ impl Config {
         let s = &self.safety;
         within("safety.comms_timeout_ms", s.comms_timeout_ms, 100..=5_000)?;
         within("safety.sensor_loss_packets", s.sensor_loss_packets, 1..=250)?;
+        self.packets_within_a_second("safety.sensor_loss_packets", s.sensor_loss_packets)?;
         within(
             "safety.overrun_limit",
             s.overrun_limit,
             1..=crate::safety::MAX_OVERRUN_LIMIT,
         )?;
+        let rate = self.realtime.loop_rate_hz;
+        let most = max_overrun_limit(rate);
+        if s.overrun_limit > most {
+            return Err(invalid(
+                "safety.overrun_limit",
+                s.overrun_limit,
+                &format!(
+                    "lets the loop at realtime.loop_rate_hz = {rate} wake late {} times a second \
+                     without a failsafe; at most {most} (one in ten periods), so that sustained \
+                     overload trips within a second",
+                    s.overrun_limit
+                ),
+            ));
+        }
+        within_because(
+            "safety.max_stall_ms",
+            s.max_stall_ms,
+            STALL_MS,
+            "stalls just shorter than it, back to back, must add up past it within a second",
+        )?;
+        let two_periods_ms = 2_000 / u64::from(rate.max(1));
+        if u64::from(s.max_stall_ms) < two_periods_ms {
+            return Err(invalid(
+                "safety.max_stall_ms",
+                s.max_stall_ms,
+                &format!(
+                    "must be at least two periods ({two_periods_ms} ms at realtime.loop_rate_hz = \
+                     {rate}): one missed period is an ordinary late wake-up, counted by \
+                     safety.overrun_limit"
+                ),
+            ));
+        }
         within("safety.gnss_timeout_ms", s.gnss_timeout_ms, 100..=5_000)?;
         within("safety.imu_stuck_packets", s.imu_stuck_packets, 2..=10_000)?;
+        self.packets_within_a_second("safety.imu_stuck_packets", s.imu_stuck_packets)?;
         within("safety.revive_good_packets", s.revive_good_packets, 1..=250)?;
         within(
             "safety.revive_min_interval_ms",
             s.revive_min_interval_ms,
             100..=5_000,
         )
+    }
+
+    /// `Ok` when `packets` loop periods take at most [`MAX_TRIP_NS`] at the loop rate, else the
+    /// error naming `key`, the loop rate and the time the count amounts to.
+    fn packets_within_a_second(&self, key: &str, packets: u32) -> Result<(), ConfigError> {
+        let rate = self.realtime.loop_rate_hz;
+        let most = most_packets_within(rate, MAX_TRIP_NS);
+        if packets <= most {
+            return Ok(());
+        }
+        Err(invalid(
+            key,
+            packets,
+            &format!(
+                "{} at realtime.loop_rate_hz = {rate}, and a failsafe must trip within a \
+                 second: at most {} ({most} packets)",
+                seconds_text(u64::from(packets) * 1_000_000_000 / u64::from(rate.max(1))),
+                seconds_text(MAX_TRIP_NS),
+            ),
+        ))
     }
 
     fn validate_pca9685(&self) -> Result<(), ConfigError> {
@@ -973,7 +1134,22 @@ impl Config {
             within(&key("min_us"), ch.min_us, 1..=ch.max_us.saturating_sub(1))?;
             within(&key("neutral_us"), ch.neutral_us, ch.min_us..=ch.max_us)?;
             match ch.safe {
-                SafeOutput::PulseUs(us) => within(&key("safe"), us, ch.min_us..=ch.max_us)?,
+                SafeOutput::PulseUs(us) => {
+                    within(&key("safe"), us, ch.min_us..=ch.max_us)?;
+                    if name == "throttle" && us != ch.neutral_us && !ch.allow_safe_not_neutral {
+                        return Err(invalid(
+                            key("safe"),
+                            us,
+                            &format!(
+                                "differs from neutral_us ({}): the ESC would run the motor in \
+                                 FAILSAFE and KILLED; give the neutral pulse, or set {} = true \
+                                 if this ESC stops at another pulse",
+                                ch.neutral_us,
+                                key("allow_safe_not_neutral")
+                            ),
+                        ));
+                    }
+                }
                 SafeOutput::Off(_) if !ch.allow_off => {
                     return Err(invalid(
                         key("safe"),
@@ -1013,10 +1189,12 @@ impl Config {
         let c = &self.control;
         self.controllers()?;
         within("control.max_speed_mm_s", c.max_speed_mm_s, 1..=50_000)?;
-        within(
+        within_because(
             "control.max_speed_accuracy_mm_s",
             c.max_speed_accuracy_mm_s,
-            1..=100_000,
+            1..=MAX_SPEED_ACCURACY_MM_S,
+            "the receiver's speed accuracy estimate (sAcc); a fix whose speed may be more than \
+             2 m/s off says nothing about a car driving at a few m/s",
         )
     }
 
@@ -1029,10 +1207,12 @@ impl Config {
                 "expected 1 or -1 (-1 when the board's Z axis points up)",
             ));
         }
-        within(
+        within_because(
             "estimator.min_heading_speed_mm_s",
             e.min_heading_speed_mm_s,
-            0..=20_000,
+            MIN_HEADING_SPEED_MM_S..=20_000,
+            "the heading of motion is the direction of the GNSS velocity; below 200 mm/s the \
+             receiver's speed error makes it noise",
         )?;
         within("estimator.heading_tau_s", e.heading_tau_s, 0.0..=60.0)?;
         within("estimator.gyro_bias_tau_s", e.gyro_bias_tau_s, 0.0..=600.0)?;
@@ -1218,6 +1398,13 @@ mod tests {
             ("[safety]\nsensor_loss_packets = 251", "safety.sensor_loss_packets", "1..=250"),
             ("[safety]\noverrun_limit = 0", "safety.overrun_limit", "1..=250"),
             ("[safety]\noverrun_limit = 100000", "safety.overrun_limit", "1..=250"),
+            ("[safety]\nmax_stall_ms = 9", "safety.max_stall_ms", "10..=400"),
+            ("[safety]\nmax_stall_ms = 401", "safety.max_stall_ms", "10..=400"),
+            (
+                "[realtime]\nloop_rate_hz = 100\n[safety]\nmax_stall_ms = 10",
+                "safety.max_stall_ms",
+                "at least two periods (20 ms at realtime.loop_rate_hz = 100)",
+            ),
             ("[estimator]\ngyro_yaw_sign = 0", "estimator.gyro_yaw_sign", "1 or -1"),
             ("[estimator]\ngyro_yaw_sign = 0.5", "estimator.gyro_yaw_sign", "1 or -1"),
             ("[estimator]\nheading_tau_s = -1", "estimator.heading_tau_s", "0..=60"),
@@ -1273,6 +1460,145 @@ mod tests {
             let e = error_for(toml);
             assert!(e.contains(key), "{toml}: {e}");
             assert!(e.contains(range), "{toml}: {e}");
+        }
+    }
+
+    #[test]
+    fn protections_counted_in_packets_or_periods_are_bounded_in_time_at_the_loop_rate() {
+        let slow = "[realtime]\nloop_rate_hz = 10\n[maestro]\nservo_refresh_hz = 10\n\
+                    [safety]\nimu_stuck_packets = 10\noverrun_limit = 1\n";
+        for (toml, needles) in [
+            (
+                "[safety]\nimu_stuck_packets = 10000".to_owned(),
+                &[
+                    "safety.imu_stuck_packets = 10000",
+                    "40 s at realtime.loop_rate_hz = 250",
+                    "at most 1 s (250 packets)",
+                ][..],
+            ),
+            (
+                format!("{slow}sensor_loss_packets = 250"),
+                &[
+                    "safety.sensor_loss_packets = 250",
+                    "25 s at realtime.loop_rate_hz = 10",
+                    "at most 1 s (10 packets)",
+                ],
+            ),
+            (
+                "[safety]\noverrun_limit = 250".to_owned(),
+                &[
+                    "safety.overrun_limit = 250",
+                    "realtime.loop_rate_hz = 250",
+                    "at most 25",
+                ],
+            ),
+            (
+                "[realtime]\nloop_rate_hz = 5".to_owned(),
+                &["realtime.loop_rate_hz = 5", "10..=10000"],
+            ),
+        ] {
+            let e = error_for(&toml);
+            for needle in needles {
+                assert!(e.contains(needle), "{toml}: {e}");
+            }
+        }
+        // The most lenient values at 10 Hz are accepted.
+        Config::from_toml(&format!("{slow}sensor_loss_packets = 10"), "t").unwrap();
+    }
+
+    #[test]
+    fn a_throttle_safe_pulse_other_than_neutral_needs_allow_safe_not_neutral() {
+        let throttle = "[channels.throttle]\nchannel = 0\nmin_us = 1000\nmax_us = 2000\n\
+                        neutral_us = 1500\n";
+        let e = error_for(&format!("{throttle}safe = 2000"));
+        for needle in [
+            "channels.throttle.safe = 2000",
+            "neutral_us (1500)",
+            "channels.throttle.allow_safe_not_neutral = true",
+        ] {
+            assert!(e.contains(needle), "{e}");
+        }
+        let c = Config::from_toml(
+            &format!("{throttle}safe = 1450\nallow_safe_not_neutral = true"),
+            "t",
+        )
+        .unwrap();
+        assert_eq!(c.channels.throttle.safe, SafeOutput::PulseUs(1450));
+        assert!(c.channels.throttle.allow_safe_not_neutral);
+        // Written back, the key stays (and is left out where it is false).
+        let written = toml::to_string(&c).unwrap();
+        assert_eq!(
+            written.matches("allow_safe_not_neutral").count(),
+            1,
+            "{written}"
+        );
+        // Steering and tail hold a position, not a speed: their safe pulse is theirs to choose.
+        Config::from_toml(
+            "[channels.steering]\nchannel = 1\nmin_us = 1250\nmax_us = 1840\nneutral_us = 1545\n\
+             safe = 1600\n",
+            "t",
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn gnss_heading_and_display_settings_that_defeat_their_purpose_are_refused() {
+        for (toml, key, range, reason) in [
+            (
+                "[control]\nmax_speed_accuracy_mm_s = 100000",
+                "control.max_speed_accuracy_mm_s",
+                "1..=2000",
+                "sAcc",
+            ),
+            (
+                "[control]\nmax_speed_accuracy_mm_s = 0",
+                "control.max_speed_accuracy_mm_s",
+                "1..=2000",
+                "sAcc",
+            ),
+            (
+                "[estimator]\nmin_heading_speed_mm_s = 0",
+                "estimator.min_heading_speed_mm_s",
+                "200..=20000",
+                "heading of motion",
+            ),
+            (
+                "[estimator]\nmin_heading_speed_mm_s = 199",
+                "estimator.min_heading_speed_mm_s",
+                "200..=20000",
+                "heading of motion",
+            ),
+            (
+                "[xbee]\ndisplay_rate_hz = 0.01",
+                "xbee.display_rate_hz",
+                "1..=100",
+                "2.5 s",
+            ),
+            (
+                "[xbee]\ndisplay_rate_hz = 101",
+                "xbee.display_rate_hz",
+                "1..=100",
+                "2.5 s",
+            ),
+            (
+                "[xbee]\ndisplay_rate_hz = nan",
+                "xbee.display_rate_hz",
+                "1..=100",
+                "2.5 s",
+            ),
+        ] {
+            let e = error_for(toml);
+            for needle in [key, range, reason] {
+                assert!(e.contains(needle), "{toml}: {e}");
+            }
+        }
+        for ok in [
+            "[control]\nmax_speed_accuracy_mm_s = 2000",
+            "[estimator]\nmin_heading_speed_mm_s = 200",
+            "[xbee]\ndisplay_rate_hz = 1.0",
+            "[xbee]\ndisplay_rate_hz = 100.0",
+        ] {
+            Config::from_toml(ok, "t").unwrap_or_else(|e| panic!("{ok}: {e}"));
         }
     }
 

@@ -30,6 +30,10 @@ pub struct Counters {
     pub sensor_errors: u64,
     /// New GNSS fixes used (valid, iTOW advancing).
     pub gnss_fixes: u64,
+    /// GNSS epochs whose time of week changed but did not advance past the newest fix used
+    /// (stepped back, or jumped half a week or more ahead): not used. Absent in older logs.
+    #[serde(default)]
+    pub gnss_backwards: u64,
     /// Maestro writes done.
     pub servo_writes: u64,
     /// Maestro write errors.
@@ -38,6 +42,10 @@ pub struct Counters {
     pub servo_missing: u64,
     /// Commands applied.
     pub commands: u64,
+    /// Commands not acted on because they arrived longer than the comms timeout before the
+    /// cycle that took them (a kill always acts). Absent in older logs.
+    #[serde(default)]
+    pub commands_stale: u64,
     /// Setpoints rejected as out of range: speed below 0 or above `control.max_speed_mm_s`,
     /// heading outside 0..36 000 000 (1e-5 degrees).
     pub setpoints_rejected: u64,

@@ -17,13 +17,14 @@
 //! ```
 //! use dima_core::config::Config;
 //! use dima_core::step::{CycleInputs, SensorInput};
-//! use dima_core::{Core, CoreState, Command, Mode};
+//! use dima_core::{Command, Core, CoreState, Mode, ReceivedCommand};
 //!
 //! let mut core = Core::new(&Config::default()).expect("the default configuration is valid");
 //! let mut state = CoreState::new();
 //! let inputs = CycleInputs {
 //!     missed_periods: 0,
-//!     commands: &[Command::Revive],
+//!     // A revive that arrived 1 ms before the cycle.
+//!     commands: &[ReceivedCommand::new(Command::Revive, 3_000_000)],
 //!     sensor: SensorInput::NotRequested,
 //!     stale_packets: 0,
 //! };
@@ -45,7 +46,7 @@ pub mod schema;
 pub mod step;
 
 pub use dima_groundlink::Command;
-pub use safety::{FailsafeCause, Mode, ReviveRefusal};
+pub use safety::{FailsafeCause, Mode, ReceivedCommand, ReviveRefusal};
 pub use step::{Core, CoreState, CycleInputs, CycleOutputs, SensorInput};
 
 /// Monotonic time in nanoseconds (CLOCK_MONOTONIC in the application, anything in tests).

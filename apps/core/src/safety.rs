@@ -5,7 +5,12 @@
 //! an argument, so tests drive it like a table.
 //!
 //! Rules:
-//! - any valid command frame is link activity;
+//! - any valid command frame is link activity, as of when it arrived (a command the step takes
+//!   later, after waiting in the port, a thread or a ring, proves the link only up to its
+//!   arrival);
+//! - a command that arrived longer than the comms timeout before the cycle that takes it is
+//!   stale: no link activity and no instruction the operator still stands by, so it is not acted
+//!   on (a kill always is);
 //! - kill -> KILLED from any state, immediately;
 //! - revive leaves KILLED or FAILSAFE for MANUAL at neutral, only while nothing blocks it (see
 //!   [`ReviveRefusal`]: among others, enough good packets since the sensor link was last lost,
@@ -20,17 +25,23 @@
 //!   forward-only);
 //! - in KILLED or FAILSAFE manual values and setpoints change no mode and are not kept;
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
-//!   missing packets, a stuck IMU, or too many overruns within a second -> FAILSAFE; in AUTO
-//!   also GNSS older than its timeout. FAILSAFE latches until a revive;
+//!   missing packets, a stuck IMU (the accelerometer's or the gyroscope's words frozen, each
+//!   die judged on its own), or an overrunning loop (too many late wake-ups within a second, or
+//!   too long a stall) -> FAILSAFE; in AUTO also GNSS older than its timeout (a fix counts only
+//!   while it is valid and its time of week advances past the newest fix used: a repeated or
+//!   backward iTOW is old data). FAILSAFE latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
-//!   from neutral.
+//!   from neutral;
+//! - every mode transition is counted ([`SafetyState::mode_transitions`]), also those that come
+//!   back to the mode the cycle started in (AUTO -> MANUAL -> AUTO from two commands in one
+//!   cycle): the step resets the controllers and drops the held action on any of them.
 
 use dima_groundlink::{Command, Percent, HEADING_FULL_TURN_DEG_E5};
 
 use crate::config::{ControlConfig, SafetyConfig};
 use crate::Nanos;
 
-/// Largest `safety.overrun_limit` (the overrun window keeps that many miss times).
+/// Largest `safety.overrun_limit` (the overrun window keeps that many late wake-ups).
 pub const MAX_OVERRUN_LIMIT: u32 = 250;
 
 /// Operating mode. In logs: `KILLED`, `MANUAL`, `AUTO`, `FAILSAFE`.
@@ -97,9 +108,10 @@ pub enum FailsafeCause {
     CommsLoss,
     /// K consecutive bad, missing, stale or late sensor packets.
     SensorLoss,
-    /// Identical accelerometer and gyroscope words for many packets.
+    /// Identical accelerometer words, or identical gyroscope words, for many packets.
     ImuStuck,
-    /// More missed periods within a second than the overrun limit.
+    /// The loop overran: more late wake-ups within a second than `safety.overrun_limit`, or
+    /// periods missed within a second adding up to more than `safety.max_stall_ms`.
     Overrun,
     /// In AUTO, no fresh GNSS fix within the GNSS timeout.
     GnssStale,
@@ -180,9 +192,10 @@ pub struct Setpoints {
 pub struct CycleHealth {
     /// A valid packet, paired with this cycle's request, arrived in time.
     pub packet_ok: bool,
-    /// More missed periods within the last second than the overrun limit.
+    /// The loop overran (see [`FailsafeCause::Overrun`]).
     pub overrunning: bool,
-    /// The IMU words have not changed for the stuck threshold.
+    /// One IMU die's words (the accelerometer's or the gyroscope's) have not changed for the
+    /// stuck threshold.
     pub imu_stuck: bool,
     /// No fresh GNSS fix within the GNSS timeout.
     pub gnss_stale: bool,
@@ -198,6 +211,31 @@ impl CycleHealth {
     };
 }
 
+/// A command as a cycle takes it: what, and when its frame arrived.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReceivedCommand {
+    /// The command.
+    pub command: Command,
+    /// When its frame arrived, ns, on the clock of the cycle's time (the application takes the
+    /// earliest time the frame can have been complete at the port).
+    pub arrival_ns: Nanos,
+}
+
+impl ReceivedCommand {
+    /// `command`, arrived at `arrival_ns`.
+    pub const fn new(command: Command, arrival_ns: Nanos) -> ReceivedCommand {
+        ReceivedCommand {
+            command,
+            arrival_ns,
+        }
+    }
+
+    /// It arrived longer than `comms_timeout_ns` before `now`.
+    pub fn is_stale(&self, now: Nanos, comms_timeout_ns: Nanos) -> bool {
+        now.saturating_sub(self.arrival_ns) > comms_timeout_ns
+    }
+}
+
 /// What a command did besides changing the state.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct CommandEffect {
@@ -205,6 +243,8 @@ pub struct CommandEffect {
     pub rejected: bool,
     /// A revive was refused, and why.
     pub refused: Option<ReviveRefusal>,
+    /// The command arrived longer than the comms timeout before the cycle: not acted on.
+    pub stale: bool,
 }
 
 /// The whole state of the safety logic.
@@ -215,7 +255,8 @@ pub struct SafetyState {
     /// Why FAILSAFE was entered, while in FAILSAFE (a revive or a kill clears it; the
     /// application keeps the last cause for the operator until a revive).
     pub cause: Option<FailsafeCause>,
-    /// Time of the last valid command frame.
+    /// Arrival time of the newest valid command frame acted on (never later than the cycle
+    /// that took it).
     pub last_link_ns: Option<Nanos>,
     /// Consecutive bad or missing packets (`u32::MAX` until the first good packet: the
     /// sensor link is not healthy before it has delivered anything).
@@ -230,6 +271,10 @@ pub struct SafetyState {
     /// Time of the last kill or accepted revive (the next revive waits
     /// `revive_min_interval_ns` from it).
     pub last_toggle_ns: Option<Nanos>,
+    /// Mode transitions since start-up (wrapping). Commands can leave a mode and come back to
+    /// it within one cycle (AUTO -> MANUAL -> AUTO); comparing this count, not just the mode,
+    /// before and after a cycle sees every transition.
+    pub mode_transitions: u32,
 }
 
 impl Default for SafetyState {
@@ -255,6 +300,7 @@ impl SafetyState {
                 heading_deg_e5: None,
             },
             last_toggle_ns: None,
+            mode_transitions: 0,
         }
     }
 
@@ -273,8 +319,16 @@ impl SafetyState {
         }
     }
 
+    /// Switches to `mode`, counting the transition when it is one.
+    fn switch_to(&mut self, mode: Mode) {
+        if self.mode != mode {
+            self.mode = mode;
+            self.mode_transitions = self.mode_transitions.wrapping_add(1);
+        }
+    }
+
     fn enter_safe(&mut self, mode: Mode, cause: Option<FailsafeCause>) {
-        self.mode = mode;
+        self.switch_to(mode);
         self.cause = cause;
         self.setpoints = Setpoints::default();
     }
@@ -284,7 +338,7 @@ impl SafetyState {
         match self.mode {
             Mode::Manual => {}
             Mode::Auto => {
-                self.mode = Mode::Manual;
+                self.switch_to(Mode::Manual);
                 self.setpoints = Setpoints::default();
             }
             Mode::Killed | Mode::Failsafe => return,
@@ -303,7 +357,7 @@ impl SafetyState {
         match self.mode {
             Mode::Auto => {}
             Mode::Manual => {
-                self.mode = Mode::Auto;
+                self.switch_to(Mode::Auto);
                 self.setpoints = Setpoints::default();
             }
             Mode::Killed | Mode::Failsafe => return,
@@ -316,17 +370,29 @@ impl SafetyState {
         }
     }
 
-    /// A valid command arrived at `now`; `blocked` says what besides the sensor link would
-    /// refuse a revive.
+    /// A valid command, taken by a cycle at `now`; `blocked` says what besides the sensor link
+    /// would refuse a revive.
+    ///
+    /// The link was last seen when the command arrived (an arrival after `now` counts as
+    /// `now`; the link time never moves back). A command other than a kill that arrived longer
+    /// than the comms timeout before `now` is stale: it changes nothing, not even the link
+    /// time. Kills and revives are dated `now` for the revive rate limit: the time the robot
+    /// acted on them.
     pub fn on_command(
         &mut self,
         limits: &SafetyLimits,
-        command: Command,
+        received: ReceivedCommand,
         now: Nanos,
         blocked: Option<ReviveRefusal>,
     ) -> CommandEffect {
-        self.last_link_ns = Some(now);
+        let command = received.command;
         let mut effect = CommandEffect::default();
+        if command != Command::Kill && received.is_stale(now, limits.comms_timeout_ns) {
+            effect.stale = true;
+            return effect;
+        }
+        let seen_ns = received.arrival_ns.min(now);
+        self.last_link_ns = Some(self.last_link_ns.map_or(seen_ns, |t| t.max(seen_ns)));
         match command {
             Command::Heartbeat => {}
             Command::Kill => {
@@ -346,7 +412,7 @@ impl SafetyState {
                     match refusal {
                         Some(why) => effect.refused = Some(why),
                         None => {
-                            self.mode = Mode::Manual;
+                            self.switch_to(Mode::Manual);
                             self.cause = None;
                             self.setpoints = Setpoints::default();
                             self.last_toggle_ns = Some(now);
@@ -436,7 +502,16 @@ mod tests {
         Cycle(CycleHealth),
     }
 
-    /// Start-up, after one good packet.
+    /// `command`, taken by a cycle at `now`, the time it arrived.
+    fn fresh(
+        s: &mut SafetyState,
+        command: Command,
+        now: Nanos,
+        blocked: Option<ReviveRefusal>,
+    ) -> CommandEffect {
+        s.on_command(&LIMITS, ReceivedCommand::new(command, now), now, blocked)
+    }
+
     /// After start-up, as many good packets as a revive needs.
     fn healthy() -> SafetyState {
         let mut s = SafetyState::new();
@@ -452,7 +527,7 @@ mod tests {
         for (i, (t, ev, want)) in rows.iter().enumerate() {
             match ev {
                 Ev::Cmd(c) => {
-                    s.on_command(&LIMITS, *c, t * MS, None);
+                    fresh(&mut s, *c, t * MS, None);
                 }
                 Ev::Cycle(h) => s.on_cycle(&LIMITS, *h, t * MS),
             }
@@ -537,18 +612,18 @@ mod tests {
     #[test]
     fn speed_setpoints_outside_zero_to_max_are_rejected_and_change_nothing() {
         let mut s = healthy();
-        s.on_command(&LIMITS, Command::Revive, 0, None);
-        s.on_command(&LIMITS, Command::Throttle(pct(55)), 1, None);
+        fresh(&mut s, Command::Revive, 0, None);
+        fresh(&mut s, Command::Throttle(pct(55)), 1, None);
         let before = s;
         for mm_s in [-1, -1000, 5_001, i32::MAX, i32::MIN] {
-            let effect = s.on_command(&LIMITS, Command::SpeedSetpoint { mm_s }, 2, None);
+            let effect = fresh(&mut s, Command::SpeedSetpoint { mm_s }, 2, None);
             assert!(effect.rejected, "{mm_s}");
             assert_eq!(s.mode, Manual, "{mm_s}: no mode change");
             assert_eq!(s.setpoints, before.setpoints, "{mm_s}");
         }
         for mm_s in [0, 5_000] {
             let mut t = before;
-            let effect = t.on_command(&LIMITS, Command::SpeedSetpoint { mm_s }, 3, None);
+            let effect = fresh(&mut t, Command::SpeedSetpoint { mm_s }, 3, None);
             assert!(!effect.rejected, "{mm_s}");
             assert_eq!((t.mode, t.setpoints.speed_mm_s), (Auto, Some(mm_s)));
         }
@@ -615,10 +690,8 @@ mod tests {
     #[test]
     fn revive_toggling_is_rate_limited_and_kill_never_is() {
         let mut s = healthy();
-        let revive = |s: &mut SafetyState, t_ms: u64| {
-            s.on_command(&LIMITS, Command::Revive, t_ms * MS, None)
-                .refused
-        };
+        let revive =
+            |s: &mut SafetyState, t_ms: u64| fresh(s, Command::Revive, t_ms * MS, None).refused;
         assert_eq!(
             revive(&mut s, 0),
             None,
@@ -626,7 +699,7 @@ mod tests {
         );
         assert_eq!(s.mode, Manual);
         // A kill right after the revive: never delayed.
-        s.on_command(&LIMITS, Command::Kill, MS, None);
+        fresh(&mut s, Command::Kill, MS, None);
         assert_eq!(s.mode, Killed);
         // A revive 249 ms after the kill: refused; at 250 ms: accepted.
         assert_eq!(revive(&mut s, 250), Some(ReviveRefusal::TooSoon));
@@ -638,14 +711,14 @@ mod tests {
         s.on_cycle(&LIMITS, OK, 300 * MS);
         s.on_cycle(&LIMITS, OK, 1_400 * MS); // comms loss: no command since 251 ms
         assert_eq!(s.mode, Failsafe);
-        s.on_command(&LIMITS, Command::Kill, 1_400 * MS, None);
+        fresh(&mut s, Command::Kill, 1_400 * MS, None);
         assert_eq!(revive(&mut s, 1_500), Some(ReviveRefusal::TooSoon));
         assert_eq!(revive(&mut s, 1_649), Some(ReviveRefusal::TooSoon));
         assert_eq!(revive(&mut s, 1_650), None);
         // Kills repeated for a second (as the ground station sends them) each restart the
         // wait; each of them kills.
         for t in (1_700..2_700).step_by(100) {
-            s.on_command(&LIMITS, Command::Kill, t * MS, None);
+            fresh(&mut s, Command::Kill, t * MS, None);
             assert_eq!(s.mode, Killed);
         }
         assert_eq!(revive(&mut s, 2_700), Some(ReviveRefusal::TooSoon));
@@ -659,12 +732,12 @@ mod tests {
     fn out_of_range_heading_setpoints_are_rejected_in_the_core() {
         let mut s = run_table(&[(0, Cmd(Command::Revive), Manual)]);
         for deg_e5 in [-1, i32::MIN, HEADING_FULL_TURN_DEG_E5, i32::MAX] {
-            let effect = s.on_command(&LIMITS, Command::HeadingSetpoint { deg_e5 }, MS, None);
+            let effect = fresh(&mut s, Command::HeadingSetpoint { deg_e5 }, MS, None);
             assert!(effect.rejected, "{deg_e5}");
             assert_eq!((s.mode, s.setpoints.heading_deg_e5), (Manual, None));
         }
         for deg_e5 in [0, HEADING_FULL_TURN_DEG_E5 - 1] {
-            let effect = s.on_command(&LIMITS, Command::HeadingSetpoint { deg_e5 }, MS, None);
+            let effect = fresh(&mut s, Command::HeadingSetpoint { deg_e5 }, MS, None);
             assert!(!effect.rejected);
             assert_eq!((s.mode, s.setpoints.heading_deg_e5), (Auto, Some(deg_e5)));
         }
@@ -678,7 +751,7 @@ mod tests {
             ReviveRefusal::RealtimeSetup,
         ] {
             let mut s = healthy();
-            let effect = s.on_command(&LIMITS, Command::Revive, 0, Some(why));
+            let effect = fresh(&mut s, Command::Revive, 0, Some(why));
             assert_eq!((s.mode, effect.refused), (Killed, Some(why)));
         }
     }
@@ -702,7 +775,7 @@ mod tests {
             ),
         ] {
             let mut s = healthy();
-            s.on_command(&LIMITS, Command::Revive, 0, None);
+            fresh(&mut s, Command::Revive, 0, None);
             s.on_cycle(&LIMITS, health, 4 * MS);
             assert_eq!((s.mode, s.cause), (Failsafe, Some(cause)));
         }
@@ -715,15 +788,10 @@ mod tests {
             ..OK
         };
         let mut s = healthy();
-        s.on_command(&LIMITS, Command::Revive, 0, None);
+        fresh(&mut s, Command::Revive, 0, None);
         s.on_cycle(&LIMITS, stale, MS);
         assert_eq!(s.mode, Manual, "manual driving needs no GNSS");
-        s.on_command(
-            &LIMITS,
-            Command::HeadingSetpoint { deg_e5: 0 },
-            2 * MS,
-            None,
-        );
+        fresh(&mut s, Command::HeadingSetpoint { deg_e5: 0 }, 2 * MS, None);
         s.on_cycle(&LIMITS, stale, 3 * MS);
         assert_eq!(
             (s.mode, s.cause),
@@ -734,18 +802,18 @@ mod tests {
     #[test]
     fn no_revive_before_the_first_good_packet() {
         let mut s = SafetyState::new();
-        let effect = s.on_command(&LIMITS, Command::Revive, 0, None);
+        let effect = fresh(&mut s, Command::Revive, 0, None);
         assert_eq!(
             (s.mode, effect.refused),
             (Killed, Some(ReviveRefusal::SensorLoss))
         );
         s.on_cycle(&LIMITS, BAD, MS);
-        s.on_command(&LIMITS, Command::Revive, 2 * MS, None);
+        fresh(&mut s, Command::Revive, 2 * MS, None);
         assert_eq!(s.mode, Killed);
         for _ in 0..LIMITS.revive_good_packets {
             s.on_cycle(&LIMITS, OK, 3 * MS);
         }
-        s.on_command(&LIMITS, Command::Revive, 4 * MS, None);
+        fresh(&mut s, Command::Revive, 4 * MS, None);
         assert_eq!(s.mode, Manual);
     }
 
@@ -761,7 +829,7 @@ mod tests {
                 t += 4 * MS;
                 s.on_cycle(&LIMITS, health, t);
             }
-            let effect = s.on_command(&LIMITS, Command::Revive, t + 1, None);
+            let effect = fresh(&mut s, Command::Revive, t + 1, None);
             assert_eq!(
                 (s.mode, effect.refused),
                 (Killed, Some(ReviveRefusal::SensorLoss))
@@ -771,7 +839,7 @@ mod tests {
             t += 4 * MS;
             s.on_cycle(&LIMITS, OK, t);
         }
-        s.on_command(&LIMITS, Command::Revive, t + 1, None);
+        fresh(&mut s, Command::Revive, t + 1, None);
         assert_eq!(s.mode, Manual);
     }
 
@@ -782,7 +850,7 @@ mod tests {
         for (i, health) in [OK, BAD, OK, BAD, BAD, OK].into_iter().enumerate() {
             s.on_cycle(&LIMITS, health, i as Nanos * 4 * MS);
         }
-        s.on_command(&LIMITS, Command::Revive, 30 * MS, None);
+        fresh(&mut s, Command::Revive, 30 * MS, None);
         assert_eq!(s.mode, Manual);
     }
 
@@ -793,9 +861,69 @@ mod tests {
                 mode: start,
                 ..SafetyState::new()
             };
-            s.on_command(&LIMITS, Command::Kill, 0, Some(ReviveRefusal::ImuStuck));
+            fresh(&mut s, Command::Kill, 0, Some(ReviveRefusal::ImuStuck));
             assert_eq!(s.mode, Killed);
         }
+    }
+
+    #[test]
+    fn every_transition_is_counted_even_back_to_the_same_mode() {
+        let mut s = run_table(&[
+            (0, Cmd(Command::Revive), Manual),
+            (4, Cmd(Command::SpeedSetpoint { mm_s: 1_000 }), Auto),
+        ]);
+        let before = s.mode_transitions;
+        fresh(&mut s, Command::Throttle(pct(50)), 8 * MS, None);
+        fresh(&mut s, Command::SpeedSetpoint { mm_s: 0 }, 8 * MS, None);
+        assert_eq!((s.mode, s.mode_transitions - before), (Auto, 2));
+        // Commands that change no mode count nothing.
+        fresh(&mut s, Command::SpeedSetpoint { mm_s: 10 }, 9 * MS, None);
+        fresh(&mut s, Command::Revive, 9 * MS, None);
+        fresh(&mut s, Command::Kill, 9 * MS, None);
+        fresh(&mut s, Command::Kill, 9 * MS, None);
+        assert_eq!((s.mode, s.mode_transitions - before), (Killed, 3));
+    }
+
+    #[test]
+    fn the_link_is_seen_when_a_command_arrived_never_later_than_the_cycle_never_back() {
+        let heartbeat = |s: &mut SafetyState, arrival_ms: u64, now_ms: u64| {
+            let received = ReceivedCommand::new(Command::Heartbeat, arrival_ms * MS);
+            s.on_command(&LIMITS, received, now_ms * MS, None)
+        };
+        let mut s = run_table(&[(0, Cmd(Command::Revive), Manual)]);
+        heartbeat(&mut s, 500, 600);
+        assert_eq!(s.last_link_ns, Some(500 * MS));
+        // An earlier arrival taken later does not move the link time back.
+        heartbeat(&mut s, 400, 600);
+        assert_eq!(s.last_link_ns, Some(500 * MS));
+        // An arrival after the cycle's time counts as the cycle's time.
+        heartbeat(&mut s, 900, 700);
+        assert_eq!(s.last_link_ns, Some(700 * MS));
+    }
+
+    #[test]
+    fn a_stale_command_changes_nothing_and_a_stale_kill_still_kills() {
+        let mut s = run_table(&[(0, Cmd(Command::Revive), Manual)]);
+        let before = s;
+        for command in [
+            Command::Heartbeat,
+            Command::Throttle(pct(90)),
+            Command::SpeedSetpoint { mm_s: 1_000 },
+            Command::Revive,
+        ] {
+            let received = ReceivedCommand::new(command, 700 * MS);
+            // 1 000 ms old acts; 1 000 ms and 1 ns old does not.
+            let mut t = s;
+            let effect = t.on_command(&LIMITS, received, 1_700 * MS, None);
+            assert!(!effect.stale, "{command:?}");
+            assert_eq!(t.last_link_ns, Some(700 * MS), "{command:?}");
+            let effect = s.on_command(&LIMITS, received, 1_700 * MS + 1, None);
+            assert!(effect.stale, "{command:?}");
+            assert_eq!(s, before, "{command:?}");
+        }
+        let received = ReceivedCommand::new(Command::Kill, 0);
+        let effect = s.on_command(&LIMITS, received, 5_000 * MS, None);
+        assert_eq!((s.mode, effect.stale), (Killed, false));
     }
 
     #[test]

@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::counters::Counters;
 use crate::estimate::StateEstimate;
 use crate::monitor::PacketVerdict;
-use crate::safety::{FailsafeCause, Mode, ReviveRefusal};
+use crate::safety::{FailsafeCause, Mode, ReceivedCommand, ReviveRefusal};
 
 /// One MCAP channel of the log.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -107,7 +107,9 @@ pub struct CycleMessage {
     pub t_complete_ns: Option<u64>,
     /// Packets that completed too soon after the request to answer it, passed over.
     pub stale_passed: u32,
-    /// Command frames applied this cycle, in arrival order.
+    /// Command frames handed to the step this cycle, in arrival order, with their arrival
+    /// times (one that arrived longer than the comms timeout before the cycle was not acted on
+    /// unless it was a kill: see `counters.commands_stale`).
     pub commands: Vec<CommandMessage>,
     /// Packet (or wake-up, without one) to outputs computed, µs.
     pub compute_us: f64,
@@ -150,6 +152,11 @@ pub struct GroundLinkCounters {
     /// v2 revives accepted but not acted on: repetitions of an operator request the robot
     /// already acted on (taken as heartbeats; included in `v2_accepted`).
     pub revive_repeats: u64,
+    /// v2 manual commands and setpoints accepted but not acted on: their operator request is
+    /// older than the last revive the robot acted on, a value given while the robot was KILLED
+    /// or in FAILSAFE that the station kept repeating (taken as heartbeats; included in
+    /// `v2_accepted`; absent from older logs: read as 0).
+    pub pre_revive_requests: u64,
     /// v1 commands accepted (only with `xbee.require_auth = false`).
     pub v1_accepted: u64,
     /// Valid v1 commands ignored because `xbee.require_auth = true`.
@@ -182,13 +189,29 @@ pub struct CommandMessage {
     pub kind: u8,
     /// The data field.
     pub data: i32,
+    /// When the frame arrived, monotonic clock, ns (the earliest time it can have been
+    /// complete at the port); absent from logs written before it (and from commands not
+    /// logged by a cycle): taken as the cycle's `wake_ns`.
+    #[serde(default)]
+    pub arrival_ns: Option<u64>,
 }
 
 impl From<dima_groundlink::Command> for CommandMessage {
+    /// The command alone, without an arrival time.
     fn from(c: dima_groundlink::Command) -> Self {
         CommandMessage {
             kind: c.command_type() as u8,
             data: c.data(),
+            arrival_ns: None,
+        }
+    }
+}
+
+impl From<ReceivedCommand> for CommandMessage {
+    fn from(r: ReceivedCommand) -> Self {
+        CommandMessage {
+            arrival_ns: Some(r.arrival_ns),
+            ..CommandMessage::from(r.command)
         }
     }
 }
@@ -198,6 +221,13 @@ impl CommandMessage {
     pub fn command(&self) -> Option<dima_groundlink::Command> {
         let kind = dima_groundlink::CommandType::from_byte(self.kind)?;
         dima_groundlink::Command::from_parts(kind, self.data).ok()
+    }
+
+    /// The command with its arrival time, as the step of a cycle at `cycle_wake_ns` took it
+    /// (a command logged without an arrival time arrived at `cycle_wake_ns`).
+    pub fn received(&self, cycle_wake_ns: u64) -> Option<ReceivedCommand> {
+        let arrival_ns = self.arrival_ns.unwrap_or(cycle_wake_ns);
+        Some(ReceivedCommand::new(self.command()?, arrival_ns))
     }
 }
 
@@ -471,6 +501,53 @@ mod tests {
     }
 
     #[test]
+    fn command_arrival_times_and_stale_counts_are_optional_for_older_logs() {
+        let cycle: serde_json::Value =
+            serde_json::from_str(&json_schema::<CycleMessage>()).unwrap();
+        let command = &cycle["$defs"]["CommandMessage"];
+        let required = command["required"].as_array().unwrap();
+        assert!(required.iter().any(|k| k == "type"));
+        assert!(!required.iter().any(|k| k == "arrival_ns"));
+        assert!(command["properties"]["arrival_ns"]["description"]
+            .as_str()
+            .unwrap()
+            .contains("ns"));
+        let counters = &cycle["$defs"]["Counters"];
+        assert!(counters["properties"]["commands_stale"].is_object());
+        assert!(!counters["required"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|k| k == "commands_stale"));
+
+        let revive = dima_groundlink::Command::Revive;
+        let old: CommandMessage = serde_json::from_str(r#"{"type": 2, "data": 0}"#).unwrap();
+        assert_eq!(old.arrival_ns, None);
+        assert_eq!(
+            old.received(7_000),
+            Some(ReceivedCommand::new(revive, 7_000))
+        );
+        let logged = CommandMessage::from(ReceivedCommand::new(revive, 5_000));
+        let text = serde_json::to_string(&logged).unwrap();
+        assert_eq!(text, r#"{"type":2,"data":0,"arrival_ns":5000}"#);
+        let read: CommandMessage = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            read.received(7_000),
+            Some(ReceivedCommand::new(revive, 5_000))
+        );
+        let counters: Counters = serde_json::from_value(serde_json::json!({
+            "cycles": 1, "missed_periods": 0, "packets_ok": 0, "packets_missing": 0,
+            "packets_stale": 0, "packets_late": 0, "packet_crc_errors": 0,
+            "packet_bytes_skipped": 0, "info_frames": 0, "sensor_errors": 0, "gnss_fixes": 0,
+            "servo_writes": 0, "servo_errors": 0, "servo_missing": 0, "commands": 3,
+            "setpoints_rejected": 0, "revives_refused": 0, "log_dropped": 0,
+            "device_connects": 0, "failsafes": 0,
+        }))
+        .unwrap();
+        assert_eq!((counters.commands, counters.commands_stale), (3, 0));
+    }
+
+    #[test]
     fn link_counters_are_optional_for_older_logs() {
         let cycle: serde_json::Value =
             serde_json::from_str(&json_schema::<CycleMessage>()).unwrap();
@@ -487,5 +564,33 @@ mod tests {
         }))
         .unwrap();
         assert_eq!(summary.link, GroundLinkCounters::default());
+    }
+
+    #[test]
+    fn link_counters_of_older_logs_read_new_fields_as_zero() {
+        let link = &serde_json::from_str::<serde_json::Value>(&json_schema::<CycleMessage>())
+            .unwrap()["$defs"]["GroundLinkCounters"];
+        let properties = link["properties"].as_object().unwrap();
+        assert!(properties.contains_key("revive_repeats"));
+        assert!(properties["pre_revive_requests"]["description"]
+            .as_str()
+            .unwrap()
+            .contains("older than the last revive"));
+        assert!(link.get("required").is_none(), "{link}");
+        // Written before the counter existed.
+        let old: GroundLinkCounters =
+            serde_json::from_value(serde_json::json!({ "v2_accepted": 5, "revive_repeats": 2 }))
+                .unwrap();
+        assert_eq!((old.revive_repeats, old.pre_revive_requests), (2, 0));
+        let new = GroundLinkCounters {
+            pre_revive_requests: 3,
+            ..GroundLinkCounters::default()
+        };
+        let json = serde_json::to_value(new).unwrap();
+        assert_eq!(json["pre_revive_requests"], 3);
+        assert_eq!(
+            serde_json::from_value::<GroundLinkCounters>(json).unwrap(),
+            new
+        );
     }
 }

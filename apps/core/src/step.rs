@@ -7,7 +7,6 @@
 //! Tests and replays call the step directly, thousands of cycles per second, with no devices,
 //! threads or clocks.
 
-use dima_groundlink::Command;
 use dima_sensorboard::{units, RawPacket, SensorPacket};
 
 use crate::config::{Config, ConfigError};
@@ -16,8 +15,13 @@ use crate::control::{
 };
 use crate::counters::Counters;
 use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
-use crate::monitor::{AnswerWindow, GnssFreshness, ImuStuckDetector, OverrunWindow, PacketVerdict};
-use crate::safety::{CycleHealth, FailsafeCause, Mode, ReviveRefusal, SafetyLimits, SafetyState};
+use crate::monitor::{
+    AnswerWindow, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule, OverrunWindow,
+    PacketVerdict,
+};
+use crate::safety::{
+    CycleHealth, FailsafeCause, Mode, ReceivedCommand, ReviveRefusal, SafetyLimits, SafetyState,
+};
 use crate::Nanos;
 
 /// What the acquire phase got from the sensor board this cycle.
@@ -49,8 +53,9 @@ pub enum SensorInput {
 pub struct CycleInputs<'a> {
     /// Whole periods the clock skipped before this cycle's wake-up.
     pub missed_periods: u32,
-    /// Valid command frames from the ground link, in arrival order.
-    pub commands: &'a [Command],
+    /// Valid command frames from the ground link, in arrival order, each with its arrival
+    /// time.
+    pub commands: &'a [ReceivedCommand],
     /// The sensor packet, or why there is none.
     pub sensor: SensorInput,
     /// Valid packets that completed too soon after this cycle's request to answer it (an
@@ -67,7 +72,9 @@ pub struct CycleOutputs {
     pub mode: Mode,
     /// Why FAILSAFE was entered (while in FAILSAFE).
     pub cause: Option<FailsafeCause>,
-    /// The mode changed this cycle.
+    /// The mode after the cycle differs from the mode before it (what the log reports as a
+    /// mode change). A round trip within the cycle (AUTO -> MANUAL -> AUTO) is not one here,
+    /// though it resets the controllers like any transition.
     pub mode_changed: bool,
     /// What became of the sensor packet.
     pub verdict: PacketVerdict,
@@ -106,9 +113,9 @@ pub struct CoreState {
     pub values: SensorValues,
     /// GNSS freshness.
     pub gnss: GnssFreshness,
-    /// Stuck-IMU run.
+    /// Stuck-IMU runs, one per die.
     pub imu: ImuStuckDetector,
-    /// Missed periods within the last second.
+    /// Late wake-ups within the last second.
     pub overruns: OverrunWindow,
     /// Time of the last controller step.
     pub last_step_ns: Option<Nanos>,
@@ -138,7 +145,7 @@ pub struct Core {
     gnss_timeout_ns: Nanos,
     max_speed_accuracy_mm_s: u32,
     imu_stuck_packets: u32,
-    overrun_limit: u32,
+    overrun: OverrunRule,
 }
 
 impl Core {
@@ -151,7 +158,10 @@ impl Core {
             limits: SafetyLimits::new(&config.safety, &config.control),
             outputs: OutputMap::new(&config.channels),
             controllers,
-            estimator: Estimator::new(&config.estimator),
+            estimator: Estimator::new(
+                &config.estimator,
+                u64::from(config.safety.gnss_timeout_ms) * 1_000_000,
+            ),
             answer: AnswerWindow::new(
                 config.packet_wire_ns(),
                 us(config.sensor.wire_tolerance_us),
@@ -161,7 +171,11 @@ impl Core {
             gnss_timeout_ns: u64::from(config.safety.gnss_timeout_ms) * 1_000_000,
             max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
             imu_stuck_packets: config.safety.imu_stuck_packets,
-            overrun_limit: config.safety.overrun_limit,
+            overrun: OverrunRule {
+                limit: config.safety.overrun_limit,
+                max_stall_ns: u64::from(config.safety.max_stall_ms) * 1_000_000,
+                period_ns: config.period_ns(),
+            },
         })
     }
 
@@ -181,7 +195,7 @@ impl Core {
             Some(ReviveRefusal::RealtimeSetup)
         } else if state.imu.is_stuck(self.imu_stuck_packets) {
             Some(ReviveRefusal::ImuStuck)
-        } else if state.overruns.exceeded(now, self.overrun_limit) {
+        } else if state.overruns.exceeded(now, &self.overrun) {
             Some(ReviveRefusal::Overrun)
         } else {
             None
@@ -221,14 +235,17 @@ impl Core {
             state.imu.update(p.accel, p.gyro, self.imu_stuck_packets);
             state.values.gyro_z_dps = units::gyro_dps_2000(p.gyro[2]);
         }
-        let new_fix = state.gnss.update(
+        let epoch = state.gnss.update(
             packet.as_ref().and_then(SensorPacket::nav_pvt).as_ref(),
             self.max_speed_accuracy_mm_s,
             now,
         );
-        if new_fix.is_some() {
-            state.counters.gnss_fixes += 1;
+        match epoch {
+            GnssEpoch::New(_) => state.counters.gnss_fixes += 1,
+            GnssEpoch::NotAdvancing => state.counters.gnss_backwards += 1,
+            _ => {}
         }
+        let new_fix = epoch.fix();
         state.values.gnss = state.gnss.current(now, self.gnss_timeout_ns);
         state.values.gnss_new = new_fix.is_some();
         let imu = packet.as_ref().map(|p| ImuSample {
@@ -247,10 +264,13 @@ impl Core {
     }
 
     /// The controllers, in AUTO on a good packet; the last action is held on a missing one.
-    /// Every mode change resets them.
-    fn control(&mut self, state: &mut CoreState, packet_ok: bool, mode_changed: bool, now: Nanos) {
-        if mode_changed {
+    /// Every mode transition this cycle (`transitioned`, also one that came back to the mode the
+    /// cycle started in) resets them and drops the held action.
+    fn control(&mut self, state: &mut CoreState, packet_ok: bool, transitioned: bool, now: Nanos) {
+        if transitioned {
             self.controllers.reset();
+            state.action = Actuation::default();
+            state.last_step_ns = None;
         }
         if state.safety.mode != Mode::Auto {
             state.action = Actuation::default();
@@ -282,18 +302,25 @@ impl Core {
         now: Nanos,
     ) -> CycleOutputs {
         let mode_before = state.safety.mode;
+        let transitions_before = state.safety.mode_transitions;
         state.counters.cycles += 1;
         state.counters.packets_stale += u64::from(inputs.stale_packets);
         state.counters.missed_periods += u64::from(inputs.missed_periods);
         let overrunning = state
             .overruns
-            .record(inputs.missed_periods, now, self.overrun_limit);
+            .record(inputs.missed_periods, now, &self.overrun);
 
         let mut refused = None;
         let mut rejected = 0;
-        for &command in inputs.commands {
+        for &received in inputs.commands {
             let blocked = self.revive_blocker(state, now);
-            let effect = state.safety.on_command(&self.limits, command, now, blocked);
+            let effect = state
+                .safety
+                .on_command(&self.limits, received, now, blocked);
+            if effect.stale {
+                state.counters.commands_stale += 1;
+                continue;
+            }
             state.counters.commands += 1;
             if effect.rejected {
                 rejected += 1;
@@ -314,10 +341,11 @@ impl Core {
         };
         state.safety.on_cycle(&self.limits, health, now);
         let mode_changed = state.safety.mode != mode_before;
-        if mode_changed && state.safety.mode == Mode::Failsafe {
+        let transitioned = state.safety.mode_transitions != transitions_before;
+        if transitioned && state.safety.mode == Mode::Failsafe {
             state.counters.failsafes += 1;
         }
-        self.control(state, verdict.is_ok(), mode_changed, now);
+        self.control(state, verdict.is_ok(), transitioned, now);
 
         let targets =
             self.outputs

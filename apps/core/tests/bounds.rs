@@ -7,7 +7,7 @@
 
 use dima_core::config::{ChannelConfig, Config, OffKeyword, SafeOutput};
 use dima_core::step::{CycleInputs, SensorInput};
-use dima_core::{Command, Core, CoreState, Mode, Nanos};
+use dima_core::{Command, Core, CoreState, Mode, Nanos, ReceivedCommand};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
@@ -113,7 +113,9 @@ fn sensor() -> impl Strategy<Value = Sensor> {
     ]
 }
 
-/// One cycle: time since the last one, missed periods, commands, the sensor input.
+/// One cycle: time since the last one, missed periods, commands (arrived spread evenly over
+/// the time since the last cycle: after a stall, some longer ago than the comms timeout), the
+/// sensor input.
 #[derive(Debug, Clone)]
 struct Cycle {
     dt_ns: Nanos,
@@ -142,7 +144,8 @@ fn cycle() -> impl Strategy<Value = Cycle> {
 }
 
 /// A channel table that passes validation: any limits within 1..=4000 µs, neutral and safe
-/// inside them (or, with `allow_off`, safe "off" on steering and tail).
+/// inside them (or, with `allow_off`, safe "off" on steering and tail; a throttle safe pulse
+/// other than neutral with `allow_safe_not_neutral`).
 fn channel(number: u8, may_be_off: bool) -> impl Strategy<Value = ChannelConfig> {
     (
         500u16..2_000,
@@ -166,6 +169,7 @@ fn channel(number: u8, may_be_off: bool) -> impl Strategy<Value = ChannelConfig>
                     SafeOutput::PulseUs(at(s))
                 },
                 allow_off: off,
+                allow_safe_not_neutral: at(s) != at(n),
             }
         })
 }
@@ -227,9 +231,16 @@ fn run_case(
             Sensor::DeviceError => SensorInput::DeviceError,
             Sensor::NotRequested => SensorInput::NotRequested,
         };
+        let n = c.commands.len() as Nanos;
+        let commands: Vec<ReceivedCommand> = (1..)
+            .zip(&c.commands)
+            .map(|(k, &command)| {
+                ReceivedCommand::new(command, now - c.dt_ns * (n + 1 - k) / (n + 1))
+            })
+            .collect();
         let inputs = CycleInputs {
             missed_periods: c.missed,
-            commands: &c.commands,
+            commands: &commands,
             sensor,
             stale_packets: c.stale_packets,
         };

@@ -5,7 +5,9 @@
 use dima_core::config::Config;
 use dima_core::monitor::PacketVerdict;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReviveRefusal};
+use dima_core::{
+    Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand, ReviveRefusal,
+};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
@@ -107,7 +109,8 @@ impl Rig {
         rig
     }
 
-    /// One cycle with `commands`, `missed` periods skipped before it.
+    /// One cycle with `commands` (arrived at the cycle's time), `missed` periods skipped
+    /// before it.
     fn cycle_with(&mut self, commands: &[Command], missed: u32) -> CycleOutputs {
         self.now += PERIOD * (1 + u64::from(missed));
         if self.gnss_running && self.now % (100 * MS) < PERIOD {
@@ -126,9 +129,13 @@ impl Rig {
                 t_request_ns: self.now,
             },
         };
+        let commands: Vec<ReceivedCommand> = commands
+            .iter()
+            .map(|&c| ReceivedCommand::new(c, self.now))
+            .collect();
         let inputs = CycleInputs {
             missed_periods: missed,
-            commands,
+            commands: &commands,
             sensor,
             stale_packets: 0,
         };

@@ -16,7 +16,7 @@ use anyhow::Context;
 use clap::{Args, Subcommand};
 
 use dima_core::step::{CycleInputs, SensorInput};
-use dima_core::{Command, Core, CoreState};
+use dima_core::{Command, Core, CoreState, ReceivedCommand};
 
 use crate::app::record::CycleRecord;
 use crate::app::rt_loop::{HISTOGRAM_US, MAX_COMMANDS_PER_CYCLE};
@@ -91,7 +91,7 @@ pub fn measured_cycles(
         if let Ok(frame) = encode_targets(&channels, &out.targets.quarter_us()) {
             sink = sink.wrapping_add(frame.as_bytes().len() as u64);
         }
-        let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
+        let mut commands = [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE];
         let n = c.commands.len().min(MAX_COMMANDS_PER_CYCLE);
         commands[..n].copy_from_slice(&c.commands[..n]);
         let record = CycleRecord {

@@ -803,7 +803,7 @@ mod tests {
 
     use dima_core::config::Config;
     use dima_core::step::{CycleInputs, SensorInput};
-    use dima_core::{Command, Core, CoreState};
+    use dima_core::{Command, Core, CoreState, ReceivedCommand};
 
     use crate::app::rt_loop::MAX_COMMANDS_PER_CYCLE;
     use crate::rt::Tick;
@@ -837,7 +837,7 @@ mod tests {
             info: None,
             outputs,
             setpoints: state.safety.setpoints,
-            commands: [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE],
+            commands: [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE],
             n_commands: 0,
             stale_passed: 0,
             counters: state.counters,

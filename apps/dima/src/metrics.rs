@@ -192,7 +192,7 @@ impl LoopMetrics {
              {}/{} µs | packets ok {} missing {} stale {} late {} crc {} skipped-bytes {} | \
              sensor errors {} | gnss fixes {} | \
              servo writes {} errors {} missing {} | commands {} (setpoints rejected {}, revives \
-             refused {}) | log dropped {} | failsafes {}",
+             refused {}) | log dropped {} | failsafes {} | stale commands dropped {}",
             c.cycles,
             c.missed_periods,
             h.min_ns() / 1_000,
@@ -221,6 +221,7 @@ impl LoopMetrics {
             c.revives_refused,
             c.log_dropped,
             c.failsafes,
+            c.commands_stale,
         )
     }
 }

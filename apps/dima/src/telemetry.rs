@@ -7,7 +7,9 @@
 //! go out whenever a key is configured, v1 display frames whenever v1 commands are accepted.
 //!
 //! Commands go to the loop as events through a ring, never as a latest value, so a kill or a
-//! revive cannot be overwritten; if the ring is ever full they wait here, in order, in a
+//! revive cannot be overwritten; each carries the earliest time it can have arrived at the port
+//! ([`ArrivalBound`]), so a command that waited (in the port, in this thread or in the ring)
+//! is not taken for fresh link activity; if the ring is ever full they wait here, in order, in a
 //! bounded queue ([`CommandHandOff`]). A kill goes first: it is pushed before anything else is
 //! done with it, and it supersedes every command still waiting. The comms-loss decision is not
 //! taken here but in the loop, so a dead telemetry thread still trips the failsafe.
@@ -30,6 +32,7 @@ use crate::app::record::Snapshot;
 use crate::devices::serial::SerialPort;
 use crate::devices::Opener;
 use crate::rt::monotonic_ns;
+use dima_core::Nanos;
 
 /// The display frame for the last packet: decoded signed values, raw BMP280 ADC values,
 /// latitude then longitude (the original swapped them), velocities and heading from NAV-PVT.
@@ -63,17 +66,67 @@ pub fn display_frame(packet: Option<&SensorPacket>) -> DisplayFrame {
 /// Commands waiting for room in the ring to the loop, at most this many.
 pub const PENDING_COMMANDS: usize = 64;
 
+/// A command as it travels to the loop: what, and when it arrived (`arrival_ns`: the earliest
+/// time its frame can have been complete at the port, CLOCK_MONOTONIC, never later than its
+/// real arrival; see [`ArrivalBound`]). The control step judges its age.
+pub use dima_core::ReceivedCommand;
+
+/// The earliest time the bytes read from the port now can have arrived: the last time the
+/// reader found the port empty. A byte read after the port was seen empty at `t` arrived after
+/// `t`, however long the reader then took to come back (a stalled thread, a display frame
+/// being sent): the bound is never later than the arrival, and at most one pass of the reader
+/// earlier while it keeps up.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ArrivalBound {
+    empty_ns: Nanos,
+    drained: bool,
+}
+
+impl ArrivalBound {
+    /// For a port opened (and flushed) after `opened_ns`: nothing read from it is older.
+    pub fn new(opened_ns: Nanos) -> ArrivalBound {
+        ArrivalBound {
+            empty_ns: opened_ns,
+            drained: true,
+        }
+    }
+
+    /// A read that started at `before_read_ns` found nothing.
+    pub fn found_empty(&mut self, before_read_ns: Nanos) {
+        self.empty_ns = self.empty_ns.max(before_read_ns);
+        self.drained = true;
+    }
+
+    /// A byte was read (the reader may stop before the port is empty).
+    pub fn byte_read(&mut self) {
+        self.drained = false;
+    }
+
+    /// A wait for input until `deadline_ns` ended with nothing readable: if everything read
+    /// before was drained, the port was empty up to the deadline.
+    pub fn wait_timed_out(&mut self, deadline_ns: Nanos) {
+        if self.drained {
+            self.empty_ns = self.empty_ns.max(deadline_ns);
+        }
+    }
+
+    /// The earliest arrival time of a byte read now, ns.
+    pub fn earliest_ns(&self) -> Nanos {
+        self.empty_ns
+    }
+}
+
 /// Hands commands to the loop in arrival order through the ring, with a bounded queue for when
 /// the ring is full.
 pub struct CommandHandOff {
-    ring: rtrb::Producer<Command>,
-    pending: VecDeque<Command>,
+    ring: rtrb::Producer<ReceivedCommand>,
+    pending: VecDeque<ReceivedCommand>,
     dropped: u64,
 }
 
 impl CommandHandOff {
     /// Around the ring to the loop.
-    pub fn new(ring: rtrb::Producer<Command>) -> CommandHandOff {
+    pub fn new(ring: rtrb::Producer<ReceivedCommand>) -> CommandHandOff {
         CommandHandOff {
             ring,
             pending: VecDeque::with_capacity(PENDING_COMMANDS),
@@ -84,8 +137,8 @@ impl CommandHandOff {
     /// Hands `command` over: a kill at once, ahead of (and instead of) anything still
     /// waiting; anything else after what is waiting. A full queue drops the new command and
     /// counts it.
-    pub fn push(&mut self, command: Command) {
-        if command == Command::Kill {
+    pub fn push(&mut self, command: ReceivedCommand) {
+        if command.command == Command::Kill {
             if self.ring.push(command).is_err() {
                 self.dropped += self.pending.len() as u64;
                 self.pending.clear();
@@ -164,7 +217,7 @@ impl LinkSecurity {
 /// consecutive publications.
 #[derive(Debug, Default)]
 pub struct LinkCounters {
-    counters: [AtomicU64; 11],
+    counters: [AtomicU64; 12],
 }
 
 impl LinkCounters {
@@ -183,6 +236,7 @@ impl LinkCounters {
             v1_rejected: c(8),
             v1_crc_errors: c(9),
             revive_repeats: c(10),
+            pre_revive_requests: c(11),
         }
     }
 
@@ -200,6 +254,7 @@ impl LinkCounters {
             counters.v1_rejected,
             counters.v1_crc_errors,
             counters.revive_repeats,
+            counters.pre_revive_requests,
         ];
         for (slot, value) in self.counters.iter().zip(values) {
             slot.store(value, Ordering::Relaxed);
@@ -290,6 +345,7 @@ impl CommandLink {
             malformed: u64::from(v2.malformed),
             kills_outside_window: u64::from(v2.kills_outside_window),
             revive_repeats: u64::from(v2.revive_repeats),
+            pre_revive_requests: u64::from(v2.pre_revive_requests),
             v1_accepted: self.v1_accepted,
             v1_ignored: self.v1_ignored,
             v1_rejected: u64::from(v1.unknown_type) + u64::from(v1.out_of_range),
@@ -368,16 +424,31 @@ pub fn display_frame_v2(
 #[derive(Debug)]
 struct RadioFailed;
 
-/// Reads what the radio has (bounded) into the command link.
+/// Reads what the radio has (bounded) into the command link; `deliver` gets each command with
+/// the earliest time it can have arrived.
 fn receive(
     radio: &mut XBee<SerialPort, Transparent>,
     link: &mut CommandLink,
-    mut deliver: impl FnMut(Command),
+    arrival: &mut ArrivalBound,
+    mut deliver: impl FnMut(ReceivedCommand),
 ) -> Result<(), RadioFailed> {
     for _ in 0..1024 {
+        let before_read_ns = monotonic_ns();
         match radio.read() {
-            Ok(byte) => link.push(byte, &mut deliver),
-            Err(nb::Error::WouldBlock) => return Ok(()),
+            Ok(byte) => {
+                arrival.byte_read();
+                let arrival_ns = arrival.earliest_ns();
+                link.push(byte, &mut |command| {
+                    deliver(ReceivedCommand {
+                        command,
+                        arrival_ns,
+                    })
+                });
+            }
+            Err(nb::Error::WouldBlock) => {
+                arrival.found_empty(before_read_ns);
+                return Ok(());
+            }
             Err(nb::Error::Other(_)) => return Err(RadioFailed),
         }
     }
@@ -440,13 +511,16 @@ impl TelemetryStats {
         let l = &self.link;
         format!(
             "ground link: v2 accepted {} rejected: bad-tag {} replayed {} stale-session {} \
-             malformed {} | v1 accepted {} ignored {} rejected {} crc-errors {} | \
-             commands dropped {} | display frames {} | port errors {}",
+             malformed {} not acted on: revive-repeats {} pre-revive-requests {} | v1 accepted {} \
+             ignored {} rejected {} crc-errors {} | commands dropped {} | display frames {} | \
+             port errors {}",
             l.v2_accepted,
             l.bad_tag,
             l.replayed,
             l.stale_session,
             l.malformed,
+            l.revive_repeats,
+            l.pre_revive_requests,
             l.v1_accepted,
             l.v1_ignored,
             l.v1_rejected,
@@ -502,7 +576,7 @@ impl Downlink {
 /// Spawns the telemetry thread.
 pub fn spawn_telemetry(
     mut open: Opener<SerialPort>,
-    commands: rtrb::Producer<Command>,
+    commands: rtrb::Producer<ReceivedCommand>,
     mut snapshot: triple_buffer::Output<Snapshot>,
     settings: TelemetrySettings,
     shared: Arc<LinkCounters>,
@@ -523,6 +597,7 @@ pub fn spawn_telemetry(
             let mut downlink = Downlink::new(settings.security.clone());
             let mut hand_off = CommandHandOff::new(commands);
             let mut last_open: Option<Instant> = None;
+            let mut arrival = ArrivalBound::new(monotonic_ns());
             let mut failures = 0u64;
             let mut next_display = Instant::now() + settings.display_period;
             while !stop.load(Ordering::Relaxed) {
@@ -530,11 +605,13 @@ pub fn spawn_telemetry(
                 if radio.is_none() && last_open.is_none_or(|t| now - t >= settings.reopen_interval)
                 {
                     last_open = Some(now);
+                    let opened_ns = monotonic_ns();
                     match open() {
                         Ok(port) => {
                             tracing::info!("XBee: connected");
                             failures = 0;
                             link.reset();
+                            arrival = ArrivalBound::new(opened_ns);
                             radio = Some(XBee::new(port));
                             if settings.security.key.is_some() {
                                 // The station learns the session from the first display frame.
@@ -558,17 +635,20 @@ pub fn spawn_telemetry(
                 let wait = next_display
                     .saturating_duration_since(now)
                     .min(Duration::from_millis(20));
-                let mut result = match r
-                    .serial_mut()
-                    .wait_input(monotonic_ns() + wait.as_nanos() as u64)
-                {
-                    Ok(_) => receive(r, &mut link, |c| {
-                        // Hand over first (a kill goes straight to the loop), then report.
-                        hand_off.push(c);
-                        if matches!(c, Command::Kill | Command::Revive) {
-                            tracing::info!("ground link: {c:?}");
+                let deadline_ns = monotonic_ns() + wait.as_nanos() as u64;
+                let mut result = match r.serial_mut().wait_input(deadline_ns) {
+                    Ok(readable) => {
+                        if !readable {
+                            arrival.wait_timed_out(deadline_ns);
                         }
-                    }),
+                        receive(r, &mut link, &mut arrival, |c| {
+                            // Hand over first (a kill goes straight to the loop), then report.
+                            hand_off.push(c);
+                            if matches!(c.command, Command::Kill | Command::Revive) {
+                                tracing::info!("ground link: {:?}", c.command);
+                            }
+                        })
+                    }
                     Err(_) => Err(RadioFailed),
                 };
                 shared.store(&link.counters());
@@ -651,6 +731,62 @@ mod tests {
     }
 
     #[test]
+    fn a_throttle_requested_before_the_revive_is_counted_and_reaches_the_loop_as_a_heartbeat() {
+        let key = LinkKey::from_bytes([3; 16]);
+        let mut strict = link(true, Some(key.clone()));
+        let throttle = Command::Throttle(Percent::new(80).unwrap());
+        let mut stream = Vec::new();
+        for (command, seq, request) in [
+            (throttle, 1, 1),
+            (Command::Revive, 2, 2),
+            (throttle, 3, 1),
+            (Command::Revive, 4, 2),
+        ] {
+            stream.extend(v2::CommandFrame::repeat(command, 77, seq, request).encode(&key));
+        }
+        assert_eq!(
+            fed(&mut strict, &stream),
+            [
+                throttle,
+                Command::Revive,
+                Command::Heartbeat,
+                Command::Heartbeat
+            ]
+        );
+        let counters = strict.counters();
+        assert_eq!(
+            (
+                counters.v2_accepted,
+                counters.pre_revive_requests,
+                counters.revive_repeats
+            ),
+            (4, 1, 1)
+        );
+        assert_eq!(strict.last_accepted(), 4);
+    }
+
+    #[test]
+    fn shared_link_counters_carry_every_field() {
+        let counters = GroundLinkCounters {
+            v2_accepted: 1,
+            bad_tag: 2,
+            replayed: 3,
+            stale_session: 4,
+            malformed: 5,
+            kills_outside_window: 6,
+            revive_repeats: 7,
+            pre_revive_requests: 8,
+            v1_accepted: 9,
+            v1_ignored: 10,
+            v1_rejected: 11,
+            v1_crc_errors: 12,
+        };
+        let shared = LinkCounters::default();
+        shared.store(&counters);
+        assert_eq!(shared.load(), counters);
+    }
+
+    #[test]
     fn display_v2_carries_mode_cause_counters_and_ack() {
         let snap = Snapshot {
             mode: Mode::Failsafe,
@@ -685,8 +821,16 @@ mod tests {
         assert_eq!((h.bad_tag, h.v1_ignored), (4, 6));
     }
 
-    fn drain(ring: &mut rtrb::Consumer<Command>) -> Vec<Command> {
-        std::iter::from_fn(|| ring.pop().ok()).collect()
+    fn drain(ring: &mut rtrb::Consumer<ReceivedCommand>) -> Vec<Command> {
+        std::iter::from_fn(|| ring.pop().ok().map(|c| c.command)).collect()
+    }
+
+    /// `command` as received at time 0.
+    fn received(command: Command) -> ReceivedCommand {
+        ReceivedCommand {
+            command,
+            arrival_ns: 0,
+        }
     }
 
     #[test]
@@ -695,12 +839,12 @@ mod tests {
         let mut h = CommandHandOff::new(tx);
         let t = |p| Command::Throttle(Percent::new(p).unwrap());
         for p in 0..5 {
-            h.push(t(p));
+            h.push(received(t(p)));
         }
         assert_eq!(drain(&mut rx), [t(0), t(1)]);
         h.flush();
         assert_eq!(drain(&mut rx), [t(2), t(3)]);
-        h.push(t(5));
+        h.push(received(t(5)));
         assert_eq!(drain(&mut rx), [t(4), t(5)]);
         assert_eq!(h.dropped(), 0);
     }
@@ -710,16 +854,16 @@ mod tests {
         let (tx, mut rx) = rtrb::RingBuffer::new(2);
         let mut h = CommandHandOff::new(tx);
         // A revive waiting behind a full ring must not come after the kill.
-        h.push(Command::Heartbeat);
-        h.push(Command::Heartbeat);
-        h.push(Command::Revive);
-        h.push(Command::Kill);
+        h.push(received(Command::Heartbeat));
+        h.push(received(Command::Heartbeat));
+        h.push(received(Command::Revive));
+        h.push(received(Command::Kill));
         assert_eq!(drain(&mut rx), [Command::Heartbeat, Command::Heartbeat]);
         h.flush();
         assert_eq!(drain(&mut rx), [Command::Kill]);
         assert_eq!(h.dropped(), 1);
         // With room in the ring the kill is pushed at once, before anything else.
-        h.push(Command::Kill);
+        h.push(received(Command::Kill));
         assert_eq!(drain(&mut rx), [Command::Kill]);
     }
 
@@ -728,9 +872,43 @@ mod tests {
         let (tx, _rx) = rtrb::RingBuffer::new(1);
         let mut h = CommandHandOff::new(tx);
         for _ in 0..(1 + PENDING_COMMANDS + 10) {
-            h.push(Command::Heartbeat);
+            h.push(received(Command::Heartbeat));
         }
         assert_eq!(h.dropped(), 10);
         assert_eq!(h.pending.len(), PENDING_COMMANDS);
+    }
+
+    const MS: Nanos = 1_000_000;
+
+    #[test]
+    fn arrival_is_the_last_time_the_port_was_seen_empty() {
+        // Opened at 10 ms; a frame read at 30 ms after a wait that began at 12 ms arrived
+        // after 10 ms, the last time anything showed the port empty.
+        let mut a = ArrivalBound::new(10 * MS);
+        a.byte_read();
+        assert_eq!(a.earliest_ns(), 10 * MS);
+        a.found_empty(31 * MS);
+        // A wait until 51 ms saw nothing: bytes read afterwards arrived after 51 ms.
+        a.wait_timed_out(51 * MS);
+        assert_eq!(a.earliest_ns(), 51 * MS);
+    }
+
+    #[test]
+    fn a_stalled_reader_does_not_make_old_bytes_look_new() {
+        // The port was last seen empty at 100 ms; the reader then stalls for 800 ms and reads
+        // a backlog at 900 ms: the backlog is dated 100 ms, not 900 ms.
+        let mut a = ArrivalBound::new(0);
+        a.found_empty(100 * MS);
+        a.byte_read();
+        assert_eq!(a.earliest_ns(), 100 * MS);
+        // A batch cut short (bytes left in the port): a timed-out wait does not move the
+        // bound past bytes still waiting to be read.
+        a.wait_timed_out(920 * MS);
+        assert_eq!(a.earliest_ns(), 100 * MS);
+        a.found_empty(930 * MS);
+        assert_eq!(a.earliest_ns(), 930 * MS);
+        // Never backwards.
+        a.found_empty(925 * MS);
+        assert_eq!(a.earliest_ns(), 930 * MS);
     }
 }

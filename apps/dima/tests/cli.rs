@@ -34,7 +34,7 @@ fn check_reports_the_file_and_the_problem() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("realtime.loop_rate_hz = 0"), "{err}");
-    assert!(err.contains("1..=10000"), "the allowed range: {err}");
+    assert!(err.contains("10..=10000"), "the allowed range: {err}");
     assert_eq!(
         err.matches("loop_rate_hz").count(),
         1,
@@ -42,6 +42,22 @@ fn check_reports_the_file_and_the_problem() {
     );
     // Into a pipe: no colour escape sequences.
     assert!(!err.contains('\x1b'), "{err:?}");
+
+    // A count that would switch a protection off at the loop rate: both keys and the time.
+    std::fs::write(&path, "[safety]\nimu_stuck_packets = 10000\n").unwrap();
+    let out = dima()
+        .args(["config", "--check", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    for needle in [
+        "safety.imu_stuck_packets = 10000",
+        "40 s at realtime.loop_rate_hz = 250",
+        "at most 1 s (250 packets)",
+    ] {
+        assert!(err.contains(needle), "{err}");
+    }
 
     // A parse error, also printed once.
     std::fs::write(&path, "[safety]\ncomms_timeout_ms = \"soon\"\n").unwrap();

@@ -1,8 +1,9 @@
 //! Ground link v2 against the running application (`dima::app::run`) on real pseudo-terminals,
 //! with `[xbee] require_auth = true` and a key file: forged, replayed, reordered, truncated,
-//! stale-session and v1 frames have no effect and are counted; a flood of bad frames delays
-//! neither good frames, nor the comms-loss failsafe, nor a kill; the display frames v2 show the
-//! mode and acknowledge the last accepted command.
+//! stale-session and v1 frames have no effect and are counted; a throttle given while KILLED and
+//! repeated after a revive is refused and counted; a flood of bad frames delays neither good
+//! frames, nor the comms-loss failsafe, nor a kill; the display frames v2 show the mode and
+//! acknowledge the last accepted command.
 
 mod common;
 
@@ -470,6 +471,48 @@ fn a_repeated_revive_does_not_lift_a_later_failsafe() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn a_throttle_given_while_killed_and_repeated_after_a_revive_is_refused() {
+    let dir = temp_dir("link-v2-pre-revive");
+    let robot = start_robot(&dir);
+    let station = &robot.station;
+    // Throttle at 80 % while KILLED, then a revive; the station, which never saw the throttle
+    // acknowledged, repeats it under the number of its first frame.
+    let (_, request) = station.send(Command::Throttle(pct(80)));
+    std::thread::sleep(Duration::from_millis(50));
+    let (_, revive) = station.send(Command::Revive);
+    let shown = station.wait_display(Instant::now(), Duration::from_secs(2), |d| {
+        d.ack_seq >= revive
+    });
+    assert_eq!(shown.mode, RobotMode::Manual, "{shown:?}");
+    let mut last = 0;
+    for _ in 0..5 {
+        last = station.send_repeat(Command::Throttle(pct(80)), request);
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    outputs_stay(&robot.maestro, SAFE, Duration::from_millis(200));
+    let shown = station.wait_display(Instant::now(), Duration::from_secs(2), |d| {
+        d.ack_seq >= last
+    });
+    assert_eq!(shown.mode, RobotMode::Manual, "{shown:?}");
+    // The operator gives it again: it drives (MANUAL at neutral is what the safe outputs
+    // look like, so this shows the robot was listening).
+    station.send(Command::Throttle(pct(80)));
+    assert!(robot
+        .maestro
+        .wait_for(throttle_qus(80), Duration::from_secs(1))
+        .is_some());
+    let link = robot.finish().telemetry.link;
+    eprintln!("link counters: {link:?}");
+    assert_eq!(link.pre_revive_requests, 5, "{link:?}");
+    assert_eq!(link.rejected(), 0, "{link:?}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The start of a throttle 100 % command frame v2 (start token, length, type, data) that
+/// never ends.
+const FAKE_START: [u8; 8] = [0xA5, 0x32, v2::COMMAND_FRAME_LEN as u8, 3, 0, 0, 0, 100];
+
 /// Garbage at `bytes_per_s` with forged frames, v1 frames and fake start tokens in it, written
 /// between the station's frames, until stopped.
 fn spawn_flood(station: &StationV2, bytes_per_s: usize, stop: Arc<AtomicBool>) -> JoinHandle<u64> {
@@ -500,7 +543,7 @@ fn spawn_flood(station: &StationV2, bytes_per_s: usize, stop: Arc<AtomicBool>) -
                         );
                     }
                     1 => bytes.extend_from_slice(&Command::Revive.encode()),
-                    2 => bytes.extend_from_slice(&[0xA5, 0x32, 24, 3, 0, 0, 0, 100]),
+                    2 => bytes.extend_from_slice(&FAKE_START),
                     _ => bytes.extend_from_slice(&x.to_le_bytes()),
                 }
             }

@@ -15,7 +15,7 @@ use dima::logging::McapLog;
 use dima::rt::{monotonic_ns, Tick};
 use dima_core::config::Config;
 use dima_core::step::{CycleInputs, SensorInput};
-use dima_core::{Command, Core, CoreState};
+use dima_core::{Command, Core, CoreState, ReceivedCommand};
 
 struct PeakAllocator;
 
@@ -73,7 +73,8 @@ fn record(core: &mut Core, state: &mut CoreState, cycle: u64) -> CycleRecord {
         Command::Revive,
         Command::Throttle(dima_groundlink::Percent::new(60).unwrap()),
     ];
-    let applied: &[Command] = if cycle == 0 { &commands } else { &[] };
+    let received = commands.map(|c| ReceivedCommand::new(c, now_ns));
+    let applied: &[ReceivedCommand] = if cycle == 0 { &received } else { &[] };
     let outputs = core.step(
         state,
         &CycleInputs {
@@ -100,7 +101,7 @@ fn record(core: &mut Core, state: &mut CoreState, cycle: u64) -> CycleRecord {
         info: None,
         outputs,
         setpoints: state.safety.setpoints,
-        commands: [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE],
+        commands: [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE],
         n_commands: 0,
         stale_passed: 0,
         counters: state.counters,

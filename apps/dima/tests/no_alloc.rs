@@ -214,7 +214,7 @@ fn realtime_thread_never_allocates() {
 fn the_cycle_compute_path_never_allocates() {
     use dima::bench::measured_cycles;
     use dima::logtools::replay::{RecordedCycle, RecordedSensor};
-    use dima_core::{Core, CoreState, Mode};
+    use dima_core::{Core, CoreState, Mode, ReceivedCommand};
     let config = dima::config::Config::default();
     let mut core = Core::new(&config).expect("the default configuration is valid");
     let period = 4_000_000u64;
@@ -225,6 +225,7 @@ fn the_cycle_compute_path_never_allocates() {
             cycle: i,
             wake_ns: 1_000_000_000 + i * period,
             missed_periods: 0,
+            // Each command arrived 1 ms before the cycle that takes it.
             commands: match i {
                 30 => vec![
                     Command::Revive,
@@ -236,7 +237,10 @@ fn the_cycle_compute_path_never_allocates() {
                 ],
                 _ if i % 25 == 0 => vec![Command::Heartbeat],
                 _ => Vec::new(),
-            },
+            }
+            .into_iter()
+            .map(|c| ReceivedCommand::new(c, 1_000_000_000 + i * period - 1_000_000))
+            .collect(),
             sensor: RecordedSensor::Packet {
                 bytes: packet(i).encode(),
                 t_request_ns: 1_000_000_000 + i * period,

@@ -9,7 +9,9 @@ use dima_groundlink::v2::LinkKey;
 /// and record the session.
 ///
 /// Keys: Up/Down or W/S throttle, Left/Right or A/D steering, Q/E tail (held: a step from
-/// neutral; released: neutral), Space kill (always), R held for one second revive.
+/// neutral; released: neutral), Space kill (always), R held for one second revive. After a
+/// kill, a revive, or the robot reporting KILLED or FAILSAFE, a key, stick or slider still held
+/// must be let go and moved again before it drives.
 #[derive(Debug, Clone, Parser)]
 #[command(name = "dima-ground", version, about, long_about)]
 pub struct Cli {

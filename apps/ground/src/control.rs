@@ -3,9 +3,13 @@
 //! Per channel, the first source that holds a value wins: a key, then the gamepad's stick,
 //! then a slider being dragged. While a source holds, its value is held on the link (sent in
 //! every slot). When a key or stick lets go, neutral is sent once; when a slider is let go,
-//! its final value is sent once and stays on the slider. After a kill, a source still held
-//! must be released before it drives again, so a revive never finds the car already under
-//! throttle from a key nobody remembers holding.
+//! its final value is sent once and stays on the slider.
+//!
+//! Nothing asked for before a revive drives after it: after a kill, a revive, or the station
+//! dropping the manual values (it does when the robot reports KILLED or FAILSAFE), every
+//! slider shows neutral again, and a key, stick or slider still held must be let go (a stick
+//! back inside its dead zone) before it drives again. The link never re-asserts a held value
+//! on its own: a value is held only from a new press or a new movement.
 
 use dima_groundlink::station::ManualChannel;
 use dima_groundlink::Percent;
@@ -78,15 +82,26 @@ impl ManualControl {
         self.holder[channel as usize].map(|(s, _)| s)
     }
 
-    /// A kill: nothing is held any more (the link dropped it too), and whatever is still
-    /// pressed must be let go first.
+    /// A kill: nothing is held any more (the link dropped it too), every slider shows
+    /// neutral, and whatever is still pressed must be let go first.
     pub fn killed(&mut self) {
-        for i in 0..3 {
+        self.cancelled();
+    }
+
+    /// The station dropped the manual values (a revive, or the robot reported KILLED or
+    /// FAILSAFE): every slider shows neutral and whatever is still pressed must be let go
+    /// first. Returns the requests that stop holding on the link what this side held (the
+    /// link dropped it already; this covers a hold that crossed the drop on its way).
+    pub fn cancelled(&mut self) -> Vec<LinkControl> {
+        let mut out = Vec::new();
+        for (i, channel) in ManualChannel::ALL.into_iter().enumerate() {
             if self.holder[i].take().is_some() {
                 self.blocked[i] = true;
-                self.shown[i] = self.neutral[i];
+                out.push(LinkControl::Hold(channel, None));
             }
+            self.shown[i] = self.neutral[i];
         }
+        out
     }
 
     /// The link requests for this frame's inputs.
@@ -222,6 +237,55 @@ mod tests {
             m.set(ManualChannel::Tail, pct(10)),
             Some(LinkControl::Request(Command::Tail(pct(10))))
         );
+    }
+
+    #[test]
+    fn after_a_cancellation_every_source_must_be_let_go_and_sliders_show_neutral() {
+        let mut m = ManualControl::new(&ChannelTable::default());
+        // A slider put at 80 % (sent once), the stick held at 90 %, a key on steering.
+        assert!(m.set(ManualChannel::Tail, pct(80)).is_some());
+        let mut held = ManualInputs {
+            keys: [
+                AxisChange::Idle,
+                AxisChange::Held(pct(30)),
+                AxisChange::Idle,
+            ],
+            gamepad: [Some(pct(90)), None, None],
+            ..ManualInputs::default()
+        };
+        assert_eq!(m.update(&held).len(), 2);
+        assert_eq!(m.shown, [pct(90), pct(30), pct(80)]);
+        // The robot reported FAILSAFE (or the operator revived): the station dropped them.
+        let out = m.cancelled();
+        assert_eq!(
+            out,
+            vec![
+                LinkControl::Hold(ManualChannel::Throttle, None),
+                LinkControl::Hold(ManualChannel::Steering, None)
+            ]
+        );
+        assert_eq!(m.shown, [pct(50); 3], "every slider at neutral on screen");
+        // Still held, frame after frame: nothing is sent.
+        for _ in 0..5 {
+            assert!(m.update(&held).is_empty());
+        }
+        // The stick moves but stays out of centre: still nothing.
+        held.gamepad[0] = Some(pct(70));
+        assert!(m.update(&held).is_empty());
+        // Back to centre and the key let go: then a new movement drives.
+        held.gamepad[0] = None;
+        held.keys[1] = AxisChange::Released(pct(50));
+        assert!(m.update(&held).is_empty());
+        held.gamepad[0] = Some(pct(60));
+        held.keys[1] = AxisChange::Idle;
+        assert_eq!(
+            m.update(&held),
+            vec![LinkControl::Hold(
+                ManualChannel::Throttle,
+                Some(Command::Throttle(pct(60)))
+            )]
+        );
+        assert_eq!(m.shown[0], pct(60));
     }
 
     #[test]

@@ -17,7 +17,8 @@
 //!   calibration when it is known;
 //! - [`telemetry`]: the latest display frame in physical units and its history;
 //! - [`plots`]: time-series buffers and the GNSS track in local metres;
-//! - [`robot_view`]: the robot's mode as the station last knew it, from what it sent;
+//! - [`downlink`]: what the station can say about the robot's reports (authentic, or why
+//!   not: a wrong key, a v1 station and a v2 robot, silence), as a pure function;
 //! - [`recording`]: the session log (everything sent and received, timestamped) as MCAP;
 //! - [`sim`]: `--sim`, the simulated robot exactly as `dima sim --ground-pty` runs it, in a
 //!   child process;
@@ -27,12 +28,12 @@
 pub mod channels;
 pub mod cli;
 pub mod control;
+pub mod downlink;
 pub mod gamepad;
 pub mod keys;
 pub mod link;
 pub mod plots;
 pub mod recording;
-pub mod robot_view;
 pub mod serial;
 pub mod sim;
 pub mod telemetry;

@@ -32,6 +32,7 @@ use dima_groundlink::v2::{self, FailsafeCause, Health, LinkKey, ReviveRefusal, R
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 
+use crate::downlink::{DownlinkHealth, DownlinkObservation, V2TokenSpotter};
 use crate::recording::{
     now_ns, CommandRecord, DeliveryRecord, DisplayRecord, LinkRecord, RecordEvent, RobotRecord,
 };
@@ -202,12 +203,50 @@ pub struct LinkStatus {
     pub last_sent: [Option<(Instant, Command)>; 8],
     /// A kill is being repeated.
     pub killing: bool,
+    /// How many times the station dropped the pending and held manual values and setpoints
+    /// (kills, revives; v2: the robot reporting KILLED or FAILSAFE). When it changes the user
+    /// interface resets its controls to neutral and waits for them to be let go.
+    pub driving_cancellations: u64,
+    /// When the port was opened (`None` while it is not).
+    pub connected_at: Option<Instant>,
+    /// When the last byte arrived.
+    pub last_byte_at: Option<Instant>,
+    /// v2: when the last display frame whose tag did not match arrived.
+    pub last_bad_tag_at: Option<Instant>,
+    /// v1: when the last display frame v2 start token arrived (the robot requires a key).
+    pub v2_token_at: Option<Instant>,
 }
 
 impl LinkStatus {
     /// Time since the last valid display frame.
     pub fn frame_age(&self, now: Instant) -> Option<Duration> {
         self.last_frame_at.map(|t| now.saturating_duration_since(t))
+    }
+
+    /// What the link received, as ages at `now`.
+    pub fn observation(&self, now: Instant) -> DownlinkObservation {
+        let age = |t: Option<Instant>| t.map(|t| now.saturating_duration_since(t));
+        DownlinkObservation {
+            authenticated: self.authenticated,
+            connected_for: age(self.connected_at),
+            since_byte: age(self.last_byte_at),
+            since_valid_frame: age(self.last_frame_at),
+            since_bad_tag: age(self.last_bad_tag_at),
+            since_v2_token: age(self.v2_token_at),
+        }
+    }
+
+    /// What the station can say about the robot's reports at `now`.
+    pub fn downlink(&self, now: Instant) -> DownlinkHealth {
+        DownlinkHealth::classify(&self.observation(now))
+    }
+
+    /// v2: the robot's report, while it is fresh and the downlink authentic: the only source
+    /// of a mode shown as the robot's.
+    pub fn fresh_report(&self, now: Instant) -> Option<&RobotReport> {
+        (self.downlink(now) == DownlinkHealth::Authentic)
+            .then_some(self.robot.as_ref())
+            .flatten()
     }
 }
 
@@ -252,6 +291,7 @@ impl LinkHandle {
             None => Protocol::V1 {
                 decoder: DisplayDecoder::new(),
                 scheduler: CommandScheduler::default(),
+                spotter: V2TokenSpotter::default(),
             },
         };
         let mut worker = LinkWorker::new(
@@ -318,6 +358,8 @@ enum Protocol {
         decoder: DisplayDecoder,
         /// Which frames go out when.
         scheduler: CommandScheduler,
+        /// Display frames v2 in the stream (a robot that requires a key).
+        spotter: V2TokenSpotter,
     },
     /// Version 2: authenticated, numbered, acknowledged.
     V2 {
@@ -352,6 +394,14 @@ impl Protocol {
         match self {
             Protocol::V1 { scheduler, .. } => scheduler.restart(),
             Protocol::V2 { station, .. } => station.restart(),
+        }
+    }
+
+    /// How many times pending and held manual values and setpoints were dropped.
+    fn driving_cancellations(&self) -> u64 {
+        match self {
+            Protocol::V1 { scheduler, .. } => scheduler.cancellations(),
+            Protocol::V2 { station, .. } => station.driving_cancellations(),
         }
     }
 
@@ -503,8 +553,12 @@ impl LinkWorker {
                     Protocol::V2 { decoder, .. } => decoder.reset(),
                 }
                 self.resyncing = false;
+                if let Protocol::V2 { station, .. } = &mut self.protocol {
+                    station.set_link_baud(self.status.baud);
+                }
                 self.protocol.restart();
                 self.connected_at = Some(now);
+                self.status.connected_at = Some(now);
                 self.record_link("connected", None);
             }
             Err(e) => {
@@ -525,6 +579,7 @@ impl LinkWorker {
         }
         self.record_link(event, error.clone());
         self.connected_at = None;
+        self.status.connected_at = None;
         if let Some(e) = error {
             self.status.last_error = Some(e);
             self.status.state = LinkState::Waiting;
@@ -544,17 +599,19 @@ impl LinkWorker {
         let t = station_time(now);
         let (frames, settled): (Vec<(Command, Vec<u8>, CommandRecord)>, _) =
             match &mut self.protocol {
-                Protocol::V1 { scheduler, .. } => (
-                    scheduler
+                Protocol::V1 { scheduler, .. } => {
+                    let frames = scheduler
                         .poll(t)
                         .into_iter()
                         .map(|command| {
                             let bytes = command.encode().to_vec();
                             (command, bytes, CommandRecord::new(command))
                         })
-                        .collect(),
-                    Vec::new(),
-                ),
+                        .collect();
+                    // Version 1 records no deliveries: what a kill or revive dropped is gone.
+                    scheduler.take_dropped();
+                    (frames, Vec::new())
+                }
                 Protocol::V2 { key, station, .. } => {
                     let frames = station
                         .poll(t)
@@ -652,6 +709,7 @@ impl LinkWorker {
         let now = Instant::now();
         let t_ns = now_ns();
         self.status.bytes_in += bytes.len() as u64;
+        self.status.last_byte_at = Some(now);
         self.record(RecordEvent::Received(t_ns, bytes.to_vec()));
         if matches!(self.protocol, Protocol::V1 { .. }) {
             self.take_bytes_v1(bytes, now, t_ns);
@@ -661,9 +719,15 @@ impl LinkWorker {
     }
 
     fn take_bytes_v1(&mut self, bytes: &[u8], now: Instant, t_ns: u64) {
-        let Protocol::V1 { decoder, .. } = &mut self.protocol else {
+        let Protocol::V1 {
+            decoder, spotter, ..
+        } = &mut self.protocol
+        else {
             return;
         };
+        if spotter.feed(bytes) {
+            self.status.v2_token_at = Some(now);
+        }
         let mut frames = Vec::new();
         for &b in bytes {
             let skipped_before = decoder.stats().skipped_bytes;
@@ -708,6 +772,9 @@ impl LinkWorker {
             }
         }
         let stats = decoder.stats();
+        if u64::from(stats.bad_tag) > self.status.bad_tag {
+            self.status.last_bad_tag_at = Some(now);
+        }
         self.status.bad_tag = u64::from(stats.bad_tag);
         self.status.skipped_bytes = u64::from(stats.skipped_bytes);
         self.status.out_of_range = u64::from(stats.malformed);
@@ -754,6 +821,7 @@ impl LinkWorker {
             .map_or(RATE_WINDOW, |t| now.saturating_duration_since(t))
             .clamp(Duration::from_secs(1), RATE_WINDOW);
         self.status.frames_per_s = self.recent_frames.len() as f64 / span.as_secs_f64();
+        self.status.driving_cancellations = self.protocol.driving_cancellations();
         if let Protocol::V2 { station, .. } = &self.protocol {
             self.status.uplink = Some(UplinkView::of(station.uplink()));
         }
@@ -1002,6 +1070,9 @@ mod tests {
         wait_for("bad tag counted", || link.status().bad_tag == 1);
         let s = link.status();
         assert!(s.robot.is_none() && s.frames_in == 0);
+        // Said as such, and no mode is shown.
+        assert_eq!(s.downlink(Instant::now()), DownlinkHealth::KeyMismatch);
+        assert!(s.fresh_report(Instant::now()).is_none());
         assert!(link.drain_events().is_empty());
 
         // The robot's real frame: the session is known, and heartbeats follow in it.
@@ -1015,6 +1086,12 @@ mod tests {
             link.status().uplink.and_then(|u| u.session) == Some(SESSION)
         });
         assert_eq!(link.status().robot.unwrap().mode, RobotMode::Killed);
+        let s = link.status();
+        assert_eq!(s.downlink(Instant::now()), DownlinkHealth::Authentic);
+        assert_eq!(
+            s.fresh_report(Instant::now()).unwrap().mode,
+            RobotMode::Killed
+        );
         let beats = gate_commands(&mut robot, &mut gate, Duration::from_millis(350));
         assert!(beats.len() >= 2, "{beats:?}");
         assert!(
@@ -1071,6 +1148,28 @@ mod tests {
             .map(|LinkEvent::Frame(_, f)| f.g_speed_mm_s)
             .collect();
         assert_eq!(speeds, vec![1_234, 1_234]);
+    }
+
+    #[test]
+    fn a_v1_station_hearing_a_v2_robot_says_it_requires_a_key() {
+        let (mut robot, path, _slave) = robot_end();
+        let link = LinkHandle::spawn(None, None, None).unwrap();
+        link.send(LinkControl::Connect { path, baud: 9600 });
+        wait_for("connected", || link.status().state == LinkState::Connected);
+        robot
+            .write_all(&robot_frame(1, 0, RobotMode::Killed).encode(&KEY))
+            .unwrap();
+        wait_for("bytes", || link.status().bytes_in == 126);
+        let s = link.status();
+        assert_eq!(s.frames_in, 0);
+        assert_eq!(s.downlink(Instant::now()), DownlinkHealth::RobotSpeaksV2);
+        assert!(s.fresh_report(Instant::now()).is_none());
+        // A revive drops the manual values: the count the interface watches moves.
+        let before = s.driving_cancellations;
+        link.send(LinkControl::Request(Command::Revive));
+        wait_for("cancellation counted", || {
+            link.status().driving_cancellations > before
+        });
     }
 
     #[test]

@@ -96,8 +96,10 @@ pub struct DeliveryRecord {
     pub name: String,
     /// The data field.
     pub data: i32,
-    /// `acknowledged`, `unacknowledged` (given up), `superseded`, `cancelled` (by a kill) or
-    /// `robot_restarted`.
+    /// `acknowledged`, `unacknowledged` (given up), `superseded`, `cancelled` (by a kill),
+    /// `robot_restarted`, `cancelled_by_revive` (a manual value or setpoint asked for before a
+    /// revive) or `cancelled_robot_safe` (a manual value or setpoint dropped when the robot
+    /// reported KILLED or FAILSAFE).
     pub outcome: String,
     /// The acknowledged sequence number (null unless acknowledged).
     pub ack_seq: Option<u32>,
@@ -124,6 +126,8 @@ impl DeliveryRecord {
             Delivery::Superseded => ("superseded", None),
             Delivery::Cancelled => ("cancelled", None),
             Delivery::RobotRestarted => ("robot_restarted", None),
+            Delivery::CancelledByRevive => ("cancelled_by_revive", None),
+            Delivery::CancelledRobotSafe => ("cancelled_robot_safe", None),
         };
         DeliveryRecord {
             kind: s.command.command_type() as u8,

@@ -99,11 +99,12 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     // The robot's own configuration, with one change: this test shares two cores with a
-    // debug build of the simulation and a software-rendered window, where the loop can miss
-    // more than the default 10 periods a second and the robot would (rightly) refuse the
-    // revive. The overrun rule has its own tests; this one is about the station.
+    // debug build of the simulation and a software-rendered window, where the loop wakes late
+    // more often than on the robot. The overrun limit is the widest the configuration allows
+    // at 250 Hz (a tenth of the periods): sustained overload still trips within a second, and
+    // a single stall of the machine is judged by `safety.max_stall_ms`, not by this count.
     let robot_config = dir.join("robot.toml");
-    std::fs::write(&robot_config, "[safety]\noverrun_limit = 250\n").unwrap();
+    std::fs::write(&robot_config, "[safety]\noverrun_limit = 25\n").unwrap();
     let screenshot = dir.join("station.png");
 
     let station = Command::new(env!("CARGO_BIN_EXE_dima-ground"))

@@ -52,16 +52,28 @@ fn command() -> impl Strategy<Value = Command> {
     ]
 }
 
-/// Any valid frame: a revive's request from 1 to its sequence number.
+/// Any valid frame: the request from 1 to the sequence number; a kill's anything.
 fn command_frame() -> impl Strategy<Value = CommandFrame> {
     (command(), any::<u32>(), 1..=u32::MAX, any::<u32>()).prop_map(
         |(command, session, seq, back)| {
             let request = match command {
-                Command::Revive => seq - back % seq,
-                _ => seq,
+                Command::Kill => back,
+                _ => seq - back % seq,
             };
             CommandFrame::repeat(command, session, seq, request)
         },
+    )
+}
+
+/// A manual command or a setpoint: a value the operator gives.
+fn is_manual_or_setpoint(command: Command) -> bool {
+    matches!(
+        command,
+        Command::Throttle(_)
+            | Command::Steering(_)
+            | Command::Tail(_)
+            | Command::SpeedSetpoint { .. }
+            | Command::HeadingSetpoint { .. }
     )
 }
 
@@ -136,8 +148,8 @@ fn garbage() -> impl Strategy<Value = Vec<u8>> {
             Just(0xA5),
             Just(0x32),
             Just(0x44),
-            Just(24),
-            Just(126)
+            Just(COMMAND_FRAME_LEN as u8),
+            Just(DISPLAY_FRAME_LEN as u8)
         ],
         0..60,
     )
@@ -164,7 +176,10 @@ proptest! {
     /// cost a good frame, and every rejected candidate is counted.
     #[test]
     fn command_stream_survives_garbage_forgeries_and_truncation(
-        items in prop::collection::vec((command_frame(), garbage(), 0usize..24, any::<bool>()), 0..12),
+        items in prop::collection::vec(
+            (command_frame(), garbage(), 0..COMMAND_FRAME_LEN, any::<bool>()),
+            0..12,
+        ),
     ) {
         let key = reference_key();
         let forger = LinkKey::from_bytes([0xEE; 16]);
@@ -221,7 +236,7 @@ proptest! {
 
     #[test]
     fn display_stream_survives_garbage_and_chunking(
-        items in prop::collection::vec((display_frame(), garbage(), 0usize..126), 0..6),
+        items in prop::collection::vec((display_frame(), garbage(), 0..DISPLAY_FRAME_LEN), 0..6),
         cuts in prop::collection::vec(any::<usize>(), 0..30),
     ) {
         let key = reference_key();
@@ -266,15 +281,16 @@ proptest! {
 
     /// The gate accepts each authentic (session, sequence) once, in increasing order only;
     /// kills always; it acts on a revive only for a request newer than the last one it acted
-    /// on (otherwise a heartbeat).
+    /// on, and on a manual command or setpoint only for a request not older than that revive
+    /// request (otherwise a heartbeat).
     #[test]
     fn gate_accepts_each_sequence_number_once(
-        seqs in prop::collection::vec((1u32..50, command(), any::<bool>(), 0u32..4), 0..60),
+        seqs in prop::collection::vec((1u32..50, command(), any::<bool>(), 0u32..12), 0..60),
     ) {
         let key = reference_key();
         let session = 0xABCD;
         let mut gate = CommandGate::new(key.clone(), session);
-        let (mut last, mut last_request, mut repeats) = (0, 0, 0);
+        let (mut last, mut last_request, mut repeats, mut pre_revive) = (0, 0, 0, 0);
         for (seq, command, stale, back) in seqs {
             let frame_session = if stale { 0 } else { session };
             let request = seq.saturating_sub(back).max(1);
@@ -289,6 +305,9 @@ proptest! {
             } else if command == Command::Revive && request <= last_request {
                 prop_assert_eq!(result, Ok(Command::Heartbeat));
                 repeats += 1;
+            } else if is_manual_or_setpoint(command) && request < last_request {
+                prop_assert_eq!(result, Ok(Command::Heartbeat));
+                pre_revive += 1;
             } else {
                 prop_assert_eq!(result, Ok(command));
                 if command == Command::Revive {
@@ -301,6 +320,7 @@ proptest! {
             prop_assert_eq!(gate.last_accepted(), last);
         }
         prop_assert_eq!(gate.stats().revive_repeats, repeats);
+        prop_assert_eq!(gate.stats().pre_revive_requests, pre_revive);
     }
 }
 

@@ -51,6 +51,9 @@ pub fn app_config(
     config.xbee.port = ports.xbee.to_owned();
     config.realtime.loop_rate_hz = loop_rate_hz;
     fit_sensor_link(&mut config, file.is_none());
+    if file.is_none() {
+        fit_counted_protections(&mut config);
+    }
     config.maestro.servo_refresh_hz = config.maestro.servo_refresh_hz.min(loop_rate_hz);
     for interval in [
         &mut config.sensor.reopen_interval_ms,
@@ -71,6 +74,20 @@ pub fn app_config(
     config.log.directory = log_dir.to_owned();
     config.validate()?;
     Ok(config)
+}
+
+/// With the default configuration, keeps the protections counted in packets or late wake-ups
+/// within the second the configuration allows at slow loop rates (a given file is validated as
+/// it is, and says what does not fit).
+fn fit_counted_protections(config: &mut Config) {
+    let rate = config.realtime.loop_rate_hz;
+    let second = dima_core::config::most_packets_within(rate, 1_000_000_000);
+    let s = &mut config.safety;
+    s.sensor_loss_packets = s.sensor_loss_packets.min(second);
+    s.imu_stuck_packets = s.imu_stuck_packets.min(second).max(2);
+    s.overrun_limit = s
+        .overrun_limit
+        .min(dima_core::config::max_overrun_limit(rate));
 }
 
 /// Fits the packet deadline in the period (less the servo write budget) and, with the default
@@ -109,6 +126,17 @@ mod tests {
             xbee: p,
         };
         app_config(None, ports, rate, false, p).unwrap()
+    }
+
+    #[test]
+    fn slow_loops_keep_the_default_protections_within_a_second() {
+        for rate in [10, 25, 50, 100] {
+            let c = build(rate);
+            assert!(c.validate().is_ok(), "{rate} Hz");
+            let second = dima_core::config::most_packets_within(rate, 1_000_000_000);
+            assert!(c.safety.sensor_loss_packets <= second, "{rate} Hz");
+            assert!(c.safety.imu_stuck_packets <= second, "{rate} Hz");
+        }
     }
 
     #[test]

@@ -9,6 +9,12 @@
 //! (about 1° at 2 m/s) is averaged over `tau`, gyro drift cannot build up beyond `tau`'s worth.
 //! `tau = 0` takes each GNSS heading as it is.
 //!
+//! The gyro alone carries the heading for a limited time only (the GNSS timeout): once the last
+//! correction is older, the heading is forgotten ([`HeadingFilter::expire`]) and the next GNSS
+//! heading of motion is taken as it is. Below `min_heading_speed_mm_s` no fix corrects it, so a
+//! slow car has no heading after that time, however fresh its fixes: an unlearnt gyro bias of
+//! 2 °/s would otherwise turn it by 40° in 20 s.
+//!
 //! A complementary filter rather than a Kalman filter: two sensors, one state, noise levels that
 //! change with speed in ways a fixed covariance would not capture better, and a single number
 //! to tune that a user can reason about.
@@ -51,6 +57,13 @@ impl HeadingFilter {
         };
     }
 
+    /// Forgets the heading when GNSS last corrected it more than `limit_ns` before `now`.
+    pub fn expire(&mut self, now: Nanos, limit_ns: Nanos) {
+        self.heading = self
+            .heading
+            .filter(|&(_, at)| now.saturating_sub(at) <= limit_ns);
+    }
+
     /// The heading, degrees clockwise from north, and when GNSS last corrected it.
     pub fn heading_deg(&self) -> Option<(f32, Nanos)> {
         self.heading
@@ -82,6 +95,19 @@ mod tests {
         assert!((f.heading_deg().unwrap().0 - 95.0).abs() < 1e-3);
         f.update(50.0, 0.004, Some(92.0), 0.0, 104 * MS);
         assert_eq!(f.heading_deg(), Some((92.0, 104 * MS)));
+    }
+
+    #[test]
+    fn the_gyro_carries_the_heading_only_within_the_limit() {
+        let mut f = HeadingFilter::default();
+        f.update(0.0, 0.0, Some(90.0), 0.5, 0);
+        f.expire(500 * MS, 500 * MS);
+        assert_eq!(f.heading_deg(), Some((90.0, 0)), "at the limit");
+        f.expire(501 * MS, 500 * MS);
+        assert_eq!(f.heading_deg(), None, "past it");
+        // The next GNSS heading is taken as it is, not blended with a forgotten one.
+        f.update(0.0, 0.004, Some(120.0), 0.5, 600 * MS);
+        assert_eq!(f.heading_deg(), Some((120.0, 600 * MS)));
     }
 
     #[test]

@@ -8,11 +8,15 @@
 //!   heading of motion at each fix faster than `min_heading_speed_mm_s` by a complementary
 //!   filter with time constant `heading_tau_s` ([`heading::HeadingFilter`]);
 //! - **ground speed**: GNSS ground speed at each fix, bridged between fixes by integrating the
-//!   longitudinal acceleration ([`speed::SpeedBridge`]);
+//!   longitudinal acceleration ([`speed::SpeedBridge`]); never negative, bridged or not (a
+//!   negative GNSS ground speed is not a valid fix in the first place);
 //! - **accelerations**: the accelerometer's X (forward) and Y (left) axes in m/s².
 //!
 //! Heading and speed exist only while the GNSS is fresh (valid, iTOW advancing, within the GNSS
-//! timeout): without it the gyro alone would drift without bound. Every quantity carries its age.
+//! timeout): without it the gyro alone would drift without bound. The heading, moreover, only
+//! while its last GNSS correction is within the GNSS timeout: below `min_heading_speed_mm_s` no
+//! fix corrects it, and the gyro alone may carry it for that long and no longer, however fresh
+//! the fixes (the heading controller then steers neutral). Every quantity carries its age.
 //! With `heading_tau_s = 0`, `gyro_bias_tau_s = 0` and `accel_bridging = false` the estimate is
 //! what the first DIMA-RS controllers used: each GNSS heading replaces the estimate, the raw gyro
 //! carries it between fixes, and the speed is the last fix's.
@@ -39,7 +43,8 @@ pub struct Measured {
 /// What the controllers know about the car's motion. `None`: not valid now.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct StateEstimate {
-    /// Ground speed, mm/s (the unit of GNSS and of the speed setpoint); forward only.
+    /// Ground speed, mm/s (the unit of GNSS and of the speed setpoint); never negative: GNSS
+    /// ground speed is a magnitude, whatever a fix or the bridging says.
     pub speed_mm_s: Option<Measured>,
     /// Heading, degrees clockwise from north, `0..360`; its age is that of the last GNSS
     /// correction.
@@ -86,11 +91,13 @@ pub struct Estimator {
     still_speed_mm_s: i32,
     still_rate_dps: f32,
     accel_bridging: bool,
+    heading_timeout_ns: Nanos,
 }
 
 impl Estimator {
-    /// From the (validated) configuration.
-    pub fn new(config: &EstimatorConfig) -> Estimator {
+    /// From the (validated) configuration: `[estimator]`, and the GNSS timeout
+    /// (`safety.gnss_timeout_ms`, in ns), the longest the gyro alone carries the heading.
+    pub fn new(config: &EstimatorConfig, gnss_timeout_ns: Nanos) -> Estimator {
         Estimator {
             gyro_yaw_sign: config.gyro_yaw_sign,
             min_heading_speed_mm_s: config.min_heading_speed_mm_s,
@@ -99,6 +106,7 @@ impl Estimator {
             still_speed_mm_s: config.still_speed_mm_s,
             still_rate_dps: config.still_rate_dps,
             accel_bridging: config.accel_bridging,
+            heading_timeout_ns: gnss_timeout_ns,
         }
     }
 
@@ -113,6 +121,7 @@ impl Estimator {
         now: Nanos,
     ) -> StateEstimate {
         let mut heading_from_gnss = false;
+        state.heading.expire(now, self.heading_timeout_ns);
         if let Some(sample) = imu {
             let dt_s = state
                 .imu
@@ -165,7 +174,7 @@ impl Estimator {
             let mm_s = if self.accel_bridging {
                 state.speed.mm_s()?
             } else {
-                fix.g_speed_mm_s as f32
+                fix.g_speed_mm_s.max(0) as f32
             };
             Some(measured(mm_s, fix.at_ns))
         });
@@ -196,6 +205,12 @@ mod tests {
     use super::*;
 
     const PERIOD_NS: Nanos = 4_000_000;
+    /// `safety.gnss_timeout_ms`'s default, ns.
+    const GNSS_TIMEOUT_NS: Nanos = 500_000_000;
+
+    fn estimator(config: EstimatorConfig) -> Estimator {
+        Estimator::new(&config, GNSS_TIMEOUT_NS)
+    }
 
     /// Deterministic Gaussian noise (xorshift64 and Box-Muller).
     struct Noise(u64);
@@ -303,7 +318,7 @@ mod tests {
     #[test]
     fn constant_turn_heading_within_2_degrees_speed_within_100_mm_s() {
         // 3 s standing still (the bias is learnt), then 3 m/s in a 60 °/s clockwise circle.
-        let est = Estimator::new(&EstimatorConfig::default());
+        let est = estimator(EstimatorConfig::default());
         let mut state = EstimatorState::default();
         let mut s = sensors(0.5);
         run(&est, &mut state, &mut s, 0.0, 3.0, still, |_, _, _| {});
@@ -329,7 +344,7 @@ mod tests {
     #[test]
     fn straight_line_heading_noise_is_averaged() {
         // 3 m/s at 45° with a 2° GNSS heading noise: the filter's RMS error is under half of it.
-        let est = Estimator::new(&EstimatorConfig::default());
+        let est = estimator(EstimatorConfig::default());
         let mut state = EstimatorState::default();
         let mut s = Sensors {
             gnss_heading_sigma_deg: 2.0,
@@ -355,7 +370,9 @@ mod tests {
 
     #[test]
     fn gyro_bias_is_learnt_standing_still_and_stops_the_drift() {
-        let est = Estimator::new(&EstimatorConfig::default());
+        // The drift the learnt bias saves shows over seconds; the gyro alone may carry the
+        // heading that long here (in the car only for the GNSS timeout, see the next test).
+        let est = Estimator::new(&EstimatorConfig::default(), 10 * GNSS_TIMEOUT_NS);
         let mut state = EstimatorState::default();
         let mut s = sensors(0.8);
         let mut bias = 0.0;
@@ -394,10 +411,40 @@ mod tests {
     }
 
     #[test]
+    fn slow_fixes_keep_the_heading_only_within_the_gnss_timeout() {
+        // A heading from a fast fix, then 2 s at 0.3 m/s with fresh fixes and a 2 °/s gyro bias.
+        let est = estimator(EstimatorConfig::default());
+        let mut state = EstimatorState::default();
+        let mut s = sensors(2.0);
+        let fast = |_: f64| Truth {
+            heading_deg: 30.0,
+            speed_m_s: 2.0,
+            yaw_rate_dps: 0.0,
+            accel_m_s2: 0.0,
+        };
+        run(&est, &mut state, &mut s, 0.0, 1.0, fast, |_, _, _| {});
+        let slow = |_: f64| Truth {
+            speed_m_s: 0.3,
+            ..fast(0.0)
+        };
+        let mut last_heading = None;
+        run(&est, &mut state, &mut s, 1.0, 2.0, slow, |t, _, e| {
+            assert!(e.speed_mm_s.is_some(), "the fixes are fresh");
+            if let Some(h) = e.heading_deg {
+                assert!(h.age_ns <= GNSS_TIMEOUT_NS, "{h:?}");
+                last_heading = Some(t);
+            }
+        });
+        // The last fast fix is at 0.9 s: the gyro alone carries the heading until 1.4 s.
+        let last = last_heading.expect("the gyro carries the heading for a while");
+        assert!((last - 1.4).abs() < 0.002, "heading kept until {last} s");
+    }
+
+    #[test]
     fn accelerometer_bridges_the_speed_between_fixes() {
         // 2 m/s² from 1 m/s: a held fix is up to 0.2 m/s behind; the bridge stays within 30 mm/s.
-        let est = Estimator::new(&EstimatorConfig::default());
-        let held = Estimator::new(&EstimatorConfig {
+        let est = estimator(EstimatorConfig::default());
+        let held = estimator(EstimatorConfig {
             accel_bridging: false,
             ..EstimatorConfig::default()
         });
@@ -438,8 +485,28 @@ mod tests {
     }
 
     #[test]
+    fn the_speed_is_never_negative_bridged_or_not() {
+        for accel_bridging in [true, false] {
+            let est = estimator(EstimatorConfig {
+                accel_bridging,
+                ..EstimatorConfig::default()
+            });
+            let mut state = EstimatorState::default();
+            let fix = FreshFix {
+                itow_ms: 1_000,
+                g_speed_mm_s: -3_000,
+                head_mot_deg_e5: 0,
+                at_ns: 0,
+            };
+            let e = est.update(&mut state, Some(ImuSample::default()), Some(fix), true, 0);
+            let speed = e.speed_mm_s.expect("a speed");
+            assert_eq!(speed.value, 0.0, "bridging {accel_bridging}");
+        }
+    }
+
+    #[test]
     fn without_fresh_gnss_there_is_no_heading_or_speed() {
-        let est = Estimator::new(&EstimatorConfig::default());
+        let est = estimator(EstimatorConfig::default());
         let mut state = EstimatorState::default();
         let mut s = sensors(0.0);
         run(

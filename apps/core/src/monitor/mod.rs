@@ -3,9 +3,11 @@
 //!
 //! - [`AnswerWindow`]: pairs a packet with this cycle's request (not sooner than its wire time,
 //!   not later than the deadline);
-//! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances;
-//! - [`ImuStuckDetector`]: identical IMU words packet after packet are a sensor fault;
-//! - [`OverrunWindow`]: missed periods within a sliding second.
+//! - [`GnssFreshness`]: a fix counts only while it is valid and its iTOW advances past the
+//!   newest fix used (modulo the week): a repeated or backward time of week is old data;
+//! - [`ImuStuckDetector`]: identical words packet after packet from either IMU die (the
+//!   accelerometer or the gyroscope, each on its own) are a sensor fault;
+//! - [`OverrunWindow`]: late wake-ups within a sliding second, and the periods they missed.
 
 mod answer;
 pub mod gnss;
@@ -13,6 +15,6 @@ mod imu;
 mod overrun;
 
 pub use answer::{AnswerWindow, PacketVerdict};
-pub use gnss::{FreshFix, GnssFreshness};
+pub use gnss::{FreshFix, GnssEpoch, GnssFreshness};
 pub use imu::ImuStuckDetector;
-pub use overrun::OverrunWindow;
+pub use overrun::{OverrunRule, OverrunWindow};

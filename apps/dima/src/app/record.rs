@@ -5,7 +5,7 @@ use dima_core::counters::Counters;
 use dima_core::safety::Setpoints;
 use dima_core::schema::{Event, GroundLinkCounters};
 use dima_core::step::CycleOutputs;
-use dima_core::{Command, FailsafeCause, Mode, Nanos, ReviveRefusal};
+use dima_core::{FailsafeCause, Mode, Nanos, ReceivedCommand, ReviveRefusal};
 use dima_sensorboard::{InfoFrame, RawPacket, SensorPacket};
 
 use super::rt_loop::MAX_COMMANDS_PER_CYCLE;
@@ -81,8 +81,9 @@ pub struct CycleRecord {
     pub outputs: CycleOutputs,
     /// Manual values and setpoints in force after the cycle.
     pub setpoints: Setpoints,
-    /// Commands applied this cycle: the first `n_commands`.
-    pub commands: [Command; MAX_COMMANDS_PER_CYCLE],
+    /// Commands handed to the step this cycle, with their arrival times: the first
+    /// `n_commands`.
+    pub commands: [ReceivedCommand; MAX_COMMANDS_PER_CYCLE],
     /// How many of `commands` are real.
     pub n_commands: u8,
     /// Packets passed over as stale while waiting.
@@ -96,8 +97,8 @@ pub struct CycleRecord {
 }
 
 impl CycleRecord {
-    /// The commands applied this cycle.
-    pub fn commands(&self) -> &[Command] {
+    /// The commands handed to the step this cycle.
+    pub fn commands(&self) -> &[ReceivedCommand] {
         &self.commands[..usize::from(self.n_commands)]
     }
 }

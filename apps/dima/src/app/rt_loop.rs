@@ -21,7 +21,7 @@ use crate::devices::servo::{ServoError, ServoOutput};
 use crate::devices::{DeviceLink, LinkEvent};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, Tick};
-use crate::telemetry::LinkCounters;
+use crate::telemetry::{LinkCounters, ReceivedCommand};
 
 /// Most command events applied per cycle (the rest wait for the next cycle).
 pub const MAX_COMMANDS_PER_CYCLE: usize = 64;
@@ -86,8 +86,8 @@ impl LoopParams {
 
 /// The loop's connections to the other threads.
 pub struct LoopEnds {
-    /// Command events from telemetry.
-    pub commands: rtrb::Consumer<Command>,
+    /// Command events from telemetry, with their arrival times.
+    pub commands: rtrb::Consumer<ReceivedCommand>,
     /// Records to the logger.
     pub log: rtrb::Producer<CycleRecord>,
     /// Latest state to telemetry.
@@ -322,14 +322,15 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         }
         self.simulated_work(tick.wake_ns);
 
-        // Acquire: commands in arrival order, then the packet.
-        let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
+        // Acquire: commands in arrival order, with their arrival times (the step judges their
+        // age), then the packet.
+        let mut commands = [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE];
         let mut n = 0;
         while n < MAX_COMMANDS_PER_CYCLE {
-            let Ok(command) = self.ends.commands.pop() else {
+            let Ok(received) = self.ends.commands.pop() else {
                 break;
             };
-            commands[n] = command;
+            commands[n] = received;
             n += 1;
         }
         let sensor = self.acquire_sensor(&mut ev);
@@ -524,7 +525,7 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             info: None,
             outputs,
             setpoints: Default::default(),
-            commands: [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE],
+            commands: [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE],
             n_commands: 0,
             stale_passed: 0,
             counters: self.state.counters,
@@ -557,4 +558,262 @@ fn decision_events(out: &CycleOutputs, realtime_fault_reported: bool) -> u16 {
         ev |= events::REALTIME_SETUP_FAILED;
     }
     ev
+}
+
+#[cfg(test)]
+mod tests {
+    //! The loop in-process: no sensor board (never connected), a recording servo output,
+    //! commands pushed into the ring with explicit arrival times, and cycles driven with
+    //! explicit wake-up times. The step judges everything at the tick's time; the loop's part
+    //! is to hand each command to it, and to the log, with its arrival time.
+
+    use std::sync::Mutex;
+    use std::time::Duration;
+
+    use embedded_hal_mock::eh1::digital::Mock as Pin;
+
+    use super::*;
+    use crate::devices::{device_link, Supervisor};
+
+    const MS: Nanos = 1_000_000;
+
+    /// A servo output that records every write, or fails while told to.
+    #[derive(Clone, Default)]
+    struct Servo {
+        writes: Arc<Mutex<Vec<[u16; 3]>>>,
+        fail: Arc<Mutex<Option<ServoError>>>,
+    }
+
+    impl ServoOutput for Servo {
+        fn write_targets(
+            &mut self,
+            _channels: &[u8; 3],
+            targets_qus: &[u16; 3],
+            _deadline_ns: Nanos,
+        ) -> Result<(), ServoError> {
+            if let Some(e) = *self.fail.lock().unwrap() {
+                return Err(e);
+            }
+            self.writes.lock().unwrap().push(*targets_qus);
+            Ok(())
+        }
+    }
+
+    struct Harness {
+        rt: RealtimeLoop<Pin, Servo>,
+        commands: rtrb::Producer<ReceivedCommand>,
+        servo: Servo,
+        servo_sup: Supervisor<Servo>,
+        _sensor_sup: Supervisor<SensorDevice<Pin>>,
+        log: rtrb::Consumer<CycleRecord>,
+    }
+
+    impl Harness {
+        fn new() -> Harness {
+            let config = Config::default();
+            let params = LoopParams::from_config(&config).unwrap();
+            let (commands, commands_rx) = rtrb::RingBuffer::new(config.realtime.command_ring);
+            let (log_tx, log) = rtrb::RingBuffer::new(4);
+            let (snapshot, _) = triple_buffer::triple_buffer(&Snapshot::default());
+            let (sensor_sup, sensor) = device_link(
+                "sensor board",
+                Box::new(|| anyhow::bail!("absent")),
+                Duration::from_secs(1),
+            );
+            let servo = Servo::default();
+            let opened = servo.clone();
+            let (servo_sup, servo_link) = device_link(
+                "servo",
+                Box::new(move || Ok(opened.clone())),
+                Duration::from_millis(1_000),
+            );
+            let ends = LoopEnds {
+                commands: commands_rx,
+                log: log_tx,
+                snapshot,
+                link: Arc::new(LinkCounters::default()),
+                stop: Arc::new(AtomicBool::new(false)),
+            };
+            Harness {
+                rt: RealtimeLoop::new(params, ends, sensor, servo_link, false),
+                commands,
+                servo,
+                servo_sup,
+                _sensor_sup: sensor_sup,
+                log,
+            }
+        }
+
+        /// MANUAL with a healthy sensor link and a link seen at `link_ns` (the board is not
+        /// connected in these tests: its health is set, and holds for fewer than
+        /// `sensor_loss_packets` cycles).
+        fn manual(&mut self, link_ns: Nanos) {
+            let s = &mut self.rt.state.safety;
+            s.mode = Mode::Manual;
+            s.bad_packets = 0;
+            s.good_packets = 1_000;
+            s.last_link_ns = Some(link_ns);
+        }
+
+        fn send(&mut self, command: Command, arrival_ns: Nanos) {
+            self.commands
+                .push(ReceivedCommand {
+                    command,
+                    arrival_ns,
+                })
+                .unwrap();
+        }
+
+        fn cycle_at(&mut self, wake_ns: Nanos) {
+            self.rt.cycle(Tick {
+                deadline_ns: wake_ns,
+                wake_ns,
+                latency_ns: 0,
+                missed: 0,
+            });
+        }
+
+        fn mode(&self) -> (Mode, Option<FailsafeCause>) {
+            (self.rt.state.safety.mode, self.rt.state.safety.cause)
+        }
+    }
+
+    #[test]
+    fn a_command_that_waited_keeps_the_link_only_from_its_arrival() {
+        // Comms timeout 1 s. A heartbeat arrived at 150 ms, then the radio went silent; the
+        // heartbeat reached the loop only at 900 ms (the reader or the ring fell behind). The
+        // link ends 1 s after 150 ms, not 1 s after 900 ms.
+        let mut h = Harness::new();
+        h.manual(100 * MS);
+        h.send(Command::Heartbeat, 150 * MS);
+        h.cycle_at(900 * MS);
+        assert_eq!(h.mode(), (Mode::Manual, None));
+        h.cycle_at(1_148 * MS);
+        assert_eq!(h.mode(), (Mode::Manual, None));
+        h.cycle_at(1_152 * MS);
+        assert_eq!(h.mode(), (Mode::Failsafe, Some(FailsafeCause::CommsLoss)));
+    }
+
+    #[test]
+    fn each_command_reaches_the_step_and_the_record_with_its_arrival_time() {
+        let mut h = Harness::new();
+        h.manual(100 * MS);
+        let sent = [
+            ReceivedCommand::new(Command::Throttle(dima_groundlink::Percent::MAX), 0),
+            ReceivedCommand::new(Command::Heartbeat, 150 * MS),
+            ReceivedCommand::new(Command::Steering(dima_groundlink::Percent::MIN), 890 * MS),
+        ];
+        for r in sent {
+            h.send(r.command, r.arrival_ns);
+        }
+        h.cycle_at(1_050 * MS);
+        let record = h.log.pop().unwrap();
+        assert_eq!(record.commands(), sent);
+        // The step judged each by its own age: the throttle (1.05 s old) did not act.
+        assert_eq!(h.rt.state.counters.commands_stale, 1);
+        assert_eq!(h.rt.state.safety.last_link_ns, Some(890 * MS));
+        let sp = h.rt.state.safety.setpoints;
+        assert_eq!(
+            (sp.throttle, sp.steering),
+            (None, Some(dima_groundlink::Percent::MIN))
+        );
+    }
+
+    #[test]
+    fn commands_older_than_the_comms_timeout_do_not_act_but_a_kill_does() {
+        // A throttle that arrived at 0 and reaches the loop 1.2 s later is no link activity
+        // and no instruction: the link was lost at 1 s.
+        let mut h = Harness::new();
+        h.manual(0);
+        h.send(Command::Throttle(dima_groundlink::Percent::MAX), 0);
+        h.cycle_at(1_200 * MS);
+        assert_eq!(h.mode(), (Mode::Failsafe, Some(FailsafeCause::CommsLoss)));
+        assert_eq!(h.rt.state.safety.setpoints.throttle, None);
+        assert_eq!(h.rt.state.counters.commands_stale, 1);
+
+        // A revive that waited as long does not revive (the sensor link is healthy here, so
+        // only its age can refuse it).
+        let mut h = Harness::new();
+        h.manual(0);
+        h.rt.state.safety.mode = Mode::Killed;
+        h.send(Command::Revive, 0);
+        h.cycle_at(1_200 * MS);
+        assert_eq!(h.mode(), (Mode::Killed, None));
+
+        // A kill is honoured however old.
+        let mut h = Harness::new();
+        h.manual(1_100 * MS);
+        h.send(Command::Kill, 0);
+        h.cycle_at(1_200 * MS);
+        assert_eq!(h.mode(), (Mode::Killed, None));
+        assert_eq!(h.rt.state.counters.commands_stale, 0);
+    }
+
+    #[test]
+    fn fresh_commands_act_and_keep_the_link_from_their_arrival() {
+        let mut h = Harness::new();
+        h.manual(0);
+        h.send(Command::Throttle(dima_groundlink::Percent::MAX), 990 * MS);
+        h.cycle_at(1_000 * MS);
+        assert_eq!(h.mode(), (Mode::Manual, None));
+        assert_eq!(
+            h.rt.state.safety.setpoints.throttle,
+            Some(dima_groundlink::Percent::MAX)
+        );
+        h.cycle_at(1_988 * MS);
+        assert_eq!(h.mode(), (Mode::Manual, None));
+        h.cycle_at(1_992 * MS);
+        assert_eq!(h.mode(), (Mode::Failsafe, Some(FailsafeCause::CommsLoss)));
+    }
+
+    #[test]
+    fn a_kill_during_a_servo_outage_is_the_first_write_after_the_reopen() {
+        let mut h = Harness::new();
+        let t0 = std::time::Instant::now();
+        let at = |ms: u64| t0 + Duration::from_millis(ms);
+        assert!(h.servo_sup.service(at(0)));
+        h.manual(0);
+        h.send(Command::Throttle(dima_groundlink::Percent::MAX), 0);
+        h.cycle_at(4 * MS);
+        let safe = h.rt.params.core.safe_targets().quarter_us();
+        let driving = h.servo.writes.lock().unwrap().clone();
+        assert_eq!(driving.len(), 1);
+        assert_ne!(driving[0], safe);
+
+        // The board fails: it is handed back and nothing more reaches it.
+        *h.servo.fail.lock().unwrap() = Some(ServoError::Device);
+        h.send(Command::Throttle(dima_groundlink::Percent::MIN), 6 * MS);
+        h.cycle_at(8 * MS);
+        assert!(!h.rt.servo.is_connected());
+        *h.servo.fail.lock().unwrap() = None;
+        h.send(Command::Kill, 10 * MS);
+        h.cycle_at(12 * MS);
+        assert_eq!(h.mode(), (Mode::Killed, None));
+        assert_eq!(h.servo.writes.lock().unwrap().len(), 1);
+        assert_eq!(h.rt.state.counters.servo_errors, 1);
+        assert_eq!(h.rt.state.counters.servo_missing, 1);
+
+        // The supervisor closes it and reopens one reopen interval later; the cycle that
+        // adopts it writes the safe targets, whatever the refresh schedule.
+        assert!(!h.servo_sup.service(at(20)));
+        assert!(!h.servo_sup.service(at(1_010)));
+        assert!(h.servo_sup.service(at(1_020)));
+        h.cycle_at(1_024 * MS);
+        assert_eq!(h.servo.writes.lock().unwrap()[1..], [safe]);
+    }
+
+    #[test]
+    fn a_write_timeout_keeps_the_board_and_resends_the_next_cycle() {
+        let mut h = Harness::new();
+        assert!(h.servo_sup.service(std::time::Instant::now()));
+        *h.servo.fail.lock().unwrap() = Some(ServoError::Timeout);
+        h.cycle_at(4 * MS); // cycle 0: due, times out
+        assert!(h.rt.servo.is_connected());
+        assert_eq!(h.rt.state.counters.servo_errors, 1);
+        *h.servo.fail.lock().unwrap() = None;
+        h.cycle_at(8 * MS); // cycle 1: not on the refresh schedule, resent anyway
+        assert_eq!(h.servo.writes.lock().unwrap().len(), 1);
+        h.cycle_at(12 * MS); // written and unchanged: waits for the schedule
+        assert_eq!(h.servo.writes.lock().unwrap().len(), 1);
+    }
 }

@@ -6,8 +6,16 @@
 //! Maestro's 50 Hz pulse train cannot. A pulse of `t` µs is `t * 4096 * f / 1e6` counts of the
 //! 12-bit counter, with `f` the frequency the prescaler really gives; target 0 ("no pulses")
 //! sets the channel's full-off bit.
+//!
+//! Setting the chip up assumes nothing about its state: at power-up it is asleep with every
+//! channel off, but after a reopen or a restart of the application it may be awake and still
+//! making the last pulses. [`Pca9685Output::new`] therefore turns every channel off, stops the
+//! oscillator, writes the prescaler (the chip ignores PRE_SCALE writes while awake), wakes the
+//! chip and, after the oscillator's 500 µs, writes RESTART; the first pulses are the loop's
+//! first targets.
 
 use anyhow::Context;
+use embedded_hal::delay::DelayNs;
 use embedded_hal::i2c::I2c;
 use linux_embedded_hal::I2cdev;
 use pwm_pca9685::{Address, Channel, Pca9685};
@@ -33,6 +41,23 @@ pub fn pulse_counts(quarter_us: u16, oscillator_hz: u32, prescale: u8) -> u16 {
     counts.min(4_095) as u16
 }
 
+/// MODE1 register.
+const MODE1: u8 = 0x00;
+/// ALL_LED_OFF_H register: writes go to every channel's LEDn_OFF_H.
+const ALL_LED_OFF_H: u8 = 0xFD;
+/// PRE_SCALE register.
+const PRE_SCALE: u8 = 0xFE;
+/// MODE1.RESTART: written as 1 to clear a pending restart.
+const MODE1_RESTART: u8 = 1 << 7;
+/// MODE1.SLEEP: oscillator off.
+const MODE1_SLEEP: u8 = 1 << 4;
+/// MODE1.ALLCALL: answer the all-call address (set at reset, kept).
+const MODE1_ALLCALL: u8 = 1 << 0;
+/// LEDn_OFF_H full-off bit.
+const FULL_OFF: u8 = 1 << 4;
+/// Time the oscillator needs after SLEEP is cleared, before RESTART may be written, µs.
+const OSCILLATOR_START_US: u32 = 500;
+
 /// The PCA9685 as the loop's servo output.
 pub struct Pca9685Output<I2C> {
     chip: Pca9685<I2C>,
@@ -41,12 +66,31 @@ pub struct Pca9685Output<I2C> {
 }
 
 impl<I2C: I2c> Pca9685Output<I2C> {
-    /// Sets the PWM frequency and wakes the chip up, with every channel's pulses off until the
-    /// first targets.
-    pub fn new(i2c: I2C, config: &Pca9685Config) -> Result<Self, pwm_pca9685::Error<I2C::Error>> {
-        let mut chip = Pca9685::new(i2c, Address::from(config.address))?;
+    /// Turns every channel off, sets the PWM frequency asleep and wakes the chip up, whatever
+    /// state it was in; the channels stay off until the first targets. `delay` waits for the
+    /// oscillator (500 µs, on the device thread, never in the loop).
+    pub fn new(
+        i2c: I2C,
+        config: &Pca9685Config,
+        delay: &mut impl DelayNs,
+    ) -> Result<Self, pwm_pca9685::Error<I2C::Error>> {
+        let address = config.address;
+        // The driver refuses an address the chip cannot have; ask before writing to it.
+        let mut i2c = Pca9685::new(i2c, Address::from(address))?.destroy();
         let prescale = prescale(config.oscillator_hz, config.pwm_frequency_hz);
-        chip.set_prescale(prescale)?;
+        let mut write = |register: u8, value: u8| {
+            i2c.write(address, &[register, value])
+                .map_err(pwm_pca9685::Error::I2C)
+        };
+        write(ALL_LED_OFF_H, FULL_OFF)?;
+        write(MODE1, MODE1_SLEEP | MODE1_ALLCALL)?;
+        write(PRE_SCALE, prescale)?;
+        write(MODE1, MODE1_ALLCALL)?;
+        delay.delay_us(OSCILLATOR_START_US);
+        write(MODE1, MODE1_RESTART | MODE1_ALLCALL)?;
+        // The driver starts from the reset value of MODE1 (asleep): make its copy match the
+        // chip (awake), or its next MODE1 write (auto-increment) would put the chip to sleep.
+        let mut chip = Pca9685::new(i2c, Address::from(address))?;
         chip.enable()?;
         Ok(Pca9685Output {
             chip,
@@ -89,7 +133,7 @@ impl Pca9685Output<I2cdev> {
                 config.device.display()
             )
         })?;
-        Pca9685Output::new(bus, config).map_err(|e| {
+        Pca9685Output::new(bus, config, &mut linux_embedded_hal::Delay).map_err(|e| {
             anyhow::anyhow!(
                 "PCA9685: no answer at address {:#04x} on {}: {e:?}",
                 config.address,
@@ -124,9 +168,14 @@ impl<I2C: I2c> ServoOutput for Pca9685Output<I2C> {
 #[cfg(test)]
 mod tests {
     //! Register-level transactions against the PCA9685 datasheet (NXP, rev. 4): MODE1 at 0x00
-    //! (SLEEP bit 4, AI bit 5, ALLCALL bit 0, 0x11 at reset), PRE_SCALE at 0xFE, LEDn_ON_L at
-    //! 0x06 + 4n followed by ON_H, OFF_L, OFF_H, full-off as bit 4 of OFF_H.
+    //! (RESTART bit 7, AI bit 5, SLEEP bit 4, ALLCALL bit 0, 0x11 at reset), PRE_SCALE at 0xFE
+    //! (writes ignored while SLEEP = 0), ALL_LED_OFF_H at 0xFD, LEDn_ON_L at 0x06 + 4n followed
+    //! by ON_H, OFF_L, OFF_H, full-off as bit 4 of OFF_H.
 
+    use std::cell::RefCell;
+    use std::rc::Rc;
+
+    use embedded_hal::i2c::{ErrorType, Operation};
     use embedded_hal_mock::eh1::i2c::{Mock, Transaction};
 
     use super::*;
@@ -137,6 +186,63 @@ mod tests {
         Pca9685Config {
             pwm_frequency_hz: frequency_hz,
             ..Pca9685Config::default()
+        }
+    }
+
+    /// The set-up writes for `prescale`, in order.
+    fn setup(prescale: u8) -> Vec<Transaction> {
+        vec![
+            // Every channel full-off at once (stops pulses an awake chip is still making).
+            Transaction::write(ADDR, vec![0xFD, 0x10]),
+            // MODE1: SLEEP (oscillator off) with ALLCALL, so PRE_SCALE takes the write.
+            Transaction::write(ADDR, vec![0x00, 0x11]),
+            Transaction::write(ADDR, vec![0xFE, prescale]),
+            // Wake; after 500 µs RESTART (write-1-to-clear a restart left pending).
+            Transaction::write(ADDR, vec![0x00, 0x01]),
+            Transaction::write(ADDR, vec![0x00, 0x81]),
+            // The driver's own copy of MODE1 is brought in line (same value, no effect).
+            Transaction::write(ADDR, vec![0x00, 0x01]),
+        ]
+    }
+
+    /// What happened on the bus and the delay, in order.
+    #[derive(Clone, Default)]
+    struct Trace(Rc<RefCell<Vec<String>>>);
+
+    /// The mock bus, noting each write in the trace.
+    struct TracedBus {
+        bus: Mock,
+        trace: Trace,
+    }
+
+    impl ErrorType for TracedBus {
+        type Error = embedded_hal::i2c::ErrorKind;
+    }
+
+    impl I2c for TracedBus {
+        fn transaction(
+            &mut self,
+            address: u8,
+            operations: &mut [Operation<'_>],
+        ) -> Result<(), Self::Error> {
+            // The set-up makes single writes only; anything else fails the test.
+            for op in operations.iter_mut() {
+                let Operation::Write(bytes) = op else {
+                    panic!("unexpected read at {address:#04x}");
+                };
+                self.trace
+                    .0
+                    .borrow_mut()
+                    .push(format!("write {bytes:02x?}"));
+                self.bus.write(address, bytes)?;
+            }
+            Ok(())
+        }
+    }
+
+    impl DelayNs for Trace {
+        fn delay_ns(&mut self, ns: u32) {
+            self.0.borrow_mut().push(format!("wait {ns} ns"));
         }
     }
 
@@ -163,24 +269,59 @@ mod tests {
     }
 
     #[test]
-    fn setup_sets_the_frequency_asleep_then_wakes_the_chip() {
-        let expected = [
-            Transaction::write(ADDR, vec![0xFE, 23]),
-            // MODE1: SLEEP cleared, ALLCALL kept.
-            Transaction::write(ADDR, vec![0x00, 0x01]),
-        ];
-        let mut bus = Mock::new(&expected);
-        let out = Pca9685Output::new(bus.clone(), &config(250)).unwrap();
+    fn setup_turns_every_channel_off_and_sleeps_before_the_prescaler() {
+        // Whatever state the chip is in (power-up: asleep, channels off; a reopen or a restart
+        // of the application: awake, last pulses running), every channel is turned off and
+        // the oscillator stopped before PRE_SCALE is written; then the chip wakes and RESTART
+        // is written.
+        let mut bus = Mock::new(&setup(23));
+        let out = Pca9685Output::new(bus.clone(), &config(250), &mut Trace::default()).unwrap();
         assert!((out.frequency_hz() - 254.3).abs() < 0.1);
         out.release();
         bus.done();
     }
 
     #[test]
+    fn restart_waits_500_us_after_the_wake_up() {
+        let trace = Trace::default();
+        let mut mock = Mock::new(&setup(121));
+        let bus = TracedBus {
+            bus: mock.clone(),
+            trace: trace.clone(),
+        };
+        let out = Pca9685Output::new(bus, &config(50), &mut trace.clone()).unwrap();
+        drop(out.release());
+        mock.done();
+        let steps = trace.0.borrow().clone();
+        assert_eq!(
+            steps,
+            [
+                "write [fd, 10]",
+                "write [00, 11]",
+                "write [fe, 79]",
+                "write [00, 01]",
+                "wait 500000 ns",
+                "write [00, 81]",
+                "write [00, 01]",
+            ]
+        );
+    }
+
+    #[test]
+    fn a_bad_address_is_refused_before_any_write() {
+        let mut bus = Mock::new(&[]);
+        let bad = Pca9685Config {
+            address: 0x70, // the all-call address
+            ..config(50)
+        };
+        assert!(Pca9685Output::new(bus.clone(), &bad, &mut Trace::default()).is_err());
+        bus.done();
+    }
+
+    #[test]
     fn targets_are_one_write_per_channel_and_zero_is_full_off() {
-        let expected = [
-            Transaction::write(ADDR, vec![0xFE, 121]),
-            Transaction::write(ADDR, vec![0x00, 0x01]),
+        let mut expected = setup(121);
+        expected.extend([
             // Auto-increment on (MODE1 AI), then channel 0: ON = 0, OFF = 307 (0x133).
             Transaction::write(ADDR, vec![0x00, 0x21]),
             Transaction::write(ADDR, vec![0x06, 0x00, 0x00, 0x33, 0x01]),
@@ -188,9 +329,9 @@ mod tests {
             Transaction::write(ADDR, vec![0x0A, 0x00, 0x00, 0x3D, 0x01]),
             // Channel 15, no pulses: full-off bit in LED15_OFF_H (0x45).
             Transaction::write(ADDR, vec![0x44, 0x00, 0x10]),
-        ];
+        ]);
         let mut bus = Mock::new(&expected);
-        let mut out = Pca9685Output::new(bus.clone(), &config(50)).unwrap();
+        let mut out = Pca9685Output::new(bus.clone(), &config(50), &mut Trace::default()).unwrap();
         out.write_targets(&[0, 1, 15], &[1_500 * 4, 1_545 * 4, 0], u64::MAX)
             .unwrap();
         out.release();
@@ -199,14 +340,13 @@ mod tests {
 
     #[test]
     fn a_bus_error_is_a_device_failure_and_a_bad_channel_is_refused() {
-        let expected = [
-            Transaction::write(ADDR, vec![0xFE, 121]),
-            Transaction::write(ADDR, vec![0x00, 0x01]),
+        let mut expected = setup(121);
+        expected.push(
             Transaction::write(ADDR, vec![0x00, 0x21])
                 .with_error(embedded_hal::i2c::ErrorKind::Other),
-        ];
+        );
         let mut bus = Mock::new(&expected);
-        let mut out = Pca9685Output::new(bus.clone(), &config(50)).unwrap();
+        let mut out = Pca9685Output::new(bus.clone(), &config(50), &mut Trace::default()).unwrap();
         assert_eq!(
             out.write_targets(&[16, 1, 2], &[6_000; 3], u64::MAX),
             Err(ServoError::InvalidInput)
@@ -216,6 +356,20 @@ mod tests {
             Err(ServoError::Device)
         );
         out.release();
+        bus.done();
+    }
+
+    #[test]
+    fn a_bus_error_during_setup_fails_the_open() {
+        let mut expected = setup(121);
+        expected.truncate(2);
+        expected[1] = Transaction::write(ADDR, vec![0x00, 0x11])
+            .with_error(embedded_hal::i2c::ErrorKind::Other);
+        let mut bus = Mock::new(&expected);
+        assert!(matches!(
+            Pca9685Output::new(bus.clone(), &config(50), &mut Trace::default()),
+            Err(pwm_pca9685::Error::I2C(_))
+        ));
         bus.done();
     }
 }

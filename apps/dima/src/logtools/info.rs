@@ -91,12 +91,14 @@ pub fn report(run: &LoggedRun) -> String {
         );
         let _ = writeln!(
             out,
-            "link: commands {} (setpoints rejected {}, revives refused {}) | gnss fixes {} | \
+            "link: commands {} (setpoints rejected {}, revives refused {}, stale commands dropped \
+             {}) | gnss fixes {} | \
              servo writes {} errors {} missing {} | missed periods {} | failsafes {} | log \
              dropped {}",
             c.commands,
             c.setpoints_rejected,
             c.revives_refused,
+            c.commands_stale,
             c.gnss_fixes,
             c.servo_writes,
             c.servo_errors,

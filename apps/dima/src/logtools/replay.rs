@@ -1,5 +1,5 @@
 //! `dima log replay FILE [--config CONFIG] [-o OUT.mcap]`: the recorded inputs of every cycle
-//! (commands, raw packets with their request and completion times, missed periods) fed through
+//! (commands with their arrival times, raw packets with their request and completion times, missed periods) fed through
 //! the real decoder and the pure control step, pull-driven: no pacing, no threads, no devices.
 //! With the recorded configuration the modes and servo targets must come out identical; with
 //! another one (new gains) the replayed outputs are written beside the recorded ones.
@@ -14,7 +14,7 @@ use dima_core::config::Config;
 use dima_core::monitor::PacketVerdict;
 use dima_core::schema::{self, ActionMessage, CycleMessage, Event, ReplayMessage};
 use dima_core::step::{CycleInputs, SensorInput};
-use dima_core::{Command, Core, CoreState, Mode};
+use dima_core::{Core, CoreState, Mode, ReceivedCommand};
 use dima_sensorboard::RawPacket;
 
 use super::read::LoggedRun;
@@ -86,8 +86,8 @@ pub struct RecordedCycle {
     pub wake_ns: u64,
     /// Periods missed before the wake-up.
     pub missed_periods: u32,
-    /// Commands applied.
-    pub commands: Vec<Command>,
+    /// Commands handed to the step, with their arrival times.
+    pub commands: Vec<ReceivedCommand>,
     /// The sensor phase.
     pub sensor: RecordedSensor,
     /// Stale packets passed over.
@@ -148,7 +148,11 @@ pub fn recorded_cycles(run: &LoggedRun) -> anyhow::Result<(Vec<RecordedCycle>, b
             cycle: m.cycle,
             wake_ns: m.wake_ns,
             missed_periods: m.missed_periods,
-            commands: m.commands.iter().filter_map(|c| c.command()).collect(),
+            commands: m
+                .commands
+                .iter()
+                .filter_map(|c| c.received(m.wake_ns))
+                .collect(),
             sensor: recorded_sensor(m, run.raw.get(&c.t_ns))?,
             stale_packets: m.stale_passed,
             mode: m.mode,
@@ -263,4 +267,58 @@ pub fn write_mcap(run: &LoggedRun, replay: &Replay, path: &Path) -> anyhow::Resu
     }
     w.finish()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use dima_core::Command;
+
+    use super::*;
+
+    /// A drive logged before commands carried their arrival times.
+    fn old_log() -> LoggedRun {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/fixtures/auto-pid-before-plugins.mcap"
+        );
+        LoggedRun::read(Path::new(path)).unwrap()
+    }
+
+    #[test]
+    fn commands_replay_with_their_logged_arrival_or_else_the_cycle_time() {
+        let mut run = old_log();
+        let config = run.config.clone().unwrap();
+        let i = run
+            .cycles
+            .iter()
+            .position(|c| {
+                c.msg
+                    .commands
+                    .iter()
+                    .any(|m| m.command() == Some(Command::Revive))
+            })
+            .unwrap();
+        let wake_ns = run.cycles[i].msg.wake_ns;
+        let (cycles, _) = recorded_cycles(&run).unwrap();
+        assert!(!cycles[i].commands.is_empty());
+        assert!(cycles[i].commands.iter().all(|c| c.arrival_ns == wake_ns));
+        assert_eq!(replay(&run, &config).unwrap().differing, 0);
+
+        // The same drive with the revive's cycle taking its commands 2 s after they arrived:
+        // the replay reads those times, and the step does not act on them.
+        for m in &mut run.cycles[i].msg.commands {
+            m.arrival_ns = Some(wake_ns - 2_000_000_000);
+        }
+        let (cycles, _) = recorded_cycles(&run).unwrap();
+        assert!(cycles[i]
+            .commands
+            .iter()
+            .all(|c| c.arrival_ns == wake_ns - 2_000_000_000));
+        let replayed = replay(&run, &config).unwrap();
+        let first = replayed
+            .first_difference
+            .expect("a stale revive does not revive");
+        assert_eq!(first.cycle, cycles[i].cycle);
+        assert_eq!(first.replayed.0, Mode::Killed);
+    }
 }

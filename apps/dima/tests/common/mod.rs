@@ -131,10 +131,12 @@ pub fn nav_pvt(itow_ms: u32) -> NavPvt {
     }
 }
 
+/// Packet `n` of a live board: the accelerometer's and the gyroscope's words both change from
+/// packet to packet (a die whose words stay the same is a stuck IMU).
 pub fn packet(n: u64) -> SensorPacket {
     SensorPacket {
         accel: [(n % 1000) as i16, -512, 1000],
-        gyro: [1, -2, -164],
+        gyro: [(n % 5) as i16 - 2, -2, -164],
         mag: [-300, 200, -1000],
         rhall: 7000,
         press_raw: 415_148,
@@ -373,12 +375,13 @@ pub fn try_fifo(priority: u8) {
 
 /// A configuration for a test run with a log in `log_dir`: SCHED_FIFO when permitted (it is
 /// refused and reported otherwise), no pinning, no memory locking, and overrun and sensor-loss
-/// thresholds wide enough that a busy machine does not trip them where a test is not about them.
+/// thresholds as wide as the configuration allows at 250 Hz (both still trip within a second),
+/// so that a busy machine does not trip them where a test is not about them.
 pub fn test_config(log_dir: &std::path::Path) -> Config {
     let mut c = Config::default();
     c.realtime.priority = 60;
     c.realtime.telemetry_priority = 30;
-    c.safety.overrun_limit = 100;
+    c.safety.overrun_limit = dima::config::max_overrun_limit(c.realtime.loop_rate_hz);
     c.safety.sensor_loss_packets = 50;
     c.realtime.cpus = vec![];
     c.realtime.lock_memory = false;

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use eframe::egui::{self, Color32, RichText};
 
 use super::GroundApp;
+use crate::downlink::Severity;
 use crate::link::{LinkControl, LinkState};
 use crate::serial::{list_ports, COMMON_BAUDS};
 
@@ -115,7 +116,13 @@ pub fn top_bar(ui: &mut egui::Ui, app: &mut GroundApp) {
             ui.label(RichText::new(text).color(colour));
         });
         ui.horizontal_wrapped(|ui| {
-            let colour = if app.status.authenticated { GOOD } else { WARN };
+            // Green only while authentic reports arrive: a key file alone proves nothing.
+            let health = app.status.downlink(std::time::Instant::now());
+            let colour = match health.severity() {
+                Severity::Good => GOOD,
+                _ if app.status.authenticated => BAD,
+                _ => WARN,
+            };
             ui.small(RichText::new(&app.link_note).color(colour));
             ui.separator();
             ui.small(&app.recording_note);

@@ -118,6 +118,10 @@ fn manual(ui: &mut egui::Ui, app: &mut GroundApp) {
             }
         });
     }
+    ui.small(
+        "After a kill, a revive or the robot failing safe the sliders return to neutral: \
+         let go of a key, stick or slider and move it again to drive.",
+    );
     if ui
         .button("Centre all")
         .on_hover_text("send each channel's neutral")

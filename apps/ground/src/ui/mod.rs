@@ -74,6 +74,8 @@ pub struct GroundApp {
     table_source: String,
     keyboard: KeyboardDriver,
     manual: ManualControl,
+    /// The link's count of dropped manual values last acted on.
+    seen_cancellations: u64,
     gamepads: Gamepads,
     gamepad: GamepadInput,
     revive_progress: f32,
@@ -165,6 +167,7 @@ impl GroundApp {
             sim,
             keyboard: KeyboardDriver::new(&table, cli.key_step),
             manual: ManualControl::new(&table),
+            seen_cancellations: 0,
             table,
             table_source,
             gamepads: Gamepads::new(),
@@ -199,7 +202,12 @@ impl GroundApp {
         self.manual.killed();
     }
 
+    /// A revive: nothing asked for before it drives after it (the link drops it too), so
+    /// the manual sources must be let go and moved again.
     fn revive(&mut self) {
+        for request in self.manual.cancelled() {
+            self.link.send(request);
+        }
         self.link.send(LinkControl::Request(Command::Revive));
     }
 
@@ -211,6 +219,14 @@ impl GroundApp {
             self.telemetry.ingest(at, frame);
         }
         self.status = self.link.status();
+        if self.status.driving_cancellations != self.seen_cancellations {
+            // The station dropped the manual values (a revive went out, the robot reported
+            // KILLED or FAILSAFE): the sliders show neutral, held sources must be let go.
+            self.seen_cancellations = self.status.driving_cancellations;
+            for request in self.manual.cancelled() {
+                self.link.send(request);
+            }
+        }
 
         let keys = input::read_keys(ctx);
         let actions = self.keyboard.update(keys, now);

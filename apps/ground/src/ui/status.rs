@@ -1,5 +1,6 @@
-//! Link health, the robot's state (v2: as the robot reports it; v1: as the commands sent imply
-//! it), and the onboard values in physical units.
+//! Link health, the robot's state (v2: as the robot reports it in authentic display frames;
+//! otherwise why it is unknown), and the onboard values in physical units. The station never
+//! shows its own intent as the robot's mode.
 
 use std::time::{Duration, Instant};
 
@@ -10,9 +11,9 @@ use eframe::egui::{self, Color32, RichText};
 
 use super::connection::{BAD, GOOD, WARN};
 use super::GroundApp;
+use crate::downlink::{DownlinkHealth, Severity};
 use crate::link::{station_time, LinkState, LinkStatus, RobotReport, UplinkView};
 use crate::recording::{cause_name, mode_name, refusal_name};
-use crate::robot_view::{expected_mode, ExpectedMode};
 use crate::units::{Baro, MagField};
 
 /// Colour of AUTO (the controllers drive).
@@ -28,8 +29,8 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
         ui.horizontal(|ui| {
             let now = Instant::now();
             let s = &app.status;
-            match (s.authenticated, &s.robot) {
-                (true, Some(r)) => {
+            match s.fresh_report(now) {
+                Some(r) => {
                     ui.label(
                         RichText::new(format!("robot: {}", mode_name(r.mode)))
                             .strong()
@@ -52,22 +53,17 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
                         );
                     }
                 }
-                (true, None) => {
+                None => {
+                    let health = s.downlink(now);
                     ui.label(
-                        RichText::new("robot: unknown (no authenticated frame yet)")
+                        RichText::new(format!("robot: {}", health.short()))
                             .strong()
-                            .color(WARN),
+                            .color(problem_colour(health)),
                     );
-                }
-                (false, _) => {
-                    let mode = expected_mode(&s.last_sent);
-                    ui.label(
-                        RichText::new(format!("robot: {} (as sent)", mode.label()))
-                            .strong()
-                            .color(mode_colour(mode)),
-                    );
-                    ui.separator();
-                    ui.label(RichText::new("not authenticated (v1)").color(WARN));
+                    if !s.authenticated {
+                        ui.separator();
+                        ui.label(RichText::new("not authenticated (v1)").color(WARN));
+                    }
                 }
             }
             ui.separator();
@@ -108,16 +104,28 @@ fn delivery_colour(delivery: Delivery) -> Color32 {
         Delivery::Acknowledged { .. } => GOOD,
         Delivery::Pending => WARN,
         Delivery::Unacknowledged | Delivery::RobotRestarted => BAD,
-        Delivery::Superseded | Delivery::Cancelled => Color32::GRAY,
+        Delivery::Superseded
+        | Delivery::Cancelled
+        | Delivery::CancelledByRevive
+        | Delivery::CancelledRobotSafe => Color32::GRAY,
     }
 }
 
-fn mode_colour(mode: ExpectedMode) -> egui::Color32 {
-    match mode {
-        ExpectedMode::Killed | ExpectedMode::KilledAtStart => BAD,
-        ExpectedMode::Manual => GOOD,
-        ExpectedMode::Auto => WARN,
+/// The colour of a downlink that gives no mode: amber or red, never green.
+fn problem_colour(health: DownlinkHealth) -> Color32 {
+    match health.severity() {
+        Severity::Good | Severity::Warning => WARN,
+        Severity::Fault => BAD,
     }
+}
+
+/// Why the robot's state is unknown, large, in place of its mode.
+fn health_banner(ui: &mut egui::Ui, health: DownlinkHealth) {
+    let text = RichText::new(health.text())
+        .size(18.0)
+        .strong()
+        .color(problem_colour(health));
+    ui.add(egui::Label::new(text).wrap());
 }
 
 pub fn right_panel(ui: &mut egui::Ui, app: &GroundApp) {
@@ -158,13 +166,16 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
                 LinkState::Disconnected => RichText::new("disconnected").color(BAD),
             };
             row(ui, "state", state);
+            let health = s.downlink(now);
             row(
                 ui,
                 "protocol",
-                if s.authenticated {
-                    RichText::new("v2, authenticated").color(GOOD)
-                } else {
-                    RichText::new("not authenticated (v1)").color(WARN)
+                match (s.authenticated, health) {
+                    (true, DownlinkHealth::Authentic) => {
+                        RichText::new("v2, authenticated").color(GOOD)
+                    }
+                    (true, _) => RichText::new("v2: no authentic frame").color(BAD),
+                    (false, _) => RichText::new("not authenticated (v1)").color(WARN),
                 },
             );
             let age =
@@ -206,18 +217,12 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
 fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
     let s = &app.status;
     let now = Instant::now();
-    ui.heading("Robot state");
-    ui.label(
-        RichText::new("not authenticated (v1): no mode or acknowledgement comes back").color(WARN),
+    ui.heading("Robot");
+    health_banner(ui, s.downlink(now));
+    ui.small(
+        "Ground link v1 brings no mode and no acknowledgement back (--key-file for v2). \
+         Below: what this station sent, not the robot's state.",
     );
-    let mode = expected_mode(&s.last_sent);
-    ui.label(
-        RichText::new(format!("{} as sent", mode.label()))
-            .size(18.0)
-            .strong()
-            .color(mode_colour(mode)),
-    );
-    ui.small("This follows from what was sent (--key-file for ground link v2).");
     egui::Grid::new("sent")
         .num_columns(2)
         .striped(true)
@@ -257,18 +262,31 @@ fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
 fn robot_report(ui: &mut egui::Ui, s: &LinkStatus) {
     let now = Instant::now();
     ui.heading("Robot");
+    match s.fresh_report(now) {
+        Some(r) => mode_badge(ui, r, now),
+        None => {
+            health_banner(ui, s.downlink(now));
+            if let Some(r) = &s.robot {
+                let age = now.saturating_duration_since(r.at).as_secs_f64();
+                ui.label(
+                    RichText::new(format!(
+                        "last authentic report {age:.1} s ago said {}: not its state now",
+                        mode_name(r.mode)
+                    ))
+                    .color(WARN),
+                );
+            }
+        }
+    }
     let Some(r) = &s.robot else {
         ui.label(
-            RichText::new("no authenticated display frame yet: only Kill can be sent")
-                .strong()
-                .color(WARN),
+            RichText::new("no authenticated display frame yet: only Kill can be sent").color(WARN),
         );
         if let Some(u) = &s.uplink {
             last_command(ui, u, now);
         }
         return;
     };
-    mode_badge(ui, r, now);
     if let Some(cause) = r.failsafe_cause {
         ui.label(RichText::new(format!("failsafe cause: {}", cause_name(cause))).color(FAILSAFE));
     }

@@ -5,13 +5,20 @@
 //!   slider being dragged) are repeated in every slot; with nothing to say the slot carries a
 //!   heartbeat. So a pending command replaces the heartbeat once.
 //! - A kill goes out at once, outside the slot rhythm, and then in every slot for
-//!   [`KILL_REPEAT`], ahead of everything else. Pending and held manual values are dropped
-//!   when a kill is requested: the robot ignores them when KILLED and the operator should not
-//!   find a stale throttle waiting after a revive.
+//!   [`KILL_REPEAT`], ahead of everything else. Everything pending and every held value is
+//!   dropped when a kill is requested.
 //! - A revive ends the repetition of an earlier kill (the operator's latest decision wins),
 //!   and goes out no sooner than [`REVIVE_AFTER_KILL`] after the last kill frame: the robot
 //!   refuses a revive that follows a kill too closely (`safety.revive_min_interval_ms`,
 //!   250 ms by default), so a revive right after the kill's repetition would be refused.
+//! - **Nothing asked for before a revive drives after it**: pending manual values and
+//!   setpoints and every held value are dropped when a revive is requested, and again when it
+//!   goes out (what was asked for while it waited). A revived robot starts at neutral in
+//!   MANUAL; a key, stick or slider still held must be let go and moved again to drive.
+//!   [`cancel_driving`](CommandScheduler::cancel_driving) drops the same on demand (a v2
+//!   station does when the robot reports KILLED or FAILSAFE), and
+//!   [`cancellations`](CommandScheduler::cancellations) counts these drops so that a user
+//!   interface can reset its controls.
 //!
 //! [`poll_slot`](CommandScheduler::poll_slot) says where each frame comes from
 //! ([`Origin`]): ground link v2 repeats a requested command until the robot acknowledges
@@ -32,6 +39,8 @@ pub const KILL_REPEAT: Duration = Duration::from_secs(1);
 /// The shortest time between the last kill frame and a revive (longer than the robot's
 /// default `safety.revive_min_interval_ms`, 250 ms).
 pub const REVIVE_AFTER_KILL: Duration = Duration::from_millis(300);
+/// Dropped requests kept for [`CommandScheduler::take_dropped`] (the oldest go first).
+const DROPPED_KEPT: usize = 64;
 
 /// Why a frame is in a slot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -106,9 +115,13 @@ pub struct CommandScheduler {
     kill_now: bool,
     /// When the last kill frame went out.
     last_kill: Option<StationTime>,
-    /// Pending commands in request order, at most one per type.
-    pending: Vec<Command>,
+    /// Pending commands in request order, at most one per type, with their request time.
+    pending: Vec<(Command, StationTime)>,
     held: [Option<Command>; 3],
+    /// Pending requests dropped by a kill, a revive or `cancel_driving`, not yet taken.
+    dropped: Vec<(Command, StationTime)>,
+    /// Times manual values and setpoints were dropped.
+    cancellations: u64,
 }
 
 impl Default for CommandScheduler {
@@ -128,6 +141,8 @@ impl CommandScheduler {
             last_kill: None,
             pending: Vec::new(),
             held: [None; 3],
+            dropped: Vec::new(),
+            cancellations: 0,
         }
     }
 
@@ -137,19 +152,57 @@ impl CommandScheduler {
             Command::Kill => {
                 self.kill_now = true;
                 self.kill_until = Some(now + KILL_REPEAT);
-                self.pending.clear();
+                let all = core::mem::take(&mut self.pending);
+                self.note_dropped(all);
                 self.held = [None; 3];
+                self.cancellations = self.cancellations.saturating_add(1);
             }
             Command::Heartbeat => {}
             other => {
                 if other == Command::Revive {
                     self.kill_until = None;
                     self.kill_now = false;
+                    self.cancel_driving();
                 }
                 let kind = other.command_type();
-                self.pending.retain(|c| c.command_type() != kind);
-                self.pending.push(other);
+                self.pending.retain(|(c, _)| c.command_type() != kind);
+                self.pending.push((other, now));
             }
+        }
+    }
+
+    /// Drops every pending manual value and setpoint and every held value (the robot went
+    /// safe, or a revive was asked for: see the module docs).
+    pub fn cancel_driving(&mut self) {
+        let (driving, rest): (Vec<_>, Vec<_>) = core::mem::take(&mut self.pending)
+            .into_iter()
+            .partition(|(c, _)| super::drives(*c));
+        self.pending = rest;
+        self.note_dropped(driving);
+        self.held = [None; 3];
+        self.cancellations = self.cancellations.saturating_add(1);
+    }
+
+    /// How many times pending and held manual values and setpoints were dropped (by kills,
+    /// revives and [`cancel_driving`](Self::cancel_driving)): a user interface that sees it
+    /// change resets its controls to neutral and waits for them to be let go.
+    pub fn cancellations(&self) -> u64 {
+        self.cancellations
+    }
+
+    /// Pending requests dropped (by a kill, a revive or
+    /// [`cancel_driving`](Self::cancel_driving)) since the last call, with the time each was
+    /// requested. Held values are not listed.
+    pub fn take_dropped(&mut self) -> Vec<(Command, StationTime)> {
+        core::mem::take(&mut self.dropped)
+    }
+
+    fn note_dropped(&mut self, commands: Vec<(Command, StationTime)>) {
+        for c in commands {
+            if self.dropped.len() == DROPPED_KEPT {
+                self.dropped.remove(0);
+            }
+            self.dropped.push(c);
         }
     }
 
@@ -212,10 +265,14 @@ impl CommandScheduler {
         let revive_waits = self
             .last_kill
             .is_some_and(|k| now.saturating_sub(k) < REVIVE_AFTER_KILL);
+        if !revive_waits && self.pending.iter().any(|(c, _)| *c == Command::Revive) {
+            // What was asked for while the revive waited does not go out with it.
+            self.cancel_driving();
+        }
         let mut waiting = Vec::new();
-        for command in self.pending.drain(..) {
+        for (command, at) in core::mem::take(&mut self.pending) {
             if command == Command::Revive && revive_waits {
-                waiting.push(command);
+                waiting.push((command, at));
             } else {
                 out.push(Scheduled {
                     command,
@@ -381,6 +438,48 @@ mod tests {
             "300 ms after the last kill frame"
         );
         assert_eq!(s.poll(ms(t0, 500)), vec![Command::Heartbeat]);
+    }
+
+    #[test]
+    fn nothing_asked_for_before_a_revive_goes_out_with_or_after_it() {
+        let t0 = StationTime::from_secs(1_000);
+        let mut s = CommandScheduler::default();
+        s.request(Command::Kill, t0);
+        assert_eq!(s.poll(t0), vec![Command::Kill]);
+        // While the kill repeats: a one-off throttle, a setpoint, a held steering value.
+        s.request(Command::Throttle(pct(80)), ms(t0, 20));
+        s.request(Command::SpeedSetpoint { mm_s: 3_000 }, ms(t0, 30));
+        s.hold(ManualChannel::Steering, Some(Command::Steering(pct(30))));
+        let before = s.cancellations();
+        s.request(Command::Revive, ms(t0, 50));
+        assert_eq!(s.held(ManualChannel::Steering), None);
+        assert_eq!(
+            s.take_dropped(),
+            vec![
+                (Command::Throttle(pct(80)), ms(t0, 20)),
+                (Command::SpeedSetpoint { mm_s: 3_000 }, ms(t0, 30))
+            ]
+        );
+        assert_eq!(s.cancellations(), before + 1);
+        // The revive waits for the kill to be 300 ms old; what is asked for meanwhile does not
+        // go out with it.
+        assert_eq!(s.poll(ms(t0, 100)), vec![Command::Heartbeat]);
+        s.request(Command::Tail(pct(90)), ms(t0, 150));
+        s.hold(ManualChannel::Throttle, Some(Command::Throttle(pct(70))));
+        // Before the revive: they go out (to a KILLED robot, which ignores them).
+        assert_eq!(
+            s.poll(ms(t0, 200)),
+            vec![Command::Tail(pct(90)), Command::Throttle(pct(70))]
+        );
+        s.request(Command::Tail(pct(90)), ms(t0, 250));
+        assert_eq!(s.poll(ms(t0, 300)), vec![Command::Revive]);
+        assert_eq!(
+            s.take_dropped(),
+            vec![(Command::Tail(pct(90)), ms(t0, 250))]
+        );
+        assert_eq!(s.held(ManualChannel::Throttle), None);
+        assert_eq!(s.cancellations(), before + 2);
+        assert_eq!(s.poll(ms(t0, 400)), vec![Command::Heartbeat]);
     }
 
     #[test]

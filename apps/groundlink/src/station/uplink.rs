@@ -20,13 +20,22 @@
 //!   setpoint) is therefore repeated in every slot, last in the slot and in place of the
 //!   heartbeat, each time with a new number, until the acknowledgement is exactly one of its
 //!   numbers (or, for a revive, the robot reports MANUAL or AUTO after one of them). It is
-//!   given up after [`CONFIRM_TIMEOUT`] and counted as unacknowledged. Repeating is harmless:
-//!   the robot treats a repeated value or setpoint as no change, and a revive's frames all
-//!   carry the number of its first frame (its request), so the robot acts on one revive
-//!   request once: a repetition that arrives after the robot failed safe again does not lift
-//!   that failsafe. Once the robot acknowledged a revive it is not sent again; if a later
+//!   given up after [`CONFIRM_TIMEOUT`] and counted as unacknowledged. Every frame of a
+//!   request carries the number of its first frame (its request; a held value's frames each
+//!   their own number), so the robot can tell how old a request is: it acts on one revive
+//!   request once (a repetition that arrives after the robot failed safe again does not lift
+//!   that failsafe). Once the robot acknowledged a revive it is not sent again; if a later
 //!   display frame still shows KILLED or FAILSAFE the robot refused it (the frame says why)
 //!   and the operator decides whether to revive again.
+//! - **Nothing asked for before a revive drives after it**: a repeated manual value or
+//!   setpoint is not harmless across a revive (an acknowledgement of the revive's frame is
+//!   not one of its own, so it would be repeated into MANUAL or AUTO). Manual values and
+//!   setpoints waiting for their acknowledgement, and the values held, are therefore
+//!   cancelled when a revive goes out ([`Delivery::CancelledByRevive`]) and whenever an
+//!   authentic display frame reports KILLED or FAILSAFE ([`Delivery::CancelledRobotSafe`]),
+//!   except a frame built before an outstanding revive's first frame could have been
+//!   accepted (its acknowledgement is older): what the operator asked for after that revive
+//!   went out is meant for the revived robot.
 //! - **Conflicts**: a newer command of the same type replaces a waiting one; a manual value
 //!   (sent or held) replaces waiting setpoints and a setpoint replaces waiting manual values, so
 //!   a repetition never switches the robot back to a mode the operator has left. A kill drops
@@ -41,9 +50,9 @@
 use core::time::Duration;
 use std::vec::Vec;
 
-use super::scheduler::{Origin, Scheduled};
+use super::scheduler::{Origin, Scheduled, HEARTBEAT_PERIOD};
 use super::StationTime;
-use crate::v2::{CommandFrame, DisplayFrame, RobotMode};
+use crate::v2::{CommandFrame, DisplayFrame, RobotMode, COMMAND_FRAME_LEN};
 use crate::{Command, CommandType};
 
 /// How long a requested command is repeated without its acknowledgement before it is given up
@@ -73,6 +82,12 @@ pub enum Delivery {
     Cancelled,
     /// Dropped because the robot restarted (new session id).
     RobotRestarted,
+    /// A manual value or setpoint (requested or held) dropped because a revive went out: what
+    /// was asked for before a revive never drives the revived robot.
+    CancelledByRevive,
+    /// A manual value or setpoint (requested or held) dropped because the robot reported
+    /// KILLED or FAILSAFE.
+    CancelledRobotSafe,
 }
 
 impl Delivery {
@@ -85,6 +100,8 @@ impl Delivery {
             Delivery::Superseded => "superseded",
             Delivery::Cancelled => "cancelled by kill",
             Delivery::RobotRestarted => "dropped: robot restarted",
+            Delivery::CancelledByRevive => "cancelled by revive",
+            Delivery::CancelledRobotSafe => "cancelled: robot KILLED or FAILSAFE",
         }
     }
 }
@@ -112,7 +129,7 @@ pub struct CommandStatus {
 }
 
 impl CommandStatus {
-    fn new(command: Command, now: StationTime) -> CommandStatus {
+    pub(super) fn new(command: Command, now: StationTime) -> CommandStatus {
         CommandStatus {
             command,
             requested_at: now,
@@ -158,6 +175,9 @@ pub struct UplinkStats {
     pub old_display_frames: u64,
     /// Session ids seen (more than one: the robot restarted while the station ran).
     pub sessions: u32,
+    /// Authentic display frames reporting KILLED or FAILSAFE that cancelled manual values and
+    /// setpoints (see the module docs).
+    pub safe_reports: u64,
 }
 
 /// A requested command that was settled (for the session recording).
@@ -194,6 +214,8 @@ pub struct Uplink {
     last_downlink_seq: u32,
     mode: Option<RobotMode>,
     outstanding: Vec<Outstanding>,
+    /// The values held in the last slot (one per command type), with their frames.
+    held: Vec<CommandStatus>,
     /// The latest kill, while it is the station's latest decision about the robot's mode.
     kill: Option<CommandStatus>,
     /// The last slot was a kill slot (a repetition is not a new kill).
@@ -201,6 +223,27 @@ pub struct Uplink {
     last_command: Option<CommandStatus>,
     settled: Vec<Settled>,
     stats: UplinkStats,
+    /// Most frames one slot may carry (see [`frames_per_slot`]).
+    frames_per_slot: usize,
+    /// Where the held values' turn starts when a slot cannot carry them all.
+    held_turn: usize,
+}
+
+/// The baud rate the station's budget assumes unless told otherwise: the XBee's default.
+pub const DEFAULT_LINK_BAUD: u32 = 9_600;
+
+/// Share of a slot's time on the wire the station fills at most, in percent. The rest is room
+/// for the radio's own overhead and for a kill sent between slots, so bytes never queue up
+/// from one slot to the next (a queue would delay every later kill by its length).
+pub const SLOT_BUDGET_PERCENT: u64 = 80;
+
+/// Most command frames v2 one slot of `period` may carry at `baud` (8N1: ten bits a byte) within
+/// [`SLOT_BUDGET_PERCENT`] of the slot; at least one, so a heartbeat always goes out. At the
+/// XBee's default 9600 baud a 100 ms slot carries two 28-byte frames (58 ms).
+pub fn frames_per_slot(baud: u32, period: Duration) -> usize {
+    let bytes = u128::from(baud) / 10 * period.as_micros() / 1_000_000;
+    let budget = bytes * u128::from(SLOT_BUDGET_PERCENT) / 100;
+    (budget / COMMAND_FRAME_LEN as u128).clamp(1, 64) as usize
 }
 
 impl Default for Uplink {
@@ -220,12 +263,32 @@ impl Uplink {
             last_downlink_seq: 0,
             mode: None,
             outstanding: Vec::new(),
+            held: Vec::new(),
             kill: None,
             killing: false,
             last_command: None,
             settled: Vec::new(),
             stats: UplinkStats::default(),
+            frames_per_slot: frames_per_slot(DEFAULT_LINK_BAUD, HEARTBEAT_PERIOD),
+            held_turn: 0,
         }
+    }
+
+    /// The same, with slots of at most `frames` frames (at least one); see
+    /// [`frames_per_slot`].
+    pub fn with_frames_per_slot(mut self, frames: usize) -> Uplink {
+        self.frames_per_slot = frames.max(1);
+        self
+    }
+
+    /// Slots of at most `frames` frames from now on (at least one); see [`frames_per_slot`].
+    pub fn set_frames_per_slot(&mut self, frames: usize) {
+        self.frames_per_slot = frames.max(1);
+    }
+
+    /// Most frames one slot carries.
+    pub fn slot_frames(&self) -> usize {
+        self.frames_per_slot
     }
 
     /// The robot's session id, once an authenticated display frame told it.
@@ -287,6 +350,7 @@ impl Uplink {
                     self.retired.push(previous);
                     self.next_seq = 1;
                     self.settle_all(Delivery::RobotRestarted, now);
+                    self.held.clear();
                 }
                 self.session = Some(frame.session);
                 DownlinkVerdict::NewSession { previous }
@@ -297,7 +361,40 @@ impl Uplink {
         self.mode = Some(frame.mode);
         self.next_seq = self.next_seq.max(frame.ack_seq.saturating_add(1));
         self.confirm(frame, now);
+        if self.reports_safe(frame) {
+            self.stats.safe_reports = self.stats.safe_reports.saturating_add(1);
+            self.cancel_driving(Delivery::CancelledRobotSafe, now);
+        }
         verdict
+    }
+
+    /// Whether `frame` reports the robot KILLED or FAILSAFE after the last revive that went
+    /// out could have been acted on (a frame whose acknowledgement is older than an
+    /// outstanding revive's first frame was built before it).
+    fn reports_safe(&self, frame: &DisplayFrame) -> bool {
+        let safe = matches!(frame.mode, RobotMode::Killed | RobotMode::Failsafe);
+        let predates_revive = self.outstanding.iter().any(|o| {
+            o.status.command == Command::Revive
+                && o.status.first_seq.is_none_or(|first| frame.ack_seq < first)
+        });
+        safe && !predates_revive
+    }
+
+    /// Cancels every manual value and setpoint waiting for its acknowledgement and every held
+    /// value, settling them as `delivery` (see the module docs).
+    pub fn cancel_driving(&mut self, delivery: Delivery, now: StationTime) {
+        let mut i = 0;
+        while i < self.outstanding.len() {
+            if super::drives(self.outstanding[i].status.command) {
+                let o = self.outstanding.remove(i);
+                self.settle(o.status, delivery, now);
+            } else {
+                i += 1;
+            }
+        }
+        for held in core::mem::take(&mut self.held) {
+            self.settle(held, delivery, now);
+        }
     }
 
     /// Acknowledgements in `frame` for what is waiting.
@@ -384,13 +481,47 @@ impl Uplink {
             self.stats.held_back = self.stats.held_back.saturating_add(waiting as u64);
             return out;
         };
+        // A value no longer in the slot was let go (or replaced by a request of its type).
+        self.held.retain(|h| {
+            let kind = h.command.command_type();
+            slot.iter().any(|s| s.command.command_type() == kind)
+        });
+        // The slot's budget: what waits for an acknowledgement first (in request order), then
+        // the held values, taking turns when they do not all fit (the robot keeps a manual
+        // value between its frames).
+        let waiting = self
+            .outstanding
+            .iter()
+            .filter(|o| o.acted_on.is_none())
+            .count()
+            .min(self.frames_per_slot);
+        let room = self.frames_per_slot - waiting;
+        let held = if held.len() > room {
+            let turn = self.held_turn % held.len();
+            self.held_turn = self.held_turn.wrapping_add(room.max(1));
+            let mut order: Vec<Command> =
+                held[turn..].iter().chain(&held[..turn]).copied().collect();
+            order.truncate(room);
+            // Keep the slot's channel order.
+            held.retain(|c| order.contains(c));
+            held
+        } else {
+            held
+        };
         for command in held {
-            out.push(self.number(command, session));
+            let frame = self.number(command, session);
+            self.held_sent(command, frame.seq, now);
+            out.push(frame);
         }
+        let mut sent = 0;
         for i in 0..self.outstanding.len() {
             if self.outstanding[i].acted_on.is_some() {
                 continue;
             }
+            if sent == waiting {
+                break;
+            }
+            sent += 1;
             let command = self.outstanding[i].status.command;
             let mut frame = self.number(command, session);
             let o = &mut self.outstanding[i];
@@ -418,11 +549,33 @@ impl Uplink {
         out
     }
 
+    /// Notes a frame of a held value: the same value again, or a new one.
+    fn held_sent(&mut self, command: Command, seq: u32, now: StationTime) {
+        let kind = command.command_type();
+        let same = self.held.iter().position(|h| h.command == command);
+        let i = match same {
+            Some(i) => i,
+            None => {
+                self.held.retain(|h| h.command.command_type() != kind);
+                let mut status = CommandStatus::new(command, now);
+                status.first_seq = Some(seq);
+                self.held.push(status);
+                self.held.len() - 1
+            }
+        };
+        let status = &mut self.held[i];
+        status.transmissions = status.transmissions.saturating_add(1);
+        status.last_seq = Some(seq);
+    }
+
     /// Notes a kill frame: the first of a kill (not a repetition) drops everything waiting.
     fn kill_sent(&mut self, seq: u32, now: StationTime) {
         if !self.killing {
             self.killing = true;
             self.settle_all(Delivery::Cancelled, now);
+            for held in core::mem::take(&mut self.held) {
+                self.settle(held, Delivery::Cancelled, now);
+            }
             self.kill = Some(CommandStatus::new(Command::Kill, now));
         }
         let Some(mut kill) = self.kill.take() else {
@@ -445,10 +598,14 @@ impl Uplink {
         CommandFrame::new(command, session, seq)
     }
 
-    /// A requested command starts waiting for its acknowledgement.
+    /// A requested command starts waiting for its acknowledgement (a revive first cancels the
+    /// manual values and setpoints asked for before it).
     fn track(&mut self, command: Command, now: StationTime) {
         if command == Command::Heartbeat {
             return;
+        }
+        if command == Command::Revive {
+            self.cancel_driving(Delivery::CancelledByRevive, now);
         }
         self.supersede_for(command, now);
         let status = CommandStatus::new(command, now);
@@ -596,6 +753,85 @@ mod tests {
 
     fn commands(frames: &[CommandFrame]) -> Vec<Command> {
         frames.iter().map(|f| f.command).collect()
+    }
+
+    #[test]
+    fn a_slot_fits_its_share_of_the_wire_and_held_values_take_turns() {
+        // Three held channels and a setpoint waiting for its acknowledgement: four 28-byte
+        // frames are 117 ms at 9600 baud, more than the 100 ms slot, so bytes would queue up
+        // slot after slot and delay every later kill by the queue.
+        let t0 = StationTime::from_secs(1_000);
+        let mut u = connected(0, t0);
+        let held = [
+            Command::Throttle(pct(70)),
+            Command::Steering(pct(30)),
+            Command::Tail(pct(60)),
+        ];
+        let slot: Vec<Scheduled> = held.iter().map(|&c| at(c, Origin::Held)).collect();
+        let mut with_request = slot.clone();
+        with_request.push(at(Command::Tail(pct(60)), Origin::Request));
+        let budget_bytes = 9_600 / 10 * 100 / 1_000 * SLOT_BUDGET_PERCENT as usize / 100;
+        let mut seen = [0u32; 3];
+        for k in 0..30u64 {
+            let s = if k == 0 { &with_request } else { &slot };
+            let frames = u.frames(s, ms(t0, 100 * k));
+            let bytes = frames.len() * COMMAND_FRAME_LEN;
+            assert!(
+                bytes <= budget_bytes,
+                "slot {k}: {bytes} bytes, budget {budget_bytes}: {:?}",
+                commands(&frames)
+            );
+            for f in &frames {
+                if let Some(i) = held.iter().position(|&c| c == f.command) {
+                    seen[i] += 1;
+                }
+            }
+        }
+        // Every held value goes out in turn (two of three per slot).
+        for (i, n) in seen.iter().enumerate() {
+            assert!(*n >= 18, "{:?} went out {n} times in 30 slots", held[i]);
+        }
+        assert_eq!(frames_per_slot(9_600, HEARTBEAT_PERIOD), 2);
+        assert_eq!(frames_per_slot(115_200, HEARTBEAT_PERIOD), 32);
+        assert_eq!(frames_per_slot(1_200, HEARTBEAT_PERIOD), 1);
+    }
+
+    #[test]
+    fn a_request_waiting_for_its_acknowledgement_goes_out_in_every_slot_within_the_budget() {
+        let t0 = StationTime::from_secs(1_000);
+        let mut u = connected(0, t0);
+        let slot = [
+            at(Command::Throttle(pct(70)), Origin::Held),
+            at(Command::Steering(pct(30)), Origin::Held),
+        ];
+        let speed = Command::SpeedSetpoint { mm_s: 900 };
+        let mut first = slot.to_vec();
+        first.push(at(Command::Revive, Origin::Request));
+        let f = u.frames(&first, t0);
+        assert_eq!(f.len(), 2);
+        assert!(commands(&f).contains(&Command::Revive));
+        for k in 1..5u64 {
+            let f = u.frames(&slot, ms(t0, 100 * k));
+            assert!(commands(&f).contains(&Command::Revive), "slot {k}");
+            assert_eq!(f.len(), 2, "slot {k}");
+        }
+        // A larger budget carries everything.
+        let mut wide = connected(0, t0).with_frames_per_slot(8);
+        let mut all = slot.to_vec();
+        all.push(at(Command::Revive, Origin::Request));
+        assert_eq!(wide.frames(&all, t0).len(), 3);
+        // A budget of one: the request alone, then the held values in turn once it is
+        // acknowledged.
+        let mut narrow = connected(0, t0).with_frames_per_slot(1);
+        let mut with_speed = slot.to_vec();
+        with_speed.push(at(speed, Origin::Request));
+        let f = narrow.frames(&with_speed, t0);
+        assert_eq!(commands(&f), vec![speed]);
+        narrow.on_display(&display(SESSION, 2, f[0].seq, RobotMode::Auto), ms(t0, 50));
+        let a = commands(&narrow.frames(&slot, ms(t0, 100)));
+        let b = commands(&narrow.frames(&slot, ms(t0, 200)));
+        assert_eq!((a.len(), b.len()), (1, 1));
+        assert_ne!(a, b, "the held values take turns");
     }
 
     #[test]

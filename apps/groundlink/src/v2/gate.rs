@@ -18,8 +18,8 @@ pub enum Rejection {
     /// Authentic, but for another session (an earlier boot, or a station that does not know
     /// the session yet). Only a kill is accepted from another session.
     StaleSession,
-    /// Wrong start token or length, or an authentic frame with an unknown type or
-    /// out-of-range data.
+    /// Wrong start token or length, or an authentic frame with an unknown type, out-of-range
+    /// data or a request outside 1 to its sequence number.
     Malformed,
 }
 
@@ -57,13 +57,17 @@ pub struct GateStats {
     /// Revives accepted as frames but not acted on: repetitions of a request the robot already
     /// acted on (included in `accepted`, yielded as heartbeats).
     pub revive_repeats: u32,
+    /// Manual commands and setpoints accepted as frames but not acted on: their operator
+    /// request is older than the last revive acted on (included in `accepted`, yielded as
+    /// heartbeats).
+    pub pre_revive_requests: u32,
     /// Frames rejected: tag did not match.
     pub bad_tag: u32,
     /// Frames rejected: sequence number not newer than the last accepted one.
     pub replayed: u32,
     /// Frames rejected: another session.
     pub stale_session: u32,
-    /// Frames rejected: wrong length, unknown type or out-of-range data.
+    /// Frames rejected: wrong length, unknown type, out-of-range data or request.
     pub malformed: u32,
     /// Bytes the stream decoder dropped.
     pub skipped_bytes: u32,
@@ -94,6 +98,14 @@ impl GateStats {
 /// is alive) and yielded as a [`Command::Heartbeat`], and counted in
 /// [`GateStats::revive_repeats`].
 ///
+/// A manual command (throttle, steering, tail) or a setpoint (speed, heading) whose request is
+/// older than the last revive request acted on is not acted on either: a station repeats a
+/// value the operator gave while the robot was KILLED or in FAILSAFE until it sees it
+/// acknowledged, and that value must not move the robot after the revive. Such a frame is
+/// accepted (its sequence number moves the window, it shows the link is alive), yielded as a
+/// [`Command::Heartbeat`] and counted in [`GateStats::pre_revive_requests`]. Kills and
+/// heartbeats are taken whatever their request.
+///
 /// Pure and `no_std`: [`check`](Self::check) takes one complete frame, [`push`](Self::push) and
 /// [`feed`](Self::feed) take a byte stream (through a resynchronising [`CommandDecoder`]).
 #[derive(Debug, Clone)]
@@ -107,6 +119,7 @@ pub struct CommandGate {
     accepted: u32,
     kills_outside_window: u32,
     revive_repeats: u32,
+    pre_revive_requests: u32,
     replayed: u32,
     stale_session: u32,
     /// Rejections of frames given to `check` (the decoder counts the stream's).
@@ -127,6 +140,7 @@ impl CommandGate {
             accepted: 0,
             kills_outside_window: 0,
             revive_repeats: 0,
+            pre_revive_requests: 0,
             replayed: 0,
             stale_session: 0,
             bad_tag: 0,
@@ -152,6 +166,7 @@ impl CommandGate {
             accepted: self.accepted,
             kills_outside_window: self.kills_outside_window,
             revive_repeats: self.revive_repeats,
+            pre_revive_requests: self.pre_revive_requests,
             bad_tag: self.bad_tag.saturating_add(stream.bad_tag),
             replayed: self.replayed,
             stale_session: self.stale_session,
@@ -215,6 +230,11 @@ impl CommandGate {
                     return Ok(Command::Heartbeat);
                 }
                 self.last_revive_request = frame.request;
+            } else if is_manual_or_setpoint(frame.command)
+                && frame.request < self.last_revive_request
+            {
+                self.pre_revive_requests = self.pre_revive_requests.saturating_add(1);
+                return Ok(Command::Heartbeat);
             }
             return Ok(frame.command);
         }
@@ -233,6 +253,18 @@ impl CommandGate {
     }
 }
 
+/// A value the operator gives: a manual output or a controller setpoint.
+fn is_manual_or_setpoint(command: Command) -> bool {
+    matches!(
+        command,
+        Command::Throttle(_)
+            | Command::Steering(_)
+            | Command::Tail(_)
+            | Command::SpeedSetpoint { .. }
+            | Command::HeadingSetpoint { .. }
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -249,10 +281,16 @@ mod tests {
     fn sequence_window() {
         let mut gate = CommandGate::new(KEY, SESSION);
         let throttle = Command::Throttle(Percent::new(80).unwrap());
+        // Sequence number 0 is not newer than "none yet" (and leaves no room for a request).
         assert_eq!(
-            gate.check(&frame(throttle, SESSION, 0)),
-            Err(Rejection::Replayed)
+            gate.check(&CommandFrame::repeat(throttle, SESSION, 0, 1).encode(&KEY)),
+            Err(Rejection::Malformed)
         );
+        assert_eq!(
+            gate.check(&frame(Command::Kill, SESSION, 0)),
+            Ok(Command::Kill)
+        );
+        assert_eq!(gate.last_accepted(), 0);
         assert_eq!(gate.check(&frame(throttle, SESSION, 5)), Ok(throttle));
         assert_eq!(
             gate.check(&frame(throttle, SESSION, 4)),
@@ -270,8 +308,14 @@ mod tests {
         assert_eq!(gate.last_accepted(), 6);
         let stats = gate.stats();
         assert_eq!(
-            (stats.accepted, stats.replayed, stats.stale_session),
-            (2, 3, 1)
+            (
+                stats.accepted,
+                stats.replayed,
+                stats.stale_session,
+                stats.malformed,
+                stats.kills_outside_window
+            ),
+            (3, 2, 1, 1, 1)
         );
     }
 
@@ -338,6 +382,48 @@ mod tests {
         );
         let stats = gate.stats();
         assert_eq!((stats.accepted, stats.revive_repeats), (7, 4));
+    }
+
+    #[test]
+    fn a_manual_command_or_setpoint_requested_before_the_last_revive_is_not_acted_on() {
+        let mut gate = CommandGate::new(KEY, SESSION);
+        let throttle = Command::Throttle(Percent::new(80).unwrap());
+        let speed = Command::SpeedSetpoint { mm_s: 3_000 };
+        let repeat = |command, seq, request| {
+            CommandFrame::repeat(command, SESSION, seq, request).encode(&KEY)
+        };
+        // The operator asks for 80 % throttle while the robot is KILLED (request 8), then
+        // revives (request 10, acted on).
+        assert_eq!(gate.check(&repeat(throttle, 8, 8)), Ok(throttle));
+        assert_eq!(gate.check(&repeat(Command::Kill, 9, 9)), Ok(Command::Kill));
+        assert_eq!(
+            gate.check(&repeat(Command::Revive, 10, 10)),
+            Ok(Command::Revive)
+        );
+        // The station still repeats the throttle request: accepted as a frame (the
+        // acknowledgement moves) but taken as a heartbeat; so is an older setpoint.
+        assert_eq!(gate.check(&repeat(throttle, 12, 8)), Ok(Command::Heartbeat));
+        assert_eq!(gate.last_accepted(), 12);
+        assert_eq!(gate.check(&repeat(speed, 13, 2)), Ok(Command::Heartbeat));
+        // A kill and a heartbeat of an old request are what they are.
+        assert_eq!(
+            gate.check(&repeat(Command::Heartbeat, 14, 3)),
+            Ok(Command::Heartbeat)
+        );
+        assert_eq!(gate.check(&repeat(Command::Kill, 15, 5)), Ok(Command::Kill));
+        // Requests made after the revive are acted on, first frame or repetition.
+        assert_eq!(gate.check(&repeat(throttle, 16, 11)), Ok(throttle));
+        assert_eq!(gate.check(&repeat(speed, 17, 17)), Ok(speed));
+        let stats = gate.stats();
+        assert_eq!(
+            (
+                stats.accepted,
+                stats.pre_revive_requests,
+                stats.revive_repeats
+            ),
+            (9, 2, 0)
+        );
+        assert_eq!(stats.rejected(), 0);
     }
 
     #[test]

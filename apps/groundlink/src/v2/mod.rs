@@ -3,9 +3,10 @@
 //! Version 1 frames carry no authentication and no sequence: any radio on the PAN can revive
 //! and drive the robot, and a lost command is never known to be lost. Version 2 fixes both:
 //!
-//! - [`CommandFrame`] (ground station -> robot, 24 bytes): start token `A5 32`, length, type and
-//!   data as in version 1, the robot's session id, a sequence number, and a 64-bit SipHash-2-4
-//!   tag under a pre-shared 128-bit [`LinkKey`] over every byte before it.
+//! - [`CommandFrame`] (ground station -> robot, 28 bytes): start token `A5 32`, length, type and
+//!   data as in version 1, the robot's session id, a sequence number, the operator request the
+//!   frame belongs to (the sequence number of the request's first frame), and a 64-bit
+//!   SipHash-2-4 tag under a pre-shared 128-bit [`LinkKey`] over every byte before it.
 //! - [`DisplayFrame`] (robot -> ground station, 126 bytes): start token `A5 44`, the robot's
 //!   mode, failsafe cause and last revive refusal, session id, downlink sequence number, the
 //!   sequence number of the last accepted command (the acknowledgement), [`Health`] counters,
@@ -13,7 +14,8 @@
 //! - [`CommandGate`]: the robot's side of the command link. It holds the key, the session id and
 //!   the last accepted sequence number, and accepts a command only when its tag is valid, its
 //!   session is current and its sequence number is newer than the last accepted one. A kill
-//!   with a valid tag is always accepted.
+//!   with a valid tag is always accepted. It acts on a revive request once, and not on a manual
+//!   command or setpoint requested before the last revive it acted on.
 //! - [`CommandDecoder`] and [`DisplayDecoder`]: resynchronising stream decoders that verify the
 //!   tag before they trust a frame, so a forged or corrupt frame never hides a good one that
 //!   follows it.
@@ -203,6 +205,14 @@ pub enum FrameError {
     BadTag,
     /// An authentic command frame with an unknown type or out-of-range data.
     Command(CommandError),
+    /// An authentic command frame (not a kill) whose operator request is not between 1 and its
+    /// own sequence number.
+    BadRequest {
+        /// The request field.
+        request: u32,
+        /// The frame's sequence number.
+        seq: u32,
+    },
     /// An authentic display frame with an unknown robot mode.
     UnknownMode {
         /// The mode byte.
@@ -221,6 +231,11 @@ impl fmt::Display for FrameError {
                 "frame tag does not match: forged, corrupt, or sent with another link key",
             ),
             FrameError::Command(error) => write!(f, "authentic frame rejected: {error}"),
+            FrameError::BadRequest { request, seq } => write!(
+                f,
+                "authentic frame rejected: request {request} is not between 1 and its \
+                 sequence number {seq}"
+            ),
             FrameError::UnknownMode { found } => write!(f, "unknown robot mode {found}"),
             FrameError::Display(error) => write!(f, "authentic frame rejected: {error}"),
         }
