@@ -36,11 +36,14 @@ pub enum Invariant {
     /// safe outputs.
     KillIsImmediate,
     /// `failsafe_in_time`: the robot is KILLED or in FAILSAFE whenever a failsafe condition,
-    /// judged by the harness, has lasted its bound: no command delivered to the core for
-    /// more than `comms_timeout_ms` plus one period; `sensor_loss_packets` consecutive cycles
+    /// judged by the harness, has lasted its bound: no command frame that arrived at the
+    /// robot's port (and was handed to the core) for more than `comms_timeout_ms` plus one
+    /// period; `sensor_loss_packets` consecutive cycles
     /// without a packet completed inside its answer window; `imu_stuck_packets` consecutive
     /// good packets with identical accelerometer words, or with identical gyroscope words
-    /// (either die alone); more than `overrun_limit` missed periods within the last second;
+    /// (either die alone); more than `overrun_limit` late wake-ups (each that missed one or
+    /// more periods) within the last second, or missed periods adding up to more than
+    /// `max_stall_ms` within it;
     /// in AUTO, no fresh GNSS fix (gnssFixOK, a 2D/3D/dead-reckoning fix, sAcc within
     /// `max_speed_accuracy_mm_s`, a ground speed of at least 0 and a time of week beyond
     /// every one delivered before) for more than `gnss_timeout_ms` plus one period.
@@ -109,6 +112,8 @@ pub struct Applied {
     pub command: Command,
     /// When the operator asked for what the frame carried (`None`: a heartbeat).
     pub asked_at: Option<Nanos>,
+    /// When its frame reached the robot's port, ns.
+    pub arrival_ns: Nanos,
 }
 
 /// One cycle as the checker sees it.
@@ -139,6 +144,7 @@ struct Limits {
     sensor_loss_packets: u32,
     imu_stuck_packets: u32,
     overrun_limit: u32,
+    max_stall_ns: Nanos,
     gnss_timeout_ns: Nanos,
     max_speed_mm_s: i32,
     max_speed_accuracy_mm_s: u32,
@@ -180,8 +186,8 @@ pub struct Checker {
     bad_run: u32,
     accel: Run,
     gyro: Run,
-    /// Times of the periods missed within the last second (one entry per period).
-    misses: VecDeque<Nanos>,
+    /// The late wake-ups within the last second: when, and how many periods each missed.
+    late_wakes: VecDeque<(Nanos, u32)>,
     max_itow: Option<u32>,
     last_fix_ns: Option<Nanos>,
     last_heading_fix_ns: Option<Nanos>,
@@ -204,6 +210,7 @@ impl Checker {
                 sensor_loss_packets: config.safety.sensor_loss_packets,
                 imu_stuck_packets: config.safety.imu_stuck_packets,
                 overrun_limit: config.safety.overrun_limit,
+                max_stall_ns: ms(config.safety.max_stall_ms),
                 gnss_timeout_ns: ms(config.safety.gnss_timeout_ms),
                 max_speed_mm_s: config.control.max_speed_mm_s,
                 max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
@@ -217,7 +224,7 @@ impl Checker {
             bad_run: 0,
             accel: Run::default(),
             gyro: Run::default(),
-            misses: VecDeque::new(),
+            late_wakes: VecDeque::new(),
             max_itow: None,
             last_fix_ns: None,
             last_heading_fix_ns: None,
@@ -445,18 +452,18 @@ impl Checker {
                 _ => {}
             }
         }
-        if !v.commands.is_empty() {
-            self.last_command_ns = Some(v.now);
+        if let Some(arrival) = v.commands.iter().map(|c| c.arrival_ns).max() {
+            self.last_command_ns = self.last_command_ns.max(Some(arrival));
         }
-        for _ in 0..v.missed.min(self.limits.overrun_limit + 1) {
-            self.misses.push_back(v.now);
+        if v.missed > 0 {
+            self.late_wakes.push_back((v.now, v.missed));
         }
         while self
-            .misses
+            .late_wakes
             .front()
-            .is_some_and(|&t| v.now.saturating_sub(t) >= SECOND_NS)
+            .is_some_and(|&(t, _)| v.now.saturating_sub(t) >= SECOND_NS)
         {
-            self.misses.pop_front();
+            self.late_wakes.pop_front();
         }
         let Some(p) = v.packet else {
             self.bad_run = self.bad_run.saturating_add(1);
@@ -511,11 +518,15 @@ impl Checker {
                 self.gyro.length
             ));
         }
-        if self.misses.len() > l.overrun_limit as usize {
+        if self.late_wakes.len() > l.overrun_limit as usize {
             return Some(format!(
-                "{} missed periods within a second",
-                self.misses.len()
+                "{} late wake-ups within a second",
+                self.late_wakes.len()
             ));
+        }
+        let missed: u64 = self.late_wakes.iter().map(|&(_, m)| u64::from(m)).sum();
+        if missed * l.period_ns > l.max_stall_ns {
+            return Some(format!("{missed} periods missed within a second"));
         }
         if v.out.mode == Mode::Auto {
             let age = self.last_fix_ns.map_or(u64::MAX, |t| now.saturating_sub(t));

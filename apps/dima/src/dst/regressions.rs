@@ -1,11 +1,11 @@
 //! Seeds that found a defect, replayed: each run must hold every invariant.
 //!
 //! Each test names the defect its seed found and the first violation it showed before the
-//! fix (invariant and cycle). These tests fail until the fixes are in the code they run
-//! (the station dropping manual values and setpoints on revive, KILLED and FAILSAFE; the
-//! core's GNSS freshness, ground speed, heading and stuck-IMU fixes); they are not ignored,
-//! so a regression shows at once. After a fix the seed's run takes another course (the
-//! robot and the station act differently), and the whole run must then hold.
+//! fix (invariant and cycle). They failed on the code before the fixes (the station dropping
+//! manual values and setpoints on revive, KILLED and FAILSAFE; the core's GNSS freshness,
+//! ground speed, heading and stuck-IMU fixes) and pass with them; they are not ignored, so a
+//! regression shows at once. After a fix the seed's run takes another course (the robot and
+//! the station act differently), and the whole run must hold.
 //!
 //! | Defect | Seed | Invariant | Cycle |
 //! | --- | --- | --- | --- |

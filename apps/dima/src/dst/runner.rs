@@ -24,7 +24,7 @@ use super::sensor::Sensor;
 use crate::app::record::{events, CycleRecord, Snapshot};
 use crate::app::rt_loop::MAX_COMMANDS_PER_CYCLE;
 use crate::rt::{PeriodicClock, Tick};
-use crate::telemetry::{display_frame_v2, CommandLink, LinkSecurity};
+use crate::telemetry::{display_frame_v2, CommandLink, LinkSecurity, ReceivedCommand};
 
 /// Virtual time of the first deadline, ns (any fixed value: the clock is virtual).
 pub const START_NS: Nanos = 1_000_000_000;
@@ -234,9 +234,9 @@ impl Simulation {
             .count();
         let n = ready.min(MAX_COMMANDS_PER_CYCLE);
         let applied: Vec<Applied> = self.handed_over.drain(..n).map(|(_, a)| a).collect();
-        let mut commands = [Command::Heartbeat; MAX_COMMANDS_PER_CYCLE];
+        let mut commands = [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE];
         for (slot, a) in commands.iter_mut().zip(&applied) {
-            *slot = a.command;
+            *slot = ReceivedCommand::new(a.command, a.arrival_ns);
         }
         self.vehicle.advance_to(secs(wake));
         let sensor = self
@@ -314,7 +314,7 @@ impl Simulation {
         out: &CycleOutputs,
         sensor: SensorInput,
         stale: u32,
-        commands: [Command; MAX_COMMANDS_PER_CYCLE],
+        commands: [ReceivedCommand; MAX_COMMANDS_PER_CYCLE],
         n: usize,
     ) -> CycleRecord {
         let (t_request, t_packet, raw) = match sensor {
@@ -430,8 +430,13 @@ impl Simulation {
             let asked_at = (command == frame.meta.command || command == Command::Heartbeat)
                 .then_some(frame.meta.asked_at)
                 .flatten();
-            self.handed_over
-                .push_back((handed_at, Applied { command, asked_at }));
+            // Its arrival: when its last byte reached the robot's port.
+            let applied = Applied {
+                command,
+                asked_at,
+                arrival_ns: t,
+            };
+            self.handed_over.push_back((handed_at, applied));
         }
     }
 

@@ -133,6 +133,7 @@ fn the_checker_catches_motion_and_revives_nobody_asked_for() {
     let revive = Applied {
         command: Command::Revive,
         asked_at: Some(START_NS + 10),
+        arrival_ns: START_NS,
     };
     let manual = outputs(Mode::Manual, [1500, 1545, 1500]);
     check(&mut checker, &intent, 1, Mode::Killed, &manual, &[revive]);
@@ -155,6 +156,7 @@ fn the_checker_catches_motion_and_revives_nobody_asked_for() {
     let kill = Applied {
         command: Command::Kill,
         asked_at: None,
+        arrival_ns: START_NS,
     };
     check(&mut checker, &intent, 4, Mode::Manual, &moving, &[kill]);
     assert_eq!(
@@ -180,6 +182,7 @@ fn the_checker_demands_a_failsafe_after_comms_loss() {
     let heartbeat = Applied {
         command: Command::Heartbeat,
         asked_at: None,
+        arrival_ns: START_NS,
     };
     check(
         &mut checker,
