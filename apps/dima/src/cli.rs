@@ -24,6 +24,9 @@ pub enum Command {
     Config(ConfigArgs),
     /// Run against simulated devices on pseudo-terminals: no hardware needed.
     Sim(crate::sim::SimArgs),
+    /// Deterministic simulation testing: the real parts in virtual time, seeded operator and
+    /// faults, invariants checked every cycle.
+    Dst(crate::dst::DstArgs),
     /// What happened in a run: info, export, plot and replay of an MCAP log.
     Log(crate::logtools::LogArgs),
     /// Decode a raw byte capture of a link into JSON lines.

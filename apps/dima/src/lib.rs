@@ -14,6 +14,8 @@
 //! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread, which
 //!   writes the typed messages of [`log_messages`];
 //! - [`sim`]: `dima sim`, the application against the simulated devices of `dima-sim`;
+//! - [`dst`]: `dima dst`, deterministic simulation testing of the composed parts in virtual
+//!   time;
 //! - [`logtools`]: `dima log info|export|plot|replay` and `dima inspect`;
 //! - [`bench`](mod@bench): `dima bench wakeup`, the loop skeleton against cyclictest.
 #![deny(missing_docs)]
@@ -24,6 +26,7 @@ pub mod cli;
 pub mod config;
 pub use dima_core::control;
 pub mod devices;
+pub mod dst;
 pub mod log_messages;
 pub mod logging;
 pub mod logtools;

@@ -229,6 +229,13 @@ impl McapLog {
         Ok(log)
     }
 
+    /// Log times from now on are `mono_ns + offset_ns` instead of the wall clock's reading of
+    /// CLOCK_MONOTONIC: a simulation in virtual time passes a fixed offset, so the file does
+    /// not depend on when it was written.
+    pub fn set_time_offset(&mut self, offset_ns: i128) {
+        self.epoch_offset_ns = offset_ns;
+    }
+
     /// The file's path.
     pub fn path(&self) -> &Path {
         &self.path

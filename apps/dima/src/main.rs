@@ -16,7 +16,7 @@ use dima::config::{self, DEFAULT_TOML};
 fn main() -> ExitCode {
     let cli = Cli::parse();
     // In a simulation the status line is the live view: only warnings unless RUST_LOG says so.
-    let level = if matches!(cli.command, Command::Sim(_)) {
+    let level = if matches!(cli.command, Command::Sim(_) | Command::Dst(_)) {
         "warn"
     } else {
         "info"
@@ -32,6 +32,7 @@ fn main() -> ExitCode {
         .init();
     let command = match cli.command {
         Command::Sim(args) => return dima::sim::main(&args),
+        Command::Dst(args) => return dima::dst::main(&args),
         Command::Log(args) => return exit_code(dima::logtools::log(args)),
         Command::Inspect(args) => return exit_code(dima::logtools::inspect(args)),
         other => other,
@@ -66,7 +67,7 @@ fn run(command: Command) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Sim(_) | Command::Log(_) | Command::Inspect(_) => {
+        Command::Sim(_) | Command::Dst(_) | Command::Log(_) | Command::Inspect(_) => {
             unreachable!("handled in main")
         }
         Command::Config(args) => {

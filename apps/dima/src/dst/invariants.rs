@@ -1,0 +1,553 @@
+//! The invariants, checked every cycle against what the harness itself knows: the operator's
+//! intent, the commands it delivered, the packets it delivered and when, the periods it made
+//! the host miss. None of them reads the robot's internal state to excuse the robot.
+
+use std::collections::VecDeque;
+
+use dima_core::config::{ChannelConfig, Config};
+use dima_core::step::CycleOutputs;
+use dima_core::{Command, Mode, Nanos};
+use dima_groundlink::station::ManualChannel;
+use dima_groundlink::v2::RobotMode;
+use dima_sensorboard::{FixType, SensorPacket};
+
+use super::intent::Intent;
+
+/// Time the heading controller may take to let go of the steering once its heading is no
+/// longer backed by GNSS, ns.
+pub const HEADING_RELEASE_NS: Nanos = 250_000_000;
+
+/// One invariant, by its stable name.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Invariant {
+    /// `outputs_in_limits`: every channel's pulse width is within the channel's `min_us ..=
+    /// max_us`, or is exactly the channel's configured safe output.
+    OutputsInLimits,
+    /// `no_unasked_motion`: KILLED and FAILSAFE give exactly the safe outputs. In MANUAL each
+    /// channel is at neutral or at the manual mapping of a value the operator asked for on
+    /// that channel (a one-off request or a held value) after the operator's revive request
+    /// that the robot accepted last (T_R). In AUTO the throttle is at neutral unless the
+    /// operator asked for a speed setpoint above 0 (within `0..=max_speed_mm_s`) after both
+    /// T_R and the request behind the latest manual value the robot applied while driving;
+    /// the steering is at neutral unless the operator asked for a heading setpoint after the
+    /// same two; the tail is at neutral unless one of those two was asked for.
+    NoUnaskedMotion,
+    /// `kill_is_immediate`: a cycle whose commands include a kill ends KILLED with exactly the
+    /// safe outputs.
+    KillIsImmediate,
+    /// `failsafe_in_time`: the robot is KILLED or in FAILSAFE whenever a failsafe condition,
+    /// judged by the harness, has lasted its bound: no command frame that arrived at the
+    /// robot's port (and was handed to the core) for more than `comms_timeout_ms` plus one
+    /// period; `sensor_loss_packets` consecutive cycles
+    /// without a packet completed inside its answer window; `imu_stuck_packets` consecutive
+    /// good packets with identical accelerometer words, or with identical gyroscope words
+    /// (either die alone); more than `overrun_limit` late wake-ups (each that missed one or
+    /// more periods) within the last second, or missed periods adding up to more than
+    /// `max_stall_ms` within it;
+    /// in AUTO, no fresh GNSS fix (gnssFixOK, a 2D/3D/dead-reckoning fix, sAcc within
+    /// `max_speed_accuracy_mm_s`, a ground speed of at least 0 and a time of week beyond
+    /// every one delivered before) for more than `gnss_timeout_ms` plus one period.
+    FailsafeInTime,
+    /// `no_unasked_revive`: the robot leaves KILLED or FAILSAFE only in a cycle that applied a
+    /// revive whose operator request was issued after the operator's latest kill the robot
+    /// applied, and that no earlier revive of the robot was due to.
+    NoUnaskedRevive,
+    /// `auto_forward_only`: in AUTO the throttle pulse is never below neutral.
+    AutoForwardOnly,
+    /// `station_shows_robot_mode`: whenever the station takes a display frame as current, the
+    /// mode it now shows is the mode the robot put into that frame.
+    StationShowsRobotMode,
+    /// `heading_needs_fresh_gnss`: in AUTO the steering leaves neutral only while the last
+    /// fresh GNSS fix with a ground speed of at least `estimator.min_heading_speed_mm_s` (a
+    /// heading of motion the robot can correct its heading with) is at most `gnss_timeout_ms`
+    /// plus [`HEADING_RELEASE_NS`] old.
+    HeadingNeedsFreshGnss,
+}
+
+impl Invariant {
+    /// Every invariant, in a fixed order.
+    pub const ALL: [Invariant; 8] = [
+        Invariant::OutputsInLimits,
+        Invariant::NoUnaskedMotion,
+        Invariant::KillIsImmediate,
+        Invariant::FailsafeInTime,
+        Invariant::NoUnaskedRevive,
+        Invariant::AutoForwardOnly,
+        Invariant::StationShowsRobotMode,
+        Invariant::HeadingNeedsFreshGnss,
+    ];
+
+    /// The stable name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Invariant::OutputsInLimits => "outputs_in_limits",
+            Invariant::NoUnaskedMotion => "no_unasked_motion",
+            Invariant::KillIsImmediate => "kill_is_immediate",
+            Invariant::FailsafeInTime => "failsafe_in_time",
+            Invariant::NoUnaskedRevive => "no_unasked_revive",
+            Invariant::AutoForwardOnly => "auto_forward_only",
+            Invariant::StationShowsRobotMode => "station_shows_robot_mode",
+            Invariant::HeadingNeedsFreshGnss => "heading_needs_fresh_gnss",
+        }
+    }
+}
+
+/// A broken invariant.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Violation {
+    /// Which.
+    pub invariant: Invariant,
+    /// The robot's cycle number (from 0).
+    pub cycle: u64,
+    /// Virtual time, ns.
+    pub t_ns: Nanos,
+    /// What was seen.
+    pub detail: String,
+}
+
+/// A command the core applied, with where it came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Applied {
+    /// The command as the gate yielded it.
+    pub command: Command,
+    /// When the operator asked for what the frame carried (`None`: a heartbeat).
+    pub asked_at: Option<Nanos>,
+    /// When its frame reached the robot's port, ns.
+    pub arrival_ns: Nanos,
+}
+
+/// One cycle as the checker sees it.
+#[derive(Debug, Clone, Copy)]
+pub struct CycleView<'a> {
+    /// Cycle number.
+    pub cycle: u64,
+    /// Wake-up time, ns.
+    pub now: Nanos,
+    /// Periods the host missed before this wake-up.
+    pub missed: u32,
+    /// Mode at the end of the previous cycle.
+    pub mode_before: Mode,
+    /// What the step decided.
+    pub out: &'a CycleOutputs,
+    /// The commands it was given.
+    pub commands: &'a [Applied],
+    /// The packet the harness delivered inside its answer window this cycle, if any.
+    pub packet: Option<&'a SensorPacket>,
+}
+
+/// The thresholds, from the configuration.
+#[derive(Debug, Clone)]
+struct Limits {
+    channels: [ChannelConfig; 3],
+    period_ns: Nanos,
+    comms_timeout_ns: Nanos,
+    sensor_loss_packets: u32,
+    imu_stuck_packets: u32,
+    overrun_limit: u32,
+    max_stall_ns: Nanos,
+    gnss_timeout_ns: Nanos,
+    max_speed_mm_s: i32,
+    max_speed_accuracy_mm_s: u32,
+    min_heading_speed_mm_s: i32,
+}
+
+/// Identical words packet after packet.
+#[derive(Debug, Clone, Copy, Default)]
+struct Run {
+    last: Option<[i16; 3]>,
+    length: u32,
+}
+
+impl Run {
+    fn update(&mut self, words: [i16; 3]) -> u32 {
+        if self.last == Some(words) {
+            self.length += 1;
+        } else {
+            self.last = Some(words);
+            self.length = 1;
+        }
+        self.length
+    }
+}
+
+/// The harness's trackers and the violations found so far.
+#[derive(Debug, Clone)]
+pub struct Checker {
+    limits: Limits,
+    /// Operator time of the revive request the robot accepted last (T_R).
+    revived_by: Option<Nanos>,
+    /// Operator times of the revive requests that revived the robot.
+    used_revives: Vec<Nanos>,
+    /// Operator time of the latest kill the robot applied.
+    killed_by: Option<Nanos>,
+    /// Operator time behind the latest manual value applied while driving.
+    manual_by: Option<Nanos>,
+    last_command_ns: Option<Nanos>,
+    bad_run: u32,
+    accel: Run,
+    gyro: Run,
+    /// The late wake-ups within the last second: when, and how many periods each missed.
+    late_wakes: VecDeque<(Nanos, u32)>,
+    max_itow: Option<u32>,
+    last_fix_ns: Option<Nanos>,
+    last_heading_fix_ns: Option<Nanos>,
+    checks: u64,
+    violations: Vec<Violation>,
+}
+
+const SECOND_NS: Nanos = 1_000_000_000;
+
+impl Checker {
+    /// A checker for `config`.
+    pub fn new(config: &Config) -> Checker {
+        let ms = |v: u32| u64::from(v) * 1_000_000;
+        let c = &config.channels;
+        Checker {
+            limits: Limits {
+                channels: [c.throttle.clone(), c.steering.clone(), c.tail.clone()],
+                period_ns: config.period_ns(),
+                comms_timeout_ns: ms(config.safety.comms_timeout_ms),
+                sensor_loss_packets: config.safety.sensor_loss_packets,
+                imu_stuck_packets: config.safety.imu_stuck_packets,
+                overrun_limit: config.safety.overrun_limit,
+                max_stall_ns: ms(config.safety.max_stall_ms),
+                gnss_timeout_ns: ms(config.safety.gnss_timeout_ms),
+                max_speed_mm_s: config.control.max_speed_mm_s,
+                max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
+                min_heading_speed_mm_s: config.estimator.min_heading_speed_mm_s,
+            },
+            revived_by: None,
+            used_revives: Vec::new(),
+            killed_by: None,
+            manual_by: None,
+            last_command_ns: None,
+            bad_run: 0,
+            accel: Run::default(),
+            gyro: Run::default(),
+            late_wakes: VecDeque::new(),
+            max_itow: None,
+            last_fix_ns: None,
+            last_heading_fix_ns: None,
+            checks: 0,
+            violations: Vec::new(),
+        }
+    }
+
+    /// Invariant checks made so far.
+    pub fn checks(&self) -> u64 {
+        self.checks
+    }
+
+    /// Violations found so far, in the order found.
+    pub fn violations(&self) -> &[Violation] {
+        &self.violations
+    }
+
+    fn judge(
+        &mut self,
+        ok: bool,
+        invariant: Invariant,
+        cycle: u64,
+        now: Nanos,
+        detail: impl FnOnce() -> String,
+    ) {
+        self.checks += 1;
+        if !ok {
+            self.violations.push(Violation {
+                invariant,
+                cycle,
+                t_ns: now,
+                detail: detail(),
+            });
+        }
+    }
+
+    /// A display frame the station took as current: it shows `shown`; the robot sent `sent`.
+    pub fn check_display(&mut self, cycle: u64, now: Nanos, shown: RobotMode, sent: RobotMode) {
+        self.judge(
+            shown == sent,
+            Invariant::StationShowsRobotMode,
+            cycle,
+            now,
+            || format!("the station shows {shown:?}, the robot sent {sent:?}"),
+        );
+    }
+
+    /// Updates the trackers with one cycle, then checks every per-cycle invariant.
+    pub fn check_cycle(&mut self, v: &CycleView, intent: &Intent) {
+        self.track(v);
+        let out = v.out;
+        let pulses = out.targets.pulse_us;
+        let safe: [u16; 3] = self.limits.channels.each_ref().map(|c| c.safe.pulse_us());
+        let neutral: [u16; 3] = self.limits.channels.each_ref().map(|c| c.neutral_us);
+        let (cycle, now) = (v.cycle, v.now);
+
+        // outputs_in_limits
+        let in_limits = (0..3).all(|i| {
+            let c = &self.limits.channels[i];
+            (c.min_us..=c.max_us).contains(&pulses[i]) || pulses[i] == safe[i]
+        });
+        self.judge(in_limits, Invariant::OutputsInLimits, cycle, now, || {
+            format!("pulses {pulses:?} outside the channels' limits")
+        });
+
+        // kill_is_immediate
+        if v.commands.iter().any(|c| c.command == Command::Kill) {
+            let ok = out.mode == Mode::Killed && pulses == safe;
+            self.judge(ok, Invariant::KillIsImmediate, cycle, now, || {
+                format!(
+                    "a kill reached the core; mode {} pulses {pulses:?}",
+                    out.mode
+                )
+            });
+        }
+
+        // no_unasked_revive
+        if v.mode_before.is_safe() && !out.mode.is_safe() {
+            let fresh = v.commands.iter().rev().find_map(|c| {
+                let t = c.asked_at?;
+                let fresh = c.command == Command::Revive
+                    && self.killed_by.is_none_or(|k| t > k)
+                    && !self.used_revives.contains(&t);
+                fresh.then_some(t)
+            });
+            self.judge(
+                fresh.is_some(),
+                Invariant::NoUnaskedRevive,
+                cycle,
+                now,
+                || {
+                    format!(
+                        "{} -> {} without a fresh operator revive (commands {:?})",
+                        v.mode_before, out.mode, v.commands
+                    )
+                },
+            );
+            if let Some(t) = fresh {
+                self.used_revives.push(t);
+            }
+            self.revived_by = fresh.or(self.revived_by);
+        }
+
+        // no_unasked_motion
+        let unasked = self.unasked_motion(out.mode, pulses, safe, neutral, intent);
+        self.judge(
+            unasked.is_none(),
+            Invariant::NoUnaskedMotion,
+            cycle,
+            now,
+            || unasked.unwrap_or_default(),
+        );
+
+        // auto_forward_only
+        if out.mode == Mode::Auto {
+            self.judge(
+                pulses[0] >= neutral[0],
+                Invariant::AutoForwardOnly,
+                cycle,
+                now,
+                || {
+                    format!(
+                        "AUTO throttle {} µs below neutral {}",
+                        pulses[0], neutral[0]
+                    )
+                },
+            );
+        }
+
+        // failsafe_in_time
+        let condition = self.failsafe_condition(v);
+        if !out.mode.is_safe() {
+            self.judge(
+                condition.is_none(),
+                Invariant::FailsafeInTime,
+                cycle,
+                now,
+                || format!("still {} with {}", out.mode, condition.unwrap_or_default()),
+            );
+        }
+
+        // heading_needs_fresh_gnss
+        if out.mode == Mode::Auto && pulses[1] != neutral[1] {
+            let bound = self.limits.gnss_timeout_ns + HEADING_RELEASE_NS;
+            let ok = self
+                .last_heading_fix_ns
+                .is_some_and(|t| now.saturating_sub(t) <= bound);
+            let age = self.last_heading_fix_ns.map(|t| (now - t) / 1_000_000);
+            self.judge(ok, Invariant::HeadingNeedsFreshGnss, cycle, now, || {
+                format!(
+                    "AUTO steering {} µs with the last GNSS heading fix {age:?} ms old",
+                    pulses[1]
+                )
+            });
+        }
+    }
+
+    /// Why the outputs move without the operator having asked, if they do.
+    fn unasked_motion(
+        &self,
+        mode: Mode,
+        pulses: [u16; 3],
+        safe: [u16; 3],
+        neutral: [u16; 3],
+        intent: &Intent,
+    ) -> Option<String> {
+        match mode {
+            Mode::Killed | Mode::Failsafe => {
+                (pulses != safe).then(|| format!("{mode} with pulses {pulses:?}, safe {safe:?}"))
+            }
+            Mode::Manual => {
+                let after = self.revived_by.unwrap_or(0);
+                ManualChannel::ALL.iter().enumerate().find_map(|(i, &ch)| {
+                    let c = &self.limits.channels[i];
+                    let asked = pulses[i] == neutral[i]
+                        || intent
+                            .manual_after(ch, after)
+                            .any(|p| manual_pulse(c, p.get()) == pulses[i]);
+                    (!asked).then(|| {
+                        format!(
+                            "MANUAL {} at {} µs: not asked after the revive request at {} ms",
+                            ch.name(),
+                            pulses[i],
+                            ms_since_start(after)
+                        )
+                    })
+                })
+            }
+            Mode::Auto => {
+                let revived = self.revived_by.unwrap_or(0);
+                let after = revived.max(self.manual_by.unwrap_or(0));
+                let since = if after == revived {
+                    "the revive request"
+                } else {
+                    "the last manual value, asked"
+                };
+                let speed = intent.positive_speed_after(after, self.limits.max_speed_mm_s);
+                let heading = intent.heading_after(after);
+                let asked = [speed, heading, speed || heading];
+                (0..3).find_map(|i| {
+                    (pulses[i] != neutral[i] && !asked[i]).then(|| {
+                        format!(
+                            "AUTO {} at {} µs: no {} asked after {since} at {} ms",
+                            ManualChannel::ALL[i].name(),
+                            pulses[i],
+                            ["speed setpoint above 0", "heading setpoint", "setpoint"][i],
+                            ms_since_start(after)
+                        )
+                    })
+                })
+            }
+        }
+    }
+
+    /// Updates the trackers with what this cycle brought.
+    fn track(&mut self, v: &CycleView) {
+        let driving = !v.mode_before.is_safe() || !v.out.mode.is_safe();
+        for c in v.commands {
+            match c.command {
+                Command::Kill => self.killed_by = c.asked_at.or(self.killed_by),
+                Command::Throttle(_) | Command::Steering(_) | Command::Tail(_) if driving => {
+                    self.manual_by = self.manual_by.max(c.asked_at);
+                }
+                _ => {}
+            }
+        }
+        if let Some(arrival) = v.commands.iter().map(|c| c.arrival_ns).max() {
+            self.last_command_ns = self.last_command_ns.max(Some(arrival));
+        }
+        if v.missed > 0 {
+            self.late_wakes.push_back((v.now, v.missed));
+        }
+        while self
+            .late_wakes
+            .front()
+            .is_some_and(|&(t, _)| v.now.saturating_sub(t) >= SECOND_NS)
+        {
+            self.late_wakes.pop_front();
+        }
+        let Some(p) = v.packet else {
+            self.bad_run = self.bad_run.saturating_add(1);
+            return;
+        };
+        self.bad_run = 0;
+        self.accel.update(p.accel);
+        self.gyro.update(p.gyro);
+        let Some(pvt) = p.nav_pvt() else {
+            return;
+        };
+        let l = &self.limits;
+        let valid = pvt.gnss_fix_ok()
+            && matches!(
+                pvt.fix(),
+                FixType::Fix2D | FixType::Fix3D | FixType::GnssDeadReckoning
+            )
+            && pvt.s_acc_mm_s <= l.max_speed_accuracy_mm_s
+            && pvt.g_speed_mm_s >= 0;
+        let advanced = self.max_itow.is_none_or(|m| pvt.itow_ms > m);
+        self.max_itow = self.max_itow.max(Some(pvt.itow_ms));
+        if valid && advanced {
+            self.last_fix_ns = Some(v.now);
+            if pvt.g_speed_mm_s >= l.min_heading_speed_mm_s {
+                self.last_heading_fix_ns = Some(v.now);
+            }
+        }
+    }
+
+    /// The failsafe condition that has lasted its bound, if one has.
+    fn failsafe_condition(&self, v: &CycleView) -> Option<String> {
+        let l = &self.limits;
+        let now = v.now;
+        let silent = self
+            .last_command_ns
+            .map_or(u64::MAX, |t| now.saturating_sub(t));
+        if silent > l.comms_timeout_ns + l.period_ns {
+            return Some(format!("no command for {} ms", silent / 1_000_000));
+        }
+        if self.bad_run >= l.sensor_loss_packets {
+            return Some(format!("{} cycles without a good packet", self.bad_run));
+        }
+        if self.accel.length >= l.imu_stuck_packets {
+            return Some(format!(
+                "accelerometer words frozen for {} packets",
+                self.accel.length
+            ));
+        }
+        if self.gyro.length >= l.imu_stuck_packets {
+            return Some(format!(
+                "gyroscope words frozen for {} packets",
+                self.gyro.length
+            ));
+        }
+        if self.late_wakes.len() > l.overrun_limit as usize {
+            return Some(format!(
+                "{} late wake-ups within a second",
+                self.late_wakes.len()
+            ));
+        }
+        let missed: u64 = self.late_wakes.iter().map(|&(_, m)| u64::from(m)).sum();
+        if missed * l.period_ns > l.max_stall_ns {
+            return Some(format!("{missed} periods missed within a second"));
+        }
+        if v.out.mode == Mode::Auto {
+            let age = self.last_fix_ns.map_or(u64::MAX, |t| now.saturating_sub(t));
+            if age > l.gnss_timeout_ns + l.period_ns {
+                return Some(format!(
+                    "no fresh GNSS fix for {} ms in AUTO",
+                    age.min(u64::MAX / 2) / 1_000_000
+                ));
+            }
+        }
+        None
+    }
+}
+
+/// Milliseconds of virtual time since the run's first deadline.
+fn ms_since_start(t: Nanos) -> u64 {
+    t.saturating_sub(super::runner::START_NS) / 1_000_000
+}
+
+/// The manual mapping of the design: `min + (max - min) * percent / 100`, to the nearest µs.
+fn manual_pulse(c: &ChannelConfig, percent: u8) -> u16 {
+    let span = u32::from(c.max_us - c.min_us);
+    c.min_us + ((span * u32::from(percent) + 50) / 100) as u16
+}
