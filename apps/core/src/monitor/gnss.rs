@@ -1,10 +1,13 @@
 //! GNSS freshness: a NAV-PVT solution counts only while it is valid (gnssFixOK with a 2-D, 3-D
 //! or GNSS + dead-reckoning fix, a ground speed that is a magnitude (never negative), and a
-//! speed accuracy within bounds) and its time of week advances past the newest fix used. The sensor board repeats its last NAV-PVT when the
-//! receiver goes quiet, so an unchanged iTOW is old data, however valid it looks; an iTOW that
-//! steps back (or jumps ahead by half a week or more) is no newer than the fix already used, so
-//! it does not refresh either, and alternating between two epochs cannot pass for a live
-//! receiver. The iTOW wraps from 604 799 999 to 0 at the end of the week: a forward step of
+//! speed accuracy within bounds) and its time of week advances past the newest epoch received
+//! with gnssFixOK, used or not. The sensor board repeats its last NAV-PVT when the receiver goes
+//! quiet, so an unchanged iTOW is old data, however valid it looks; an iTOW that steps back (or
+//! jumps ahead by half a week or more) is no newer than what was already received, so it does
+//! not refresh either: alternating between two epochs cannot pass for a live receiver, and
+//! neither can a replay of epochs that were received but not used (a negative ground speed, a
+//! poor speed accuracy). An epoch without gnssFixOK says nothing reliable about the time and
+//! raises no bar, nor does an unused one more than [`MAX_UNUSED_STEP_MS`] ahead. The iTOW wraps from 604 799 999 to 0 at the end of the week: a forward step of
 //! less than half a week, across the wrap or not, advances.
 
 use dima_sensorboard::{FixType, NavPvt};
@@ -13,6 +16,12 @@ use crate::Nanos;
 
 /// Milliseconds in a GPS week: the time of week runs `0..WEEK_MS`.
 pub const WEEK_MS: u32 = 604_800_000;
+
+/// The largest step of the time of week an epoch that is not used may take the newest time
+/// received forward by, ms. A corrupt epoch far in the future must not keep the receiver's
+/// real epochs out for hours; a receiver that really jumps ahead is believed at its next valid
+/// fix.
+pub const MAX_UNUSED_STEP_MS: u32 = 10_000;
 
 /// A fix the controllers may use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,7 +44,8 @@ pub enum GnssEpoch {
     /// The same time of week as the previous epoch: the board repeating itself.
     Repeated,
     /// A time of week other than the previous epoch's that does not advance past the newest
-    /// fix used: the receiver's time stepped back (or jumped half a week or more ahead).
+    /// epoch received with gnssFixOK: the receiver's time stepped back (or jumped half a week
+    /// or more ahead), or it replays epochs it sent before.
     NotAdvancing,
     /// A new epoch, but not a valid solution.
     Invalid,
@@ -57,6 +67,9 @@ impl GnssEpoch {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct GnssFreshness {
     last_itow_ms: Option<u32>,
+    /// The newest time of week of an epoch the receiver flagged gnssFixOK, used or not (its
+    /// time is a solution's): a later epoch must advance past it.
+    newest_itow_ms: Option<u32>,
     fix: Option<FreshFix>,
 }
 
@@ -98,14 +111,24 @@ impl GnssFreshness {
             return GnssEpoch::Repeated;
         }
         if self
-            .fix
-            .is_some_and(|newest| !itow_advanced(newest.itow_ms, pvt.itow_ms))
+            .newest_itow_ms
+            .is_some_and(|newest| !itow_advanced(newest, pvt.itow_ms))
         {
             return GnssEpoch::NotAdvancing;
         }
         if !is_valid(pvt, max_speed_accuracy_mm_s) {
+            // A flagged solution that is not used (a negative ground speed, a poor speed
+            // accuracy) still dates what follows, when its time is a plausible next epoch.
+            let plausible = self.newest_itow_ms.is_some_and(|newest| {
+                itow_advanced(newest, pvt.itow_ms)
+                    && (pvt.itow_ms + WEEK_MS - newest) % WEEK_MS <= MAX_UNUSED_STEP_MS
+            });
+            if pvt.gnss_fix_ok() && plausible {
+                self.newest_itow_ms = Some(pvt.itow_ms);
+            }
             return GnssEpoch::Invalid;
         }
+        self.newest_itow_ms = Some(pvt.itow_ms);
         let fix = FreshFix {
             itow_ms: pvt.itow_ms,
             g_speed_mm_s: pvt.g_speed_mm_s,
@@ -220,6 +243,38 @@ mod tests {
         assert_eq!(g.current(501 * MS, 500 * MS), None, "aged out");
         // Past the newest fix used: fresh again.
         assert!(g.update(Some(&at(1_100)), 1_000, 600 * MS).fix().is_some());
+    }
+
+    #[test]
+    fn an_epoch_older_than_one_already_received_is_old_data_even_if_none_was_used() {
+        // The receiver's solutions arrive with a negative ground speed (invalid, not used),
+        // then it replays two of them with valid data: they are newer than the newest fix
+        // used, but older than epochs already received, so they are seconds old.
+        let mut g = GnssFreshness::default();
+        let at = |itow_ms| pvt(itow_ms, 3, FLAG_GNSS_FIX_OK, 150);
+        assert!(g.update(Some(&at(1_000)), 1_000, 0).fix().is_some());
+        for (i, itow_ms) in [1_100, 1_200, 1_300].into_iter().enumerate() {
+            let reversing = NavPvt {
+                g_speed_mm_s: -3_000,
+                ..at(itow_ms)
+            };
+            let now = (i as Nanos + 1) * 100 * MS;
+            assert_eq!(g.update(Some(&reversing), 1_000, now), GnssEpoch::Invalid);
+        }
+        for (i, itow_ms) in [1_100, 1_200, 1_100, 1_200].into_iter().enumerate() {
+            let now = (i as Nanos + 4) * 100 * MS;
+            assert_eq!(
+                g.update(Some(&at(itow_ms)), 1_000, now),
+                GnssEpoch::NotAdvancing,
+                "{itow_ms} after 1 300 was received"
+            );
+        }
+        // An epoch without a fix says nothing about the time: it does not raise the bar.
+        assert_eq!(
+            g.update(Some(&pvt(9_000, 0, 0, 150)), 1_000, 800 * MS),
+            GnssEpoch::Invalid
+        );
+        assert!(g.update(Some(&at(1_400)), 1_000, 900 * MS).fix().is_some());
     }
 
     #[test]

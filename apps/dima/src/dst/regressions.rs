@@ -16,6 +16,7 @@
 //! | A negative ground speed counted as a valid fix | 32 | `failsafe_in_time` | 1391 |
 //! | A frozen gyroscope beside a live accelerometer never trips ImuStuck | 35 | `failsafe_in_time` | 1286 |
 //! | A frozen accelerometer beside a live gyroscope never trips ImuStuck | 22 | `failsafe_in_time` | 419 |
+//! | GNSS epochs received but not used (negative ground speed), then replayed valid, counted as fresh | 4 | `failsafe_in_time` | 30797 |
 
 use super::run_seed;
 
@@ -97,4 +98,13 @@ fn a_few_short_runs_hold_every_invariant() {
     for seed in 1..=3 {
         holds(seed, 30.0);
     }
+}
+
+/// Found: epochs that arrived with a negative ground speed (received, not used) and were then
+/// replayed with valid data passed for fresh fixes, because they were newer than the newest
+/// fix used though older than epochs already received: AUTO ran on 2.4 s old data
+/// (`failsafe_in_time` at cycle 30797, 600 s run).
+#[test]
+fn seed_4_replayed_epochs_older_than_one_received_are_not_fresh() {
+    holds(4, 130.0);
 }
