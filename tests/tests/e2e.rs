@@ -69,9 +69,13 @@ fn step(at_s: f64, action: GroundAction) -> ScriptStep {
     ScriptStep { at_s, action }
 }
 
-/// Revive at 0.5 s, then manual throttle/steering/tail at 1.0 s.
+/// Revive at 0.5 s (and again at 0.8 s), then manual throttle/steering/tail at 1.0 s.
 fn revive_and_drive(s: &mut Scenario, throttle: u8, steering: u8, tail: u8) {
     s.script.push(send(0.5, Command::Revive));
+    // Again at 0.8 s, as an operator does when the robot refused the first: on a busy machine
+    // the application can start late enough that at 0.5 s the sensor link has not yet
+    // delivered the good packets a revive needs. A revive in MANUAL changes nothing.
+    s.script.push(send(0.8, Command::Revive));
     s.script.push(send(1.0, Command::Throttle(pct(throttle))));
     s.script.push(send(1.0, Command::Steering(pct(steering))));
     s.script.push(send(1.0, Command::Tail(pct(tail))));

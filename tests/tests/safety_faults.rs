@@ -10,9 +10,13 @@ use dima_e2e::{assert_passed, simulate};
 use dima_groundlink::Command;
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
 
-/// Revive at 0.5 s, drive in MANUAL from 1 s, AUTO (2.5 m/s, 90°) from 2 s.
+/// Revive at 0.5 s (and again at 0.8 s), drive in MANUAL from 1 s, AUTO (2.5 m/s, 90°) from 2 s.
 fn drive_to_auto(s: &mut Scenario) {
     s.script.push(send(0.5, Command::Revive));
+    // Again at 0.8 s, as an operator does when the robot refused the first: on a busy machine
+    // the application can start late enough that at 0.5 s the sensor link has not yet
+    // delivered the good packets a revive needs. A revive in MANUAL changes nothing.
+    s.script.push(send(0.8, Command::Revive));
     s.script.push(send(1.0, Command::Throttle(pct(60))));
     s.script
         .push(send(2.0, Command::SpeedSetpoint { mm_s: 2_500 }));
