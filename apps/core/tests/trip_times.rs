@@ -7,7 +7,7 @@
 
 use dima_core::config::{Config, ConfigError};
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos};
+use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand};
 use dima_sensorboard::{RawPacket, SensorPacket};
 use proptest::prelude::*;
 
@@ -133,9 +133,14 @@ impl Rig {
                 t_request_ns: self.now,
             }
         };
+        // Every command arrived just before this cycle.
+        let received: Vec<ReceivedCommand> = commands
+            .iter()
+            .map(|&c| ReceivedCommand::new(c, self.now))
+            .collect();
         let inputs = CycleInputs {
             missed_periods: missed,
-            commands,
+            commands: &received,
             sensor,
             stale_packets: 0,
         };

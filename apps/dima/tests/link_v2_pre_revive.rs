@@ -7,7 +7,9 @@
 
 use dima::telemetry::{CommandLink, LinkSecurity};
 use dima_core::config::Config;
-use dima_core::{Command, Core, CoreState, CycleInputs, CycleOutputs, Mode, Nanos, SensorInput};
+use dima_core::{
+    Command, Core, CoreState, CycleInputs, CycleOutputs, Mode, Nanos, ReceivedCommand, SensorInput,
+};
 use dima_groundlink::v2::{CommandFrame, LinkKey};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
@@ -129,9 +131,14 @@ impl Robot {
             t_request_ns: self.now,
             t_complete_ns: self.now + ANSWER,
         };
+        // Every command arrived just before this cycle.
+        let received: Vec<ReceivedCommand> = commands
+            .iter()
+            .map(|&c| ReceivedCommand::new(c, self.now))
+            .collect();
         let inputs = CycleInputs {
             missed_periods: 0,
-            commands,
+            commands: &received,
             sensor,
             stale_packets: 0,
         };

@@ -33,14 +33,13 @@ pub struct CycleEntry {
     pub packet_ok: bool,
     /// Valid command frames applied so far.
     pub commands: u64,
+    /// When the newest command taken this cycle arrived, in log time (the cycle's own time
+    /// for a log that does not record arrivals).
+    pub last_arrival_ns: Option<u64>,
     /// Periods missed before this cycle's wake-up.
     pub missed: u64,
     /// Outputs, µs.
     pub targets_us: [u16; 3],
-    /// Arrival times of the command frames handed to the step this cycle, on the log's clock
-    /// (ns since the Unix epoch), in arrival order; empty in a log written before arrival
-    /// times were logged.
-    pub command_arrivals_ns: Vec<u64>,
 }
 
 /// What a log holds.
@@ -109,18 +108,16 @@ impl LogSummary {
                     mode: v.mode,
                     packet_ok: v.packet_ok,
                     commands: v.counters.commands,
-                    missed: u64::from(v.missed_periods),
-                    targets_us: v.targets_us,
-                    // Arrivals are on the loop's monotonic clock, like the wake-up.
-                    command_arrivals_ns: v
+                    last_arrival_ns: v
                         .commands
                         .iter()
-                        .filter_map(|c| c.arrival_ns)
-                        .map(|a| {
-                            (i128::from(a) + i128::from(m.log_time) - i128::from(v.wake_ns)).max(0)
-                                as u64
-                        })
-                        .collect(),
+                        .map(|c| c.arrival_ns.unwrap_or(v.wake_ns))
+                        .max()
+                        .map(|arrival| {
+                            m.log_time.saturating_sub(v.wake_ns.saturating_sub(arrival))
+                        }),
+                    missed: u64::from(v.missed_periods),
+                    targets_us: v.targets_us,
                 });
             }
         }
@@ -184,40 +181,14 @@ impl LogSummary {
             .sum()
     }
 
-    /// When the newest command that the loop acted on by `t_ns` arrived, as the log bounds
-    /// it: `(earliest, latest)`, the same time when the log has the commands' arrival times.
-    /// A command that arrived longer than `timeout_ns` before its cycle was not acted on (a
-    /// kill aside, which ends link activity anyway). Without arrival times (an older log): after the wake-up of
-    /// the cycle logged before the one that applied it (that cycle took every command that had
-    /// arrived by then) and by the wake-up of the cycle that applied it. `None` without one.
-    pub fn last_command_arrival_before(&self, t_ns: u64, timeout_ns: u64) -> Option<(u64, u64)> {
-        let mut last = None;
-        let mut previous: Option<&CycleEntry> = None;
-        for c in self.cycles.iter().take_while(|c| c.t_ns <= t_ns) {
-            let acted_on = c
-                .command_arrivals_ns
-                .iter()
-                .filter(|a| c.t_ns.saturating_sub(**a) <= timeout_ns)
-                .max();
-            if let Some(&a) = acted_on {
-                last = Some((a, a));
-            } else if let Some(p) =
-                previous.filter(|p| c.commands > p.commands && c.command_arrivals_ns.is_empty())
-            {
-                last = Some((p.t_ns, c.t_ns));
-            }
-            previous = Some(c);
-        }
-        last
-    }
-
-    /// Time of the last cycle at or before `t_ns` in which a command was applied.
+    /// When the last command applied at or before `t_ns` arrived (the link time the step took
+    /// from it), or its cycle's time in a log that does not record arrivals.
     pub fn last_command_before(&self, t_ns: u64) -> Option<u64> {
         let mut last = None;
         let mut count = None;
         for c in self.cycles.iter().take_while(|c| c.t_ns <= t_ns) {
             if count.is_some_and(|n| c.commands > n) {
-                last = Some(c.t_ns);
+                last = Some(c.last_arrival_ns.unwrap_or(c.t_ns));
             }
             count = Some(c.commands);
         }
@@ -264,9 +235,9 @@ mod tests {
             mode: Mode::Manual,
             packet_ok: true,
             commands,
+            last_arrival_ns: None,
             missed,
             targets_us: [1500, 1545, 1500],
-            command_arrivals_ns: Vec::new(),
         }
     }
 
@@ -306,33 +277,11 @@ mod tests {
         assert_eq!(log.last_command_before(3), Some(2));
         assert_eq!(log.last_command_before(5), Some(4));
         assert_eq!(log.last_command_before(1), None);
-        // Without logged arrival times: between the cycle before and the one that applied it.
-        assert_eq!(log.last_command_arrival_before(3, 100), Some((1, 2)));
-        assert_eq!(log.last_command_arrival_before(5, 100), Some((3, 4)));
-        assert_eq!(log.last_command_arrival_before(1, 100), None);
         assert_eq!(log.missed_between(2, 5), 3);
-    }
-
-    #[test]
-    fn a_logged_arrival_time_dates_the_last_command_unless_it_was_stale() {
-        let with = |t_ns, commands, arrivals: &[u64]| CycleEntry {
-            command_arrivals_ns: arrivals.to_vec(),
-            ..cycle(t_ns, commands, 0)
-        };
-        let log = LogSummary {
-            cycles: vec![
-                with(100, 0, &[]),
-                with(200, 2, &[130, 170]),
-                with(300, 2, &[]),
-                // Arrived 150 before its cycle, longer than the timeout: not acted on.
-                with(400, 2, &[250]),
-            ],
-            ..LogSummary::default()
-        };
-        assert_eq!(log.last_command_arrival_before(150, 100), None);
-        assert_eq!(log.last_command_arrival_before(300, 100), Some((170, 170)));
-        assert_eq!(log.last_command_arrival_before(400, 100), Some((170, 170)));
-        assert_eq!(log.last_command_arrival_before(400, 200), Some((250, 250)));
+        // A logged arrival is the link time the step took: the failsafe counts from it.
+        let mut log = log;
+        log.cycles[3].last_arrival_ns = Some(3);
+        assert_eq!(log.last_command_before(5), Some(3));
     }
 
     #[test]
