@@ -16,9 +16,13 @@ use dima_groundlink::Command;
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
 use nix::time::{clock_gettime, ClockId};
 
-/// Revive at 0.5 s, then MANUAL 60/40/50 from 1 s.
+/// Revive at 0.5 s (and again at 0.8 s), then MANUAL 60/40/50 from 1 s.
 fn drive(s: &mut Scenario) {
     s.script.push(send(0.5, Command::Revive));
+    // Again at 0.8 s, as an operator does when the robot refused the first: on a busy machine
+    // the application can start late enough that at 0.5 s the sensor link has not yet
+    // delivered the good packets a revive needs. A revive in MANUAL changes nothing.
+    s.script.push(send(0.8, Command::Revive));
     s.script.push(send(1.0, Command::Throttle(pct(60))));
     s.script.push(send(1.0, Command::Steering(pct(40))));
     s.script.push(send(1.0, Command::Tail(pct(50))));

@@ -53,7 +53,7 @@ fn python() -> Option<String> {
 }
 
 #[test]
-fn t17_every_logged_message_validates_against_its_channel_schema() {
+fn every_logged_message_validates_against_its_channel_schema() {
     let Some(python) = python() else {
         return;
     };

@@ -10,9 +10,13 @@ use dima_e2e::{assert_passed, simulate};
 use dima_groundlink::Command;
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
 
-/// Revive at 0.5 s, drive in MANUAL from 1 s, AUTO (2.5 m/s, 90°) from 2 s.
+/// Revive at 0.5 s (and again at 0.8 s), drive in MANUAL from 1 s, AUTO (2.5 m/s, 90°) from 2 s.
 fn drive_to_auto(s: &mut Scenario) {
     s.script.push(send(0.5, Command::Revive));
+    // Again at 0.8 s, as an operator does when the robot refused the first: on a busy machine
+    // the application can start late enough that at 0.5 s the sensor link has not yet
+    // delivered the good packets a revive needs. A revive in MANUAL changes nothing.
+    s.script.push(send(0.8, Command::Revive));
     s.script.push(send(1.0, Command::Throttle(pct(60))));
     s.script
         .push(send(2.0, Command::SpeedSetpoint { mm_s: 2_500 }));
@@ -47,17 +51,17 @@ fn gnss_fault_trips_gnss_stale(name: &str, fault: &str, seed: u64) {
 }
 
 #[test]
-fn t12_frozen_gnss_in_auto_trips_gnss_stale() {
+fn frozen_gnss_in_auto_trips_gnss_stale() {
     gnss_fault_trips_gnss_stale("gnss-freeze", "gnss:freeze=4+3", 12);
 }
 
 #[test]
-fn t13_lost_gnss_fix_in_auto_trips_gnss_stale() {
+fn lost_gnss_fix_in_auto_trips_gnss_stale() {
     gnss_fault_trips_gnss_stale("gnss-loss", "gnss:loss=4+3", 13);
 }
 
 #[test]
-fn t14_stuck_imu_trips_failsafe_and_blocks_revive_while_stuck() {
+fn stuck_imu_trips_failsafe_and_blocks_revive_while_stuck() {
     let mut s = Scenario::custom("imu", 6.0);
     s.script.push(send(0.5, Command::Revive));
     s.script.push(send(1.0, Command::Throttle(pct(60))));
@@ -88,7 +92,7 @@ fn t14_stuck_imu_trips_failsafe_and_blocks_revive_while_stuck() {
 }
 
 #[test]
-fn t15_sustained_loop_overload_trips_the_overrun_failsafe_within_a_second() {
+fn sustained_loop_overload_trips_the_overrun_failsafe_within_a_second() {
     let mut s = Scenario::custom("busy", 5.0);
     s.script.push(send(0.5, Command::Revive));
     s.script.push(send(1.0, Command::Throttle(pct(60))));
@@ -114,7 +118,7 @@ fn t15_sustained_loop_overload_trips_the_overrun_failsafe_within_a_second() {
 }
 
 #[test]
-fn t16_answers_later_than_a_period_never_make_the_link_look_healthy() {
+fn answers_later_than_a_period_never_make_the_link_look_healthy() {
     // Every answer 5 ms late at a 4 ms period: none belongs to the request before it.
     let mut s = Scenario::custom("stale", 4.0);
     s.script.push(send(0.5, Command::Revive));

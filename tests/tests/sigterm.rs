@@ -1,4 +1,4 @@
-//! Test 9: SIGTERM to a running `dima sim` process (the same run as `dima sim`, built as the
+//! SIGTERM to a running `dima sim` process (the same run as `dima sim`, built as the
 //! `dima-e2e-sim` program): safe outputs at the Maestro, exit status 0, and a complete MCAP log
 //! that the `mcap` crate (and the Python `mcap` package, when installed) reads back.
 
@@ -14,7 +14,7 @@ use nix::unistd::Pid;
 static ONE_AT_A_TIME: Mutex<()> = Mutex::new(());
 
 #[test]
-fn t09_sigterm_safe_outputs_exit_0_complete_log() {
+fn sigterm_safe_outputs_exit_0_complete_log() {
     let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = std::env::temp_dir().join(format!("dima-e2e-sigterm-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

@@ -419,7 +419,8 @@ impl Evidence {
         v
     }
 
-    fn sim_s(&self, log_ns: u64) -> f64 {
+    /// A log time (ns since the Unix epoch) on the simulation's clock, s.
+    pub fn sim_s(&self, log_ns: u64) -> f64 {
         (log_ns as f64 - self.start_wall_ns as f64) * 1e-9
     }
 
