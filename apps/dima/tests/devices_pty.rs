@@ -50,9 +50,12 @@ fn sensor_unplugged_and_back_maestro_late() {
     };
     let stop = Arc::new(AtomicBool::new(false));
     let s = stop.clone();
-    let runner = std::thread::spawn(move || {
-        app::run(&config, devices, RunOptions::default(), s).expect("run")
-    });
+    let (watch, observer) = LoopWatch::new(&config);
+    let options = RunOptions {
+        observer: Some(observer),
+        ..RunOptions::default()
+    };
+    let runner = std::thread::spawn(move || app::run(&config, devices, options, s).expect("run"));
     let ground = FakeGround::spawn(ground_pty.master);
 
     // The Maestro comes up on its third attempt and gets the safe outputs.
@@ -60,8 +63,16 @@ fn sensor_unplugged_and_back_maestro_late() {
     assert!(maestro.wait_for(safe, Duration::from_secs(3)).is_some());
     assert!(maestro_attempts.load(Ordering::SeqCst) >= 3);
 
-    ground.send(Command::Revive);
-    ground.send(Command::Throttle(Percent::new(75).unwrap()));
+    assert!(
+        revive_until_driving(
+            &ground,
+            &watch,
+            &[Command::Throttle(Percent::new(75).unwrap())],
+            Duration::from_secs(5)
+        ),
+        "{:?}",
+        watch.mode()
+    );
     let driving = [1750 * 4, 1545 * 4, 1500 * 4];
     assert!(maestro.wait_for(driving, Duration::from_secs(1)).is_some());
     std::thread::sleep(Duration::from_millis(200));
@@ -80,8 +91,16 @@ fn sensor_unplugged_and_back_maestro_late() {
         std::thread::sleep(Duration::from_millis(10));
     }
     std::thread::sleep(Duration::from_millis(300));
-    ground.send(Command::Revive);
-    ground.send(Command::Throttle(Percent::new(60).unwrap()));
+    assert!(
+        revive_until_driving(
+            &ground,
+            &watch,
+            &[Command::Throttle(Percent::new(60).unwrap())],
+            Duration::from_secs(5)
+        ),
+        "{:?}",
+        watch.mode()
+    );
     assert!(maestro
         .wait_for([1600 * 4, 1545 * 4, 1500 * 4], Duration::from_secs(1))
         .is_some());

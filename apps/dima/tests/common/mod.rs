@@ -10,10 +10,13 @@ use std::sync::{Arc, Mutex};
 use std::thread::{JoinHandle, Thread};
 use std::time::{Duration, Instant};
 
+use dima::app::Observer;
 use dima::config::Config;
 use dima::devices::sensor::SensorDevice;
 use dima::devices::serial::{LineSettings, SerialPort};
 use dima::devices::servo::MaestroPort;
+use dima_core::monitor::{OverrunRule, OverrunWindow};
+use dima_core::Mode;
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use dima_sensorboard::{GnssFrame, NavPvt, SensorPacket};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
@@ -374,15 +377,12 @@ pub fn try_fifo(priority: u8) {
 }
 
 /// A configuration for a test run with a log in `log_dir`: SCHED_FIFO when permitted (it is
-/// refused and reported otherwise), no pinning, no memory locking, and overrun and sensor-loss
-/// thresholds as wide as the configuration allows at 250 Hz (both still trip within a second),
-/// so that a busy machine does not trip them where a test is not about them.
+/// refused and reported otherwise), no pinning, no memory locking, and the default safety
+/// thresholds.
 pub fn test_config(log_dir: &std::path::Path) -> Config {
     let mut c = Config::default();
     c.realtime.priority = 60;
     c.realtime.telemetry_priority = 30;
-    c.safety.overrun_limit = dima::config::max_overrun_limit(c.realtime.loop_rate_hz);
-    c.safety.sensor_loss_packets = 50;
     c.realtime.cpus = vec![];
     c.realtime.lock_memory = false;
     c.realtime.cpu_dma_latency = false;
@@ -419,4 +419,88 @@ pub fn temp_dir(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
     d
+}
+
+/// What the loop reported, cycle by cycle, through `RunOptions::observer`: the mode after the
+/// latest cycle, and whether the host held the loop up past the configuration's overrun rule
+/// (the late wake-ups and missed periods the cycle records give, fed through that rule).
+#[derive(Clone)]
+pub struct LoopWatch {
+    mode: Arc<Mutex<Option<Mode>>>,
+    overload_ns: Arc<Mutex<Option<u64>>>,
+}
+
+impl LoopWatch {
+    /// A watch for a run of `config`, and the observer that feeds it.
+    pub fn new(config: &Config) -> (LoopWatch, Observer) {
+        let watch = LoopWatch {
+            mode: Arc::new(Mutex::new(None)),
+            overload_ns: Arc::new(Mutex::new(None)),
+        };
+        let rule = OverrunRule {
+            limit: config.safety.overrun_limit,
+            max_stall_ns: u64::from(config.safety.max_stall_ms) * 1_000_000,
+            period_ns: config.period_ns(),
+        };
+        let mut window = OverrunWindow::default();
+        let (mode, overload) = (watch.mode.clone(), watch.overload_ns.clone());
+        let observer: Observer = Box::new(move |record| {
+            *mode.lock().unwrap() = Some(record.outputs.mode);
+            let t = record.tick.wake_ns;
+            if window.record(record.tick.missed, t, &rule) {
+                overload.lock().unwrap().get_or_insert(t);
+            }
+        });
+        (watch, observer)
+    }
+
+    /// The mode after the latest cycle reported.
+    pub fn mode(&self) -> Option<Mode> {
+        *self.mode.lock().unwrap()
+    }
+
+    /// The wake time (ns) of the first cycle at which the recorded late wake-ups exceeded the
+    /// overrun rule; `None` while they never have.
+    pub fn overload_at(&self) -> Option<u64> {
+        *self.overload_ns.lock().unwrap()
+    }
+
+    /// Waits up to `timeout` until the loop reports a mode that drives (MANUAL or AUTO).
+    pub fn wait_for_driving(&self, timeout: Duration) -> bool {
+        let t0 = Instant::now();
+        while t0.elapsed() < timeout {
+            if self.mode().is_some_and(|m| !m.is_safe()) {
+                return true;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        false
+    }
+}
+
+/// How long to wait for a driving mode after a revive before sending it again.
+pub const REVIVE_AGAIN_AFTER: Duration = Duration::from_millis(500);
+
+/// Revives the robot and sends `then`, again every [`REVIVE_AGAIN_AFTER`] until the loop
+/// reports MANUAL (or AUTO, which setpoints in `then` switch to), for at most `timeout`: a
+/// revive right after start-up may be refused on a busy host (too few good packets yet, or an
+/// overrun after a start-up stall). A revive in MANUAL or AUTO changes nothing. Returns
+/// whether the robot reached a driving mode.
+pub fn revive_until_driving(
+    ground: &FakeGround,
+    watch: &LoopWatch,
+    then: &[Command],
+    timeout: Duration,
+) -> bool {
+    let t0 = Instant::now();
+    while t0.elapsed() < timeout {
+        ground.send(Command::Revive);
+        for c in then {
+            ground.send(*c);
+        }
+        if watch.wait_for_driving(REVIVE_AGAIN_AFTER) {
+            return true;
+        }
+    }
+    false
 }
