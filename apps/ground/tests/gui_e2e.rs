@@ -364,9 +364,13 @@ fn check_session_recording(path: &Path) {
                 let c: CommandRecord = serde_json::from_slice(&m.data).unwrap();
                 kinds[usize::from(c.kind)] += 1;
                 throttle_up += u32::from(c.kind == 3 && c.data > 50);
-                // Ground link v2: 24-byte frames, every one with a new sequence number, and a
+                // Ground link v2: 28-byte frames, every one with a new sequence number, and a
                 // session (0 only for a kill before the robot's first frame).
-                assert_eq!(c.frame_hex.len(), 48, "{c:?}");
+                assert_eq!(
+                    c.frame_hex.len(),
+                    2 * dima_groundlink::v2::COMMAND_FRAME_LEN,
+                    "{c:?}"
+                );
                 let seq = c.seq.expect("v2 frames have a sequence number");
                 assert!(seq > last_seq, "sequence {seq} after {last_seq}");
                 last_seq = seq;
