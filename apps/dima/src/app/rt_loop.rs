@@ -542,8 +542,8 @@ impl<P: OutputPin, S: ServoOutput> Drop for RealtimeLoop<P, S> {
     }
 }
 
-/// The event bits of what the step decided.
-fn decision_events(out: &CycleOutputs, realtime_fault_reported: bool) -> u16 {
+/// The event bits of what the step decided (the loop's, and any simulation of it).
+pub(crate) fn decision_events(out: &CycleOutputs, realtime_fault_reported: bool) -> u16 {
     let mut ev = 0;
     if out.mode_changed {
         ev |= events::MODE_CHANGED;

@@ -21,7 +21,7 @@ use super::invariants::{Applied, Checker, CycleView, Violation};
 use super::operator::{Action, Operator};
 use super::radio::{Channel, ChannelParams};
 use super::sensor::Sensor;
-use crate::app::record::{events, CycleRecord, Snapshot};
+use crate::app::record::{CycleRecord, Snapshot};
 use crate::app::rt_loop::MAX_COMMANDS_PER_CYCLE;
 use crate::rt::{PeriodicClock, Tick};
 use crate::telemetry::{display_frame_v2, CommandLink, LinkSecurity, ReceivedCommand};
@@ -327,16 +327,7 @@ impl Simulation {
             _ => (0, 0, None),
         };
         let t_compute = t_packet.max(tick.wake_ns) + 20_000;
-        let mut ev = 0;
-        if out.mode_changed {
-            ev |= events::MODE_CHANGED;
-        }
-        if out.refused.is_some() {
-            ev |= events::REVIVE_REFUSED;
-        }
-        if out.setpoints_rejected > 0 {
-            ev |= events::SETPOINT_REJECTED;
-        }
+        let ev = crate::app::rt_loop::decision_events(out, false);
         CycleRecord {
             cycle: self.cycle,
             tick,
