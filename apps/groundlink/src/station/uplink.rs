@@ -487,46 +487,57 @@ impl Uplink {
             slot.iter().any(|s| s.command.command_type() == kind)
         });
         // The slot's budget: what waits for an acknowledgement first (in request order), then
-        // the held values, taking turns when they do not all fit (the robot keeps a manual
-        // value between its frames).
+        // the held values.
         let waiting = self
             .outstanding
             .iter()
             .filter(|o| o.acted_on.is_none())
             .count()
             .min(self.frames_per_slot);
-        let room = self.frames_per_slot - waiting;
-        let held = if held.len() > room {
-            let turn = self.held_turn % held.len();
-            self.held_turn = self.held_turn.wrapping_add(room.max(1));
-            let mut order: Vec<Command> =
-                held[turn..].iter().chain(&held[..turn]).copied().collect();
-            order.truncate(room);
-            // Keep the slot's channel order.
-            held.retain(|c| order.contains(c));
-            held
-        } else {
-            held
-        };
-        for command in held {
+        for command in self.held_in_turn(held, self.frames_per_slot - waiting) {
             let frame = self.number(command, session);
             self.held_sent(command, frame.seq, now);
             out.push(frame);
         }
+        self.repeat_outstanding(session, waiting, &mut out);
+        if out.is_empty() {
+            out.push(self.number(Command::Heartbeat, session));
+        }
+        out
+    }
+
+    /// The held values that fit in `room` frames, in the slot's channel order; when they do
+    /// not all fit they take turns from slot to slot (the robot keeps a manual value between
+    /// its frames).
+    fn held_in_turn(&mut self, mut held: Vec<Command>, room: usize) -> Vec<Command> {
+        if held.len() <= room {
+            return held;
+        }
+        let turn = self.held_turn % held.len();
+        self.held_turn = self.held_turn.wrapping_add(room.max(1));
+        let mut chosen: Vec<Command> = held[turn..].iter().chain(&held[..turn]).copied().collect();
+        chosen.truncate(room);
+        held.retain(|c| chosen.contains(c));
+        held
+    }
+
+    /// One more frame, into `out`, for each of the first `limit` requests still waiting for
+    /// their acknowledgement (not a revive the robot already acted on). Every frame of a
+    /// request names its first frame: the robot acts on a revive request once and refuses a
+    /// value requested before its last revive.
+    fn repeat_outstanding(&mut self, session: u32, limit: usize, out: &mut Vec<CommandFrame>) {
         let mut sent = 0;
         for i in 0..self.outstanding.len() {
+            if sent == limit {
+                break;
+            }
             if self.outstanding[i].acted_on.is_some() {
                 continue;
-            }
-            if sent == waiting {
-                break;
             }
             sent += 1;
             let command = self.outstanding[i].status.command;
             let mut frame = self.number(command, session);
             let o = &mut self.outstanding[i];
-            // Every frame of a request names its first frame: the robot acts on a revive
-            // request once.
             frame.request = o.status.first_seq.unwrap_or(frame.seq);
             if o.seqs.len() == SEQS_KEPT {
                 o.seqs.remove(0);
@@ -543,10 +554,6 @@ impl Uplink {
             self.note_last(&status);
             out.push(frame);
         }
-        if out.is_empty() {
-            out.push(self.number(Command::Heartbeat, session));
-        }
-        out
     }
 
     /// Notes a frame of a held value: the same value again, or a new one.
