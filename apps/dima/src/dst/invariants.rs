@@ -276,111 +276,135 @@ impl Checker {
     /// Updates the trackers with one cycle, then checks every per-cycle invariant.
     pub fn check_cycle(&mut self, v: &CycleView, intent: &Intent) {
         self.track(v);
-        let out = v.out;
-        let pulses = out.targets.pulse_us;
+        let pulses = v.out.targets.pulse_us;
         let safe: [u16; 3] = self.limits.channels.each_ref().map(|c| c.safe.pulse_us());
         let neutral: [u16; 3] = self.limits.channels.each_ref().map(|c| c.neutral_us);
-        let (cycle, now) = (v.cycle, v.now);
+        self.check_outputs_in_limits(v, safe);
+        self.check_kill_is_immediate(v, safe);
+        self.check_no_unasked_revive(v);
+        let unasked = self.unasked_motion(v.out.mode, pulses, safe, neutral, intent);
+        self.judge(
+            unasked.is_none(),
+            Invariant::NoUnaskedMotion,
+            v.cycle,
+            v.now,
+            || unasked.unwrap_or_default(),
+        );
+        self.check_auto_forward_only(v, neutral);
+        self.check_failsafe_in_time(v);
+        self.check_heading_needs_fresh_gnss(v, neutral);
+    }
 
-        // outputs_in_limits
+    /// `outputs_in_limits`.
+    fn check_outputs_in_limits(&mut self, v: &CycleView, safe: [u16; 3]) {
+        let pulses = v.out.targets.pulse_us;
         let in_limits = (0..3).all(|i| {
             let c = &self.limits.channels[i];
             (c.min_us..=c.max_us).contains(&pulses[i]) || pulses[i] == safe[i]
         });
-        self.judge(in_limits, Invariant::OutputsInLimits, cycle, now, || {
-            format!("pulses {pulses:?} outside the channels' limits")
-        });
-
-        // kill_is_immediate
-        if v.commands.iter().any(|c| c.command == Command::Kill) {
-            let ok = out.mode == Mode::Killed && pulses == safe;
-            self.judge(ok, Invariant::KillIsImmediate, cycle, now, || {
-                format!(
-                    "a kill reached the core; mode {} pulses {pulses:?}",
-                    out.mode
-                )
-            });
-        }
-
-        // no_unasked_revive
-        if v.mode_before.is_safe() && !out.mode.is_safe() {
-            let fresh = v.commands.iter().rev().find_map(|c| {
-                let t = c.asked_at?;
-                let fresh = c.command == Command::Revive
-                    && self.killed_by.is_none_or(|k| t > k)
-                    && !self.used_revives.contains(&t);
-                fresh.then_some(t)
-            });
-            self.judge(
-                fresh.is_some(),
-                Invariant::NoUnaskedRevive,
-                cycle,
-                now,
-                || {
-                    format!(
-                        "{} -> {} without a fresh operator revive (commands {:?})",
-                        v.mode_before, out.mode, v.commands
-                    )
-                },
-            );
-            if let Some(t) = fresh {
-                self.used_revives.push(t);
-            }
-            self.revived_by = fresh.or(self.revived_by);
-        }
-
-        // no_unasked_motion
-        let unasked = self.unasked_motion(out.mode, pulses, safe, neutral, intent);
         self.judge(
-            unasked.is_none(),
-            Invariant::NoUnaskedMotion,
-            cycle,
-            now,
-            || unasked.unwrap_or_default(),
+            in_limits,
+            Invariant::OutputsInLimits,
+            v.cycle,
+            v.now,
+            || format!("pulses {pulses:?} outside the channels' limits"),
         );
+    }
 
-        // auto_forward_only
-        if out.mode == Mode::Auto {
-            self.judge(
-                pulses[0] >= neutral[0],
-                Invariant::AutoForwardOnly,
-                cycle,
-                now,
-                || {
-                    format!(
-                        "AUTO throttle {} µs below neutral {}",
-                        pulses[0], neutral[0]
-                    )
-                },
-            );
+    /// `kill_is_immediate`.
+    fn check_kill_is_immediate(&mut self, v: &CycleView, safe: [u16; 3]) {
+        if !v.commands.iter().any(|c| c.command == Command::Kill) {
+            return;
         }
+        let (mode, pulses) = (v.out.mode, v.out.targets.pulse_us);
+        let ok = mode == Mode::Killed && pulses == safe;
+        self.judge(ok, Invariant::KillIsImmediate, v.cycle, v.now, || {
+            format!("a kill reached the core; mode {mode} pulses {pulses:?}")
+        });
+    }
 
-        // failsafe_in_time
-        let condition = self.failsafe_condition(v);
-        if !out.mode.is_safe() {
-            self.judge(
-                condition.is_none(),
-                Invariant::FailsafeInTime,
-                cycle,
-                now,
-                || format!("still {} with {}", out.mode, condition.unwrap_or_default()),
-            );
+    /// `no_unasked_revive`: a way out of KILLED or FAILSAFE needs a revive the operator asked
+    /// for after the last kill, not used by an earlier revive.
+    fn check_no_unasked_revive(&mut self, v: &CycleView) {
+        if !(v.mode_before.is_safe() && !v.out.mode.is_safe()) {
+            return;
         }
-
-        // heading_needs_fresh_gnss
-        if out.mode == Mode::Auto && pulses[1] != neutral[1] {
-            let bound = self.limits.gnss_timeout_ns + HEADING_RELEASE_NS;
-            let ok = self
-                .last_heading_fix_ns
-                .is_some_and(|t| now.saturating_sub(t) <= bound);
-            let age = self.last_heading_fix_ns.map(|t| (now - t) / 1_000_000);
-            self.judge(ok, Invariant::HeadingNeedsFreshGnss, cycle, now, || {
+        let fresh = v.commands.iter().rev().find_map(|c| {
+            let t = c.asked_at?;
+            let fresh = c.command == Command::Revive
+                && self.killed_by.is_none_or(|k| t > k)
+                && !self.used_revives.contains(&t);
+            fresh.then_some(t)
+        });
+        self.judge(
+            fresh.is_some(),
+            Invariant::NoUnaskedRevive,
+            v.cycle,
+            v.now,
+            || {
                 format!(
-                    "AUTO steering {} µs with the last GNSS heading fix {age:?} ms old",
-                    pulses[1]
+                    "{} -> {} without a fresh operator revive (commands {:?})",
+                    v.mode_before, v.out.mode, v.commands
                 )
-            });
+            },
+        );
+        if let Some(t) = fresh {
+            self.used_revives.push(t);
         }
+        self.revived_by = fresh.or(self.revived_by);
+    }
+
+    /// `auto_forward_only`.
+    fn check_auto_forward_only(&mut self, v: &CycleView, neutral: [u16; 3]) {
+        if v.out.mode != Mode::Auto {
+            return;
+        }
+        let throttle = v.out.targets.pulse_us[0];
+        self.judge(
+            throttle >= neutral[0],
+            Invariant::AutoForwardOnly,
+            v.cycle,
+            v.now,
+            || format!("AUTO throttle {throttle} µs below neutral {}", neutral[0]),
+        );
+    }
+
+    /// `failsafe_in_time`.
+    fn check_failsafe_in_time(&mut self, v: &CycleView) {
+        let condition = self.failsafe_condition(v);
+        if v.out.mode.is_safe() {
+            return;
+        }
+        self.judge(
+            condition.is_none(),
+            Invariant::FailsafeInTime,
+            v.cycle,
+            v.now,
+            || {
+                format!(
+                    "still {} with {}",
+                    v.out.mode,
+                    condition.unwrap_or_default()
+                )
+            },
+        );
+    }
+
+    /// `heading_needs_fresh_gnss`.
+    fn check_heading_needs_fresh_gnss(&mut self, v: &CycleView, neutral: [u16; 3]) {
+        let steering = v.out.targets.pulse_us[1];
+        if v.out.mode != Mode::Auto || steering == neutral[1] {
+            return;
+        }
+        let now = v.now;
+        let bound = self.limits.gnss_timeout_ns + HEADING_RELEASE_NS;
+        let ok = self
+            .last_heading_fix_ns
+            .is_some_and(|t| now.saturating_sub(t) <= bound);
+        let age = self.last_heading_fix_ns.map(|t| (now - t) / 1_000_000);
+        self.judge(ok, Invariant::HeadingNeedsFreshGnss, v.cycle, now, || {
+            format!("AUTO steering {steering} µs with the last GNSS heading fix {age:?} ms old")
+        });
     }
 
     /// Why the outputs move without the operator having asked, if they do.
