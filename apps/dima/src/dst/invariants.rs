@@ -326,7 +326,8 @@ impl Checker {
     /// `no_unasked_revive`: a way out of KILLED or FAILSAFE needs a revive the operator asked
     /// for after the last kill, not used by an earlier revive.
     fn check_no_unasked_revive(&mut self, v: &CycleView) {
-        if !(v.mode_before.is_safe() && !v.out.mode.is_safe()) {
+        let revived = v.mode_before.is_safe() && !v.out.mode.is_safe();
+        if !revived {
             return;
         }
         let fresh = v.commands.iter().rev().find_map(|c| {
