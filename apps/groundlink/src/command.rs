@@ -118,6 +118,19 @@ pub enum Command {
 }
 
 impl Command {
+    /// Whether the command drives the robot: a manual value (throttle, steering, tail) or a
+    /// controller setpoint (speed, heading), the values an operator gives.
+    pub fn drives(self) -> bool {
+        matches!(
+            self,
+            Command::Throttle(_)
+                | Command::Steering(_)
+                | Command::Tail(_)
+                | Command::SpeedSetpoint { .. }
+                | Command::HeadingSetpoint { .. }
+        )
+    }
+
     /// The type byte of this command.
     pub const fn command_type(self) -> CommandType {
         match self {

@@ -47,19 +47,6 @@ pub use uplink::{
 /// given times from one clock, never going back.
 pub type StationTime = core::time::Duration;
 
-/// Whether `command` drives the robot: a manual value (throttle, steering, tail) or a
-/// setpoint (speed, heading).
-fn drives(command: Command) -> bool {
-    matches!(
-        command,
-        Command::Throttle(_)
-            | Command::Steering(_)
-            | Command::Tail(_)
-            | Command::SpeedSetpoint { .. }
-            | Command::HeadingSetpoint { .. }
-    )
-}
-
 /// A ground link v2 station: the [`CommandScheduler`]'s slots numbered by the [`Uplink`].
 ///
 /// The caller requests commands and holds values as the operator acts, calls

@@ -176,7 +176,7 @@ impl CommandScheduler {
     pub fn cancel_driving(&mut self) {
         let (driving, rest): (Vec<_>, Vec<_>) = core::mem::take(&mut self.pending)
             .into_iter()
-            .partition(|(c, _)| super::drives(*c));
+            .partition(|(c, _)| c.drives());
         self.pending = rest;
         self.note_dropped(driving);
         self.held = [None; 3];

@@ -385,7 +385,7 @@ impl Uplink {
     pub fn cancel_driving(&mut self, delivery: Delivery, now: StationTime) {
         let mut i = 0;
         while i < self.outstanding.len() {
-            if super::drives(self.outstanding[i].status.command) {
+            if self.outstanding[i].status.command.drives() {
                 let o = self.outstanding.remove(i);
                 self.settle(o.status, delivery, now);
             } else {

@@ -230,9 +230,7 @@ impl CommandGate {
                     return Ok(Command::Heartbeat);
                 }
                 self.last_revive_request = frame.request;
-            } else if is_manual_or_setpoint(frame.command)
-                && frame.request < self.last_revive_request
-            {
+            } else if frame.command.drives() && frame.request < self.last_revive_request {
                 self.pre_revive_requests = self.pre_revive_requests.saturating_add(1);
                 return Ok(Command::Heartbeat);
             }
@@ -251,18 +249,6 @@ impl CommandGate {
             Err(Rejection::StaleSession)
         }
     }
-}
-
-/// A value the operator gives: a manual output or a controller setpoint.
-fn is_manual_or_setpoint(command: Command) -> bool {
-    matches!(
-        command,
-        Command::Throttle(_)
-            | Command::Steering(_)
-            | Command::Tail(_)
-            | Command::SpeedSetpoint { .. }
-            | Command::HeadingSetpoint { .. }
-    )
 }
 
 #[cfg(test)]
