@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Golden command frames v2 for apps/groundlink/tests/vectors.rs, computed without the project's
+"""Golden command frames v2 for crates/groundlink/tests/vectors.rs, computed without the project's
 code: SipHash-2-4 written from the SipHash paper (section 2), checked against the paper's and the
-reference implementation's vectors, and the frame layout of apps/groundlink/README.md.
+reference implementation's vectors, and the frame layout of crates/groundlink/README.md.
 
     python3 tools/command-v2-vectors.py
 """

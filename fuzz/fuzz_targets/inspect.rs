@@ -1,11 +1,11 @@
-//! `dima inspect sensor|command|display`: `dima::logtools::inspect::inspect` on any bytes as a
+//! `dima inspect sensor|command|display`: `dima_tools::logtools::inspect::inspect` on any bytes as a
 //! capture of each link.
 //!
 //! Beyond "no panic": one output line per frame counted, each line one JSON object, and the
 //! counts match the link's own decoder run on the same bytes.
 #![no_main]
 
-use dima::logtools::inspect::{inspect, InspectStats, Link};
+use dima_tools::logtools::inspect::{inspect, InspectStats, Link};
 use dima_groundlink::{CommandDecoder, DisplayDecoder};
 use dima_sensorboard::StreamDecoder;
 use libfuzzer_sys::fuzz_target;

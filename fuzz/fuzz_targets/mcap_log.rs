@@ -1,4 +1,4 @@
-//! The MCAP reader of `dima log` (`dima::logtools::read::LoggedRun::from_bytes`) on any bytes
+//! The MCAP reader of `dima log` (`dima_tools::logtools::read::LoggedRun::from_bytes`) on any bytes
 //! as a log file, followed by what `dima log info` and `dima log export` do with the result.
 //!
 //! Any bytes give a clear error or a result: no panic, no abort on allocation (libFuzzer's
@@ -6,9 +6,9 @@
 //! (`-timeout`).
 #![no_main]
 
-use dima::logtools::export::{self, Channel, Format};
-use dima::logtools::info;
-use dima::logtools::read::LoggedRun;
+use dima_tools::logtools::export::{self, Channel, Format};
+use dima_tools::logtools::info;
+use dima_tools::logtools::read::LoggedRun;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

@@ -12,8 +12,8 @@ use dima_core::monitor::{OverrunRule, OverrunWindow};
 use dima_core::FailsafeCause;
 use dima_sim::logcheck::LogSummary;
 
-pub use dima::sim::run_app;
 pub use dima_sim::app_config::app_config;
+pub use dima_sim::robot::run_app;
 use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
 use dima_sim::scenario::Scenario;
 

@@ -24,5 +24,5 @@ fn main() -> ExitCode {
         .with_writer(std::io::stderr)
         .with_ansi(false)
         .init();
-    dima::sim::main(&cli.sim)
+    dima_sim::robot::main(&cli.sim)
 }

@@ -4,10 +4,10 @@
 
 use std::path::Path;
 
-use dima::logtools::read::LoggedRun;
-use dima::logtools::replay;
 use dima_core::config::EstimatorConfig;
 use dima_core::Mode;
+use dima_tools::logtools::read::LoggedRun;
+use dima_tools::logtools::replay;
 
 fn recorded() -> LoggedRun {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("fixtures/auto-pid-before-plugins.mcap");

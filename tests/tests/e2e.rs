@@ -515,7 +515,7 @@ fn board_health_at_least_once_a_second_without_a_skipped_request() {
     o.status = StatusMode::Quiet;
     let r = run_simulation(&o, run_app).expect("the simulation runs");
     eprintln!("[health]\n{}\napp: {}", r.summary(), r.app.summary);
-    let run = dima::logtools::read::LoggedRun::read(r.app.log_path.as_ref().expect("a log"))
+    let run = dima_tools::logtools::read::LoggedRun::read(r.app.log_path.as_ref().expect("a log"))
         .expect("the log reads");
 
     let times: Vec<f64> = run.infos.iter().map(|i| run.seconds(i.t_ns)).collect();
@@ -559,7 +559,7 @@ fn board_health_at_least_once_a_second_without_a_skipped_request() {
     assert_eq!(r.app.counters.packet_crc_errors, 0);
 
     // `dima log info` shows the health.
-    let report = dima::logtools::info::report(&run);
+    let report = dima_tools::logtools::info::report(&run);
     let line = report
         .lines()
         .find(|l| l.starts_with("sensor board (info frame v2"))

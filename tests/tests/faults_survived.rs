@@ -9,10 +9,10 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command as Process, Stdio};
 
-use dima::rt::{monotonic_ns, PeriodicClock};
 use dima_core::config::{Config, SafeOutput};
 use dima_e2e::{assert_passed, simulate, simulate_with, temp_dir, ONE_AT_A_TIME};
 use dima_groundlink::Command;
+use dima_robot::rt::{monotonic_ns, PeriodicClock};
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
 use nix::time::{clock_gettime, ClockId};
 
@@ -326,7 +326,7 @@ fn a_wall_clock_jump_trips_no_failsafe() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".mcap"))
         .collect();
-    let year_now: u32 = dima::logging::log_file_name(std::time::SystemTime::now())[5..9]
+    let year_now: u32 = dima_robot::logging::log_file_name(std::time::SystemTime::now())[5..9]
         .parse()
         .unwrap();
     assert!(

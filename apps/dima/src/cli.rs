@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 
-use crate::config::Config;
+use dima_robot::config::Config;
 
 /// The DIMA robot's realtime control application.
 #[derive(Debug, Parser)]
@@ -23,16 +23,21 @@ pub enum Command {
     /// Configuration helpers.
     Config(ConfigArgs),
     /// Run against simulated devices on pseudo-terminals: no hardware needed.
-    Sim(crate::sim::SimArgs),
+    #[cfg(feature = "sim")]
+    Sim(dima_sim::robot::SimArgs),
     /// Deterministic simulation testing: the real parts in virtual time, seeded operator and
     /// faults, invariants checked every cycle.
-    Dst(crate::dst::DstArgs),
+    #[cfg(feature = "sim")]
+    Dst(dima_sim::dst::DstArgs),
     /// What happened in a run: info, export, plot and replay of an MCAP log.
-    Log(crate::logtools::LogArgs),
+    #[cfg(feature = "tools")]
+    Log(dima_tools::logtools::LogArgs),
     /// Decode a raw byte capture of a link into JSON lines.
-    Inspect(crate::logtools::InspectArgs),
+    #[cfg(feature = "tools")]
+    Inspect(dima_tools::logtools::InspectArgs),
     /// Measure the loop against the operating system (wake-up latency, cyclictest's format).
-    Bench(crate::bench::BenchArgs),
+    #[cfg(feature = "tools")]
+    Bench(dima_tools::bench::BenchArgs),
     /// Write a new random ground-link key (mode 0600; never overwrites a file).
     Keygen(KeygenArgs),
 }

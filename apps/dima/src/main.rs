@@ -1,4 +1,9 @@
-//! `dima`: parses the command line and the configuration, then hands over to the library.
+//! `dima`: parses the command line and the configuration, then hands over to the libraries:
+//! `dima-robot` for `dima run`, and behind the default features `dima-sim` for `dima sim` and
+//! `dima dst` (feature `sim`) and `dima-tools` for `dima log`, `dima inspect` and `dima bench`
+//! (feature `tools`). `cargo build -p dima --no-default-features` builds the robot alone.
+
+mod cli;
 
 use std::io::{IsTerminal, Write};
 use std::process::ExitCode;
@@ -9,14 +14,13 @@ use std::time::Duration;
 
 use anyhow::Context;
 use clap::Parser;
-use dima::app;
-use dima::cli::{Cli, Command};
-use dima::config::{self, DEFAULT_TOML};
+use cli::{Cli, Command};
+use dima_robot::app;
+use dima_robot::config::{self, DEFAULT_TOML};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    // In a simulation the status line is the live view: only warnings unless RUST_LOG says so.
-    let level = if matches!(cli.command, Command::Sim(_) | Command::Dst(_)) {
+    let level = if quiet_by_default(&cli.command) {
         "warn"
     } else {
         "info"
@@ -31,10 +35,14 @@ fn main() -> ExitCode {
         .with_ansi(std::io::stderr().is_terminal())
         .init();
     let command = match cli.command {
-        Command::Sim(args) => return dima::sim::main(&args),
-        Command::Dst(args) => return dima::dst::main(&args),
-        Command::Log(args) => return exit_code(dima::logtools::log(args)),
-        Command::Inspect(args) => return exit_code(dima::logtools::inspect(args)),
+        #[cfg(feature = "sim")]
+        Command::Sim(args) => return dima_sim::robot::main(&args),
+        #[cfg(feature = "sim")]
+        Command::Dst(args) => return dima_sim::dst::main(&args),
+        #[cfg(feature = "tools")]
+        Command::Log(args) => return exit_code(dima_tools::logtools::log(args)),
+        #[cfg(feature = "tools")]
+        Command::Inspect(args) => return exit_code(dima_tools::logtools::inspect(args)),
         other => other,
     };
     match run(command) {
@@ -46,7 +54,17 @@ fn main() -> ExitCode {
     }
 }
 
+/// In a simulation the status line is the live view: only warnings unless `RUST_LOG` says so.
+fn quiet_by_default(command: &Command) -> bool {
+    match command {
+        #[cfg(feature = "sim")]
+        Command::Sim(_) | Command::Dst(_) => true,
+        _ => false,
+    }
+}
+
 /// The exit code of a tool: its own, or 1 with the error on stderr.
+#[cfg(feature = "tools")]
 fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
     result.unwrap_or_else(|error| {
         eprintln!("error: {error:#}");
@@ -56,7 +74,8 @@ fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
 
 fn run(command: Command) -> anyhow::Result<()> {
     match command {
-        Command::Bench(args) => dima::bench::bench(args),
+        #[cfg(feature = "tools")]
+        Command::Bench(args) => dima_tools::bench::bench(args),
         Command::Keygen(args) => {
             dima_groundlink::key_file::create(&args.path)?;
             println!(
@@ -67,9 +86,10 @@ fn run(command: Command) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        Command::Sim(_) | Command::Dst(_) | Command::Log(_) | Command::Inspect(_) => {
-            unreachable!("handled in main")
-        }
+        #[cfg(feature = "sim")]
+        Command::Sim(_) | Command::Dst(_) => unreachable!("handled in main"),
+        #[cfg(feature = "tools")]
+        Command::Log(_) | Command::Inspect(_) => unreachable!("handled in main"),
         Command::Config(args) => {
             if let Some(path) = args.check {
                 let config = config::load(&path)?;

@@ -2,7 +2,7 @@
 
 use std::process::Command;
 
-use dima::config::Config;
+use dima_robot::config::Config;
 
 fn dima() -> Command {
     Command::new(env!("CARGO_BIN_EXE_dima"))

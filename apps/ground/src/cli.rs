@@ -107,6 +107,11 @@ impl Cli {
         if crate::serial::baud_rate(self.baud).is_none() {
             anyhow::bail!("--baud {}: not a standard rate", self.baud);
         }
+        if self.sim && !cfg!(feature = "sim") {
+            anyhow::bail!(
+                "--sim: this dima-ground was built without the simulator (cargo feature `sim`)"
+            );
+        }
         if let Some(d) = self.sim_duration {
             if !(d.is_finite() && d > 0.0) {
                 anyhow::bail!("--sim-duration must be a positive number of seconds");

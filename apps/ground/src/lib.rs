@@ -36,6 +36,7 @@ pub mod plots;
 pub mod recording;
 pub mod serial;
 pub mod sim;
+pub mod sim_robot;
 pub mod telemetry;
 pub mod ui;
 pub mod units;

@@ -5,12 +5,15 @@ use std::process::ExitCode;
 
 use clap::Parser;
 use dima_ground::cli::Cli;
-use dima_ground::sim::{run_robot, SIM_ROBOT_ARG};
 
 fn main() -> ExitCode {
-    let args: Vec<String> = std::env::args().collect();
-    if args.get(1).map(String::as_str) == Some(SIM_ROBOT_ARG) {
-        return run_robot(&args[1..]);
+    #[cfg(feature = "sim")]
+    {
+        use dima_ground::sim_robot::{run_robot, SIM_ROBOT_ARG};
+        let args: Vec<String> = std::env::args().collect();
+        if args.get(1).map(String::as_str) == Some(SIM_ROBOT_ARG) {
+            return run_robot(&args[1..]);
+        }
     }
     let cli = Cli::parse();
     if let Err(e) = cli.validate() {

@@ -1,10 +1,11 @@
 //! `--sim`: the simulated robot, exactly as `dima sim --ground-pty` runs it (the same runner
-//! from `dima-sim` and the same application from `dima`), in a child process of this binary.
+//! from `dima-sim` and the same application from `dima-robot`), in a child process of this
+//! binary ([`crate::sim_robot`], behind the default feature `sim`).
 //!
 //! A child process keeps the robot's threads, signals and pseudo-terminals apart from the
 //! user interface, and lets the station stop it like any robot: SIGTERM, after which the
 //! application writes its safe outputs and closes its MCAP log. The child re-runs this binary
-//! with the hidden first argument [`SIM_ROBOT_ARG`], so nothing else needs to be built. It
+//! with the hidden first argument `sim-robot`, so nothing else needs to be built. It
 //! also asks the kernel for a SIGTERM should the station die first.
 //!
 //! The two speak ground link v2: the station writes a fresh key into the simulation's run
@@ -13,36 +14,16 @@
 //! robot.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitCode};
+use std::process::{Child, Command};
 use std::time::{Duration, Instant};
 
-use clap::Parser;
-use dima_sim::cli::SimArgs;
-use dima_sim::runner::{run_simulation, StatusMode};
 use nix::sys::signal::{kill, Signal};
 use nix::unistd::Pid;
 
-/// First argument that turns this binary into the simulated robot.
-pub const SIM_ROBOT_ARG: &str = "sim-robot";
 /// Name of the ground-station pty link in the simulation's run directory.
 pub const GROUND_PTY_LINK: &str = "ground-station";
 /// Name of the link key the station makes in the simulation's run directory.
 pub const LINK_KEY_FILE: &str = "link.key";
-
-/// Flags of the simulated robot (the child process).
-#[derive(Debug, Parser)]
-#[command(
-    name = "dima-ground sim-robot",
-    about = "The simulated robot behind `dima-ground --sim`"
-)]
-pub struct SimRobotArgs {
-    /// Directory for the pty links; the ground station's is `<DIR>/ground-station`.
-    #[arg(long, value_name = "DIR")]
-    pub run_dir: PathBuf,
-    /// The flags of `dima sim`.
-    #[command(flatten)]
-    pub sim: SimArgs,
-}
 
 /// What the station asks of the simulated robot.
 #[derive(Debug, Clone)]
@@ -77,7 +58,7 @@ impl SimRobot {
         };
         let mut command = Command::new(exe);
         command
-            .arg(SIM_ROBOT_ARG)
+            .arg(crate::sim_robot::SIM_ROBOT_ARG)
             .arg("--run-dir")
             .arg(&run_dir)
             .arg("--key-file")
@@ -164,49 +145,6 @@ fn fresh_key(run_dir: &Path) -> anyhow::Result<PathBuf> {
     Ok(path)
 }
 
-/// The child process: `dima sim --ground-pty` with the run directory the station chose.
-pub fn run_robot(args: &[String]) -> ExitCode {
-    let args = match SimRobotArgs::try_parse_from(args) {
-        Ok(a) => a,
-        Err(e) => e.exit(),
-    };
-    // Stop with the station, even if it is killed before it can stop us.
-    let parent = nix::unistd::getppid();
-    if nix::sys::prctl::set_pdeathsig(Signal::SIGTERM).is_err() || parent.as_raw() == 1 {
-        eprintln!("dima-ground sim-robot: not started by a station; stopping");
-        return ExitCode::from(2);
-    }
-    let mut options = match args.sim.options() {
-        Ok(o) => o,
-        Err(e) => {
-            eprintln!("dima-ground sim-robot: {e:#}");
-            return ExitCode::from(2);
-        }
-    };
-    options.ground_pty = true;
-    // The station speaks ground link v2 with the key it gave us (`--key-file`).
-    options.require_auth = Some(true);
-    options.run_dir = args.run_dir.clone();
-    options.status = StatusMode::Quiet;
-    let result = run_simulation(&options, |launch| {
-        dima::app::install_signal_handlers(&launch.stop)?;
-        dima::sim::run_app(launch)
-    });
-    match result {
-        Err(e) => {
-            eprintln!("dima-ground sim-robot: {e:#}");
-            ExitCode::from(2)
-        }
-        Ok(report) => {
-            eprintln!("simulated robot: {}", report.summary().trim_end());
-            if let Some(p) = &report.app.log_path {
-                eprintln!("simulated robot: MCAP log {}", p.display());
-            }
-            ExitCode::SUCCESS
-        }
-    }
-}
-
 /// The robot's newest MCAP log in `dir` (for tools and tests).
 pub fn newest_log(dir: &Path) -> Option<PathBuf> {
     std::fs::read_dir(dir)
@@ -220,31 +158,6 @@ pub fn newest_log(dir: &Path) -> Option<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn robot_flags_are_dima_sims() {
-        let a = SimRobotArgs::try_parse_from([
-            SIM_ROBOT_ARG,
-            "--run-dir",
-            "/tmp/x",
-            "--key-file",
-            "/tmp/x/link.key",
-            "--ground-pty",
-            "--quiet",
-            "--log-dir",
-            "/tmp/logs",
-            "--duration",
-            "2.5",
-        ])
-        .unwrap();
-        assert_eq!(a.run_dir, PathBuf::from("/tmp/x"));
-        let o = a.sim.options().unwrap();
-        assert!(o.ground_pty);
-        assert_eq!(o.log_dir, PathBuf::from("/tmp/logs"));
-        assert_eq!(o.run_length_s(), Some(2.5));
-        assert_eq!(o.scenario.name, "default");
-        assert_eq!(o.key_file, Some(PathBuf::from("/tmp/x/link.key")));
-    }
 
     #[test]
     fn the_fresh_key_is_owner_only_and_replaces_a_stale_one() {

@@ -46,11 +46,12 @@ impl SensorCalibration {
         }
     }
 
-    /// The calibration of the simulated sensor board of `dima sim` (its info frame's content).
+    /// The calibration of the simulated sensor board of `dima sim` (its info frame's content):
+    /// the drivers' datasheet examples.
     pub fn simulated_board() -> SensorCalibration {
         SensorCalibration::from_info_bytes(
-            &dima_sim::board::DATASHEET_BMP280_CALIBRATION,
-            &dima_sim::board::BMM150_TRIM,
+            &bosch_bmp280::Calibration::DATASHEET_EXAMPLE_BYTES,
+            &MagTrim::EXAMPLE_BURST_BYTES,
             "the simulated board's info frame",
         )
     }
@@ -330,7 +331,7 @@ mod tests {
     #[test]
     fn magnetometer_uses_the_trim_bursts_in_info_frame_order() {
         let cal = SensorCalibration::simulated_board();
-        let t = &dima_sim::board::BMM150_TRIM;
+        let t = &MagTrim::EXAMPLE_BURST_BYTES;
         let expected_trim = MagTrim::from_bursts(
             &[t[0], t[1]],
             &[t[2], t[3], t[4], t[5]],

@@ -35,6 +35,15 @@ pub struct Calibration {
 }
 
 impl Calibration {
+    /// Calibration registers 0x88..=0x9F of the worked example in the Bosch BMP280 datasheet
+    /// (section 8.1: `dig_T1` 27504, `dig_T2` 26435, `dig_T3` -1000, `dig_P1` 36477, ...,
+    /// `dig_P9` 6000), as [`Calibration::from_bytes`] takes them: for tests, simulations and
+    /// tools that need a believable device without one.
+    pub const DATASHEET_EXAMPLE_BYTES: [u8; 24] = [
+        0x70, 0x6B, 0x43, 0x67, 0x18, 0xFC, 0x7D, 0x8E, 0x43, 0xD6, 0xD0, 0x0B, 0x27, 0x0B, 0x8C,
+        0x00, 0xF9, 0xFF, 0x8C, 0x3C, 0xF8, 0xC6, 0x70, 0x17,
+    ];
+
     /// Parses the 24 bytes read from 0x88..=0x9F: twelve little-endian words, `dig_T1` and
     /// `dig_P1` unsigned, the others two's complement.
     pub const fn from_bytes(b: &[u8; 24]) -> Self {

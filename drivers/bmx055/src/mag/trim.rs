@@ -38,6 +38,15 @@ pub struct MagTrim {
 }
 
 impl MagTrim {
+    /// The three trim bursts ([`TRIM_BURST_1`], [`TRIM_BURST_2`], [`TRIM_BURST_3`]: registers
+    /// 0x5D..=0x5E, 0x62..=0x65 and 0x68..=0x71) of a real BMM150 from Bosch's SensorAPI test
+    /// data, concatenated in that order: for tests, simulations and tools that need a believable
+    /// device without one.
+    pub const EXAMPLE_BURST_BYTES: [u8; 16] = [
+        0x00, 0x00, 0x00, 0x00, 0x1A, 0x1A, 0xFB, 0x02, 0xAB, 0x60, 0x8D, 0x1B, 0x00, 0x00, 0xFD,
+        0x1D,
+    ];
+
     /// Decode the three trim bursts (0x5D..=0x5E, 0x62..=0x65, 0x68..=0x71).
     pub const fn from_bursts(b1: &[u8; 2], b2: &[u8; 4], b3: &[u8; 10]) -> Self {
         Self {

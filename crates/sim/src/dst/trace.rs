@@ -1,0 +1,69 @@
+//! A run's trace as an MCAP file with a robot log's channels, written by the application's
+//! own logger code, so `dima log info|plot|replay` read it like any robot log.
+
+use std::path::Path;
+
+use dima_core::schema;
+use dima_core::Nanos;
+
+use super::runner::Simulation;
+use dima_robot::logging::McapLog;
+
+/// Log time of virtual time 0: 2026-01-01T00:00:00Z, ns (a fixed instant: the file does not
+/// depend on when it was written).
+pub const TRACE_EPOCH_NS: i128 = 1_767_225_600_000_000_000;
+
+/// Runs `sim` until `end_ns` (or `stop_after` past its first violation), writing every cycle
+/// to `path`; the seed and the violations go into metadata.
+pub fn write(
+    path: &Path,
+    seed: u64,
+    duration_s: f64,
+    sim: &mut Simulation,
+    end_ns: Nanos,
+    stop_after: Option<Nanos>,
+) -> anyhow::Result<()> {
+    let mut log = McapLog::create_file(path)?;
+    log.set_time_offset(TRACE_EPOCH_NS);
+    log.metadata(
+        schema::METADATA_DIMA,
+        &[
+            ("version", env!("CARGO_PKG_VERSION").to_owned()),
+            ("config", toml::to_string(sim.config())?),
+        ],
+    )?;
+    log.metadata(
+        "dst",
+        &[
+            ("seed", seed.to_string()),
+            ("duration_s", duration_s.to_string()),
+        ],
+    )?;
+    let mut failed = None;
+    sim.run_until(
+        end_ns,
+        stop_after,
+        Some(&mut |record| {
+            if failed.is_none() {
+                failed = log.record(record, true).err();
+            }
+        }),
+    );
+    if let Some(error) = failed {
+        return Err(error);
+    }
+    let violations: Vec<String> = sim
+        .violations()
+        .iter()
+        .map(|v| format!("{} at cycle {}: {}", v.invariant.name(), v.cycle, v.detail))
+        .collect();
+    log.metadata(
+        "dst_result",
+        &[
+            ("violations", violations.len().to_string()),
+            ("first", violations.first().cloned().unwrap_or_default()),
+        ],
+    )?;
+    log.finish()?;
+    Ok(())
+}

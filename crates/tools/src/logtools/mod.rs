@@ -1,0 +1,215 @@
+//! Tools around a run: `dima log info|export|plot|replay` on MCAP logs and `dima inspect` on
+//! raw captures of each link.
+
+pub mod export;
+pub mod info;
+pub mod inspect;
+pub mod plot;
+pub mod read;
+pub mod records;
+pub mod replay;
+
+use std::io::{Read, Write};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Args, Subcommand};
+
+use read::LoggedRun;
+
+/// `dima log`.
+#[derive(Debug, Args)]
+pub struct LogArgs {
+    /// What to do with the log.
+    #[command(subcommand)]
+    pub command: LogCommand,
+}
+
+/// `dima log` subcommands.
+#[derive(Debug, Subcommand)]
+pub enum LogCommand {
+    /// Duration, loop rate, mode changes, packet and link counts, timing percentiles, the
+    /// realtime setup and the configuration of a run.
+    Info {
+        /// The MCAP log.
+        file: PathBuf,
+    },
+    /// Every cycle (or GNSS fix, or state change) as CSV or JSON lines, in physical units.
+    Export {
+        /// The MCAP log.
+        file: PathBuf,
+        /// Output format.
+        #[arg(long, value_enum, default_value = "csv")]
+        format: export::Format,
+        /// Output file (default: stdout).
+        #[arg(short, long, value_name = "OUT")]
+        output: Option<PathBuf>,
+        /// Rows of this channel.
+        #[arg(long, value_enum, default_value = "cycle", value_name = "NAME")]
+        channel: export::Channel,
+        /// From this many seconds after the first cycle.
+        #[arg(long, value_name = "S", default_value_t = 0.0)]
+        from: f64,
+        /// Up to this many seconds after the first cycle.
+        #[arg(long, value_name = "S", default_value_t = f64::INFINITY)]
+        to: f64,
+    },
+    /// A PNG plot with a real time axis, units and mode changes marked.
+    Plot {
+        /// The MCAP log.
+        file: PathBuf,
+        /// Output PNG.
+        #[arg(short, long, value_name = "OUT.png")]
+        output: PathBuf,
+        /// What to plot.
+        #[arg(long, value_enum, default_value = "outputs")]
+        what: plot::What,
+        /// Width in pixels.
+        #[arg(long, default_value_t = 1280)]
+        width: u32,
+        /// Height in pixels.
+        #[arg(long, default_value_t = 720)]
+        height: u32,
+    },
+    /// Feed the recorded inputs through the control step: identical outputs (exit 0) or the
+    /// first difference (exit 1); with another configuration, the outputs beside the recorded
+    /// ones in a new MCAP file.
+    Replay {
+        /// The MCAP log.
+        file: PathBuf,
+        /// Replay with this configuration instead of the recorded one (e.g. new gains).
+        #[arg(long, value_name = "CONFIG")]
+        config: Option<PathBuf>,
+        /// Write the recorded and replayed cycles to this MCAP file.
+        #[arg(short, long, value_name = "OUT.mcap")]
+        output: Option<PathBuf>,
+    },
+}
+
+/// `dima inspect`.
+#[derive(Debug, Args)]
+pub struct InspectArgs {
+    /// Which link the capture is from.
+    #[arg(value_enum)]
+    pub link: inspect::Link,
+    /// The capture (default: stdin).
+    pub file: Option<PathBuf>,
+}
+
+fn open_log(file: &std::path::Path) -> anyhow::Result<LoggedRun> {
+    let run = LoggedRun::read(file)?;
+    run.warn(file);
+    Ok(run)
+}
+
+/// Runs `dima log ...`.
+pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
+    match args.command {
+        LogCommand::Info { file } => {
+            print!("{}", info::report(&open_log(&file)?));
+        }
+        LogCommand::Export {
+            file,
+            format,
+            output,
+            channel,
+            from,
+            to,
+        } => {
+            let run = open_log(&file)?;
+            let rows = export::rows(&run, channel, from, to);
+            match output {
+                Some(path) => {
+                    let f = std::fs::File::create(&path)
+                        .with_context(|| format!("cannot create {}", path.display()))?;
+                    let mut w = std::io::BufWriter::new(f);
+                    export::write(&rows, format, &mut w)?;
+                    w.flush()?;
+                }
+                None => export::write(&rows, format, &mut std::io::stdout().lock())?,
+            }
+        }
+        LogCommand::Plot {
+            file,
+            output,
+            what,
+            width,
+            height,
+        } => {
+            let run = open_log(&file)?;
+            plot::plot(&run, what, &output, (width.max(320), height.max(200)))?;
+            eprintln!("wrote {}", output.display());
+        }
+        LogCommand::Replay {
+            file,
+            config,
+            output,
+        } => return replay_command(&file, config.as_deref(), output.as_deref()),
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn replay_command(
+    file: &std::path::Path,
+    config: Option<&std::path::Path>,
+    output: Option<&std::path::Path>,
+) -> anyhow::Result<ExitCode> {
+    let run = open_log(file)?;
+    let config = match config {
+        Some(path) => dima_robot::config::load(path)?,
+        None => run
+            .config
+            .clone()
+            .context("the log has no configuration; give --config")?,
+    };
+    let result = replay::replay(&run, &config)?;
+    if let Some(path) = output {
+        replay::write_mcap(&run, &result, path)?;
+        eprintln!("wrote {}", path.display());
+    }
+    match &result.first_difference {
+        None => {
+            println!(
+                "identical: {} cycles replayed, modes and servo targets as recorded",
+                result.cycles.len()
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+        Some(d) => {
+            println!(
+                "differs: {} of {} cycles; first at cycle {} ({:.3} s): recorded {} {:?} µs, \
+                 replayed {} {:?} µs",
+                result.differing,
+                result.cycles.len(),
+                d.cycle,
+                d.t_s,
+                d.recorded.0,
+                d.recorded.1,
+                d.replayed.0,
+                d.replayed.1
+            );
+            Ok(ExitCode::from(1))
+        }
+    }
+}
+
+/// Runs `dima inspect ...`.
+pub fn inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
+    let bytes = match &args.file {
+        Some(path) => {
+            std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?
+        }
+        None => {
+            let mut v = Vec::new();
+            std::io::stdin().lock().read_to_end(&mut v)?;
+            v
+        }
+    };
+    let stats = inspect::inspect(args.link, &bytes, &mut std::io::stdout().lock())?;
+    eprintln!(
+        "frames {} errors {} skipped-bytes {}",
+        stats.frames, stats.errors, stats.skipped_bytes
+    );
+    Ok(ExitCode::SUCCESS)
+}
