@@ -17,7 +17,7 @@ use dima_groundlink::v2::{self, CommandFrame, FailsafeCause, Health, LinkKey, Ro
 use dima_groundlink::{Command, DisplayFrame, Percent};
 use dima_sensorboard::{nav_pvt, InfoFrame, NavPvt, SensorPacket, SensorStatus, Stm32Crc};
 
-/// The original ground station's heartbeat, byte for byte (DESIGN 2.2).
+/// The original ground station's heartbeat, byte for byte (docs/wire-formats.md, command frame v1).
 const HEARTBEAT: [u8; 10] = [0x24, 0x00, 0x00, 0x00, 0x00, 0x00, 0xC6, 0x22, 0xF7, 0x1D];
 
 /// BMP280 calibration registers 0x88..=0x9F, datasheet example.

@@ -19,7 +19,7 @@ fn dima() -> TargetEncoder<Micro6> {
     )
 }
 
-// DIMA design, Maestro section: throttle 1500 µs, steering 1840 µs, tail 2000 µs.
+// Targets of the DIMA car's three channels: throttle 1500 µs, steering 1840 µs, tail 2000 µs.
 #[test]
 fn dima_cycle_frame() {
     let ch = |n| Channel::new::<Micro6>(n).unwrap();

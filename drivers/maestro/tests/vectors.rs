@@ -167,7 +167,7 @@ fn command_bytes() {
     assert_eq!(&*acc, &[0x89, 0x00, 0x7F, 0x01]);
 }
 
-// DIMA design, Maestro section: throttle 1500 µs, steering 1840 µs, tail 2000 µs.
+// Targets of the DIMA car's three channels: throttle 1500 µs, steering 1840 µs, tail 2000 µs.
 #[test]
 fn dima_frames() {
     let t = |n, us| {

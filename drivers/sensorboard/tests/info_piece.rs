@@ -12,7 +12,8 @@ use dima_sensorboard::{
 use proptest::prelude::*;
 
 /// The sensor CRC computed by the `crc` crate's CRC-32/MPEG-2 over the stream in which every
-/// byte `b` becomes the word `00 00 00 b` (DESIGN 2.1), independently of this crate.
+/// byte `b` becomes the word `00 00 00 b` (as the board feeds its CRC unit), independently of
+/// this crate.
 fn independent_crc(bytes: &[u8]) -> u32 {
     let mpeg2 = crc::Crc::<u32>::new(&crc::CRC_32_MPEG_2);
     let mut digest = mpeg2.digest();

@@ -19,7 +19,7 @@ use embedded_hal_nb::serial::{Read, Write};
 use linux_embedded_hal::{Delay, Serial};
 use xbee_driver::{Address64, ApiMode, AtCommand, BaudRate, Parameter, Role, XBee};
 
-/// DIMA heartbeat command frame (design document, section 2.2).
+/// The DIMA ground link's heartbeat command frame (10 bytes, ground link v1).
 const HEARTBEAT: [u8; 10] = [0x24, 0x00, 0x00, 0x00, 0x00, 0x00, 0xC6, 0x22, 0xF7, 0x1D];
 
 fn parse_key(hex: &str) -> Result<[u8; 16], String> {

@@ -6,7 +6,7 @@ use xbee_driver::{Error, XBee};
 
 #[test]
 fn write_all_and_read_pass_through() {
-    // The DIMA heartbeat command frame (design document, section 2.2).
+    // The DIMA ground link's heartbeat command frame (10 bytes, ground link v1).
     let heartbeat = [0x24, 0x00, 0x00, 0x00, 0x00, 0x00, 0xC6, 0x22, 0xF7, 0x1D];
     let serial = SerialMock::new(&[
         Transaction::write_many(heartbeat),
