@@ -24,15 +24,17 @@ mod board;
 mod reset_record;
 
 use cortex_m_rt::entry;
+use dima_firmware_logic::reset_record::ResetReport;
 use dima_sensorboard::{PacketBuilder, SensorCrc, PACKET_LEN};
 use rtt_target::{rprintln, rtt_init_print};
 use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
-use stm32f4xx_hal::gpio::{Output, PartiallyErasedPin, PushPull};
+use stm32f4xx_hal::gpio::{self, gpioa, gpioe, Output, PartiallyErasedPin, PushPull};
 use stm32f4xx_hal::pac;
 use stm32f4xx_hal::prelude::*;
-use stm32f4xx_hal::rcc::Config;
+use stm32f4xx_hal::rcc::{Config, Rcc};
 use stm32f4xx_hal::serial::{self, config::StopBits};
 use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
+use stm32f4xx_hal::timer::SysDelay;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
 /// The DESIGN 2.1 vector: bytes 0x00..=0x7F, one zero-extended byte per 32-bit word.
@@ -102,11 +104,7 @@ fn main() -> ! {
     let (Some(dp), Some(cp)) = (pac::Peripherals::take(), cortex_m::Peripherals::take()) else {
         panic!("peripherals already taken");
     };
-    let csr = dp.RCC.csr().read();
-    let watchdog_flag = csr.wdgrstf().bit_is_set();
-    let record = reset_record::after_reset(csr.porrstf().bit_is_set(), watchdog_flag);
-    dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
-
+    let reset = read_reset_cause(&dp.RCC);
     let mut rcc = dp
         .RCC
         .freeze(Config::hse(board::HSE_HZ.Hz()).sysclk(board::SYSCLK_HZ.Hz()));
@@ -122,28 +120,95 @@ fn main() -> ! {
         failed: 0,
     };
 
-    // 1. The CRC unit against the DESIGN vector.
     let mut crc = HwCrc(stm32f4xx_hal::crc32::Crc32::new(dp.CRC, &mut rcc));
+    check_crc_unit(&mut report, &mut crc);
+    let gpioa = dp.GPIOA.split(&mut rcc);
+    let gpiob = dp.GPIOB.split(&mut rcc);
+    let gpiod = dp.GPIOD.split(&mut rcc);
+    let gpioe = dp.GPIOE.split(&mut rcc);
+    check_chip_ids(&mut report, dp.SPI1, gpioa, gpioe, &mut rcc, &mut delay);
+    check_dma_packet(
+        &mut report,
+        dp.USART3,
+        dp.DMA1,
+        gpiod.pd8,
+        &mut crc,
+        &mut rcc,
+        &mut delay,
+    );
+    check_gnss_bytes(&mut report, dp.USART1, gpiob.pb7, &mut rcc, &mut delay);
+    let second_boot = check_reset_record(&mut report, &reset);
+
+    rprintln!("{} passed, {} failed", report.passed, report.failed);
+
+    // The watchdog check's boot half: the first boot stops feeding (the board resets, the
+    // next boot reports it), the second feeds for ever.
+    let mut watchdog = IndependentWatchdog::new(dp.IWDG);
+    watchdog.start(board::WATCHDOG_MS.millis());
+    if second_boot {
+        rprintln!("watchdog check done: feeding the watchdog from now on");
+        loop {
+            watchdog.feed();
+            delay.delay_ms(10);
+        }
+    }
+    rprintln!(
+        "watchdog armed ({} ms) and not fed: the board resets, the next boot reports it",
+        board::WATCHDOG_MS
+    );
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Why this boot happened: RCC's reset flags, read before anything else and then cleared, and
+/// the reset record they update.
+struct ResetCause {
+    /// The watchdog reset the board (RCC_CSR `WDGRSTF`).
+    by_watchdog: bool,
+    /// What the reset record says (watchdog resets since power-on).
+    record: ResetReport,
+}
+
+/// Reads RCC's reset flags, updates the reset record with them and clears the flags.
+fn read_reset_cause(rcc: &pac::RCC) -> ResetCause {
+    let csr = rcc.csr().read();
+    let by_watchdog = csr.wdgrstf().bit_is_set();
+    let record = reset_record::after_reset(csr.porrstf().bit_is_set(), by_watchdog);
+    rcc.csr().modify(|_, w| w.rmvf().set_bit());
+    ResetCause {
+        by_watchdog,
+        record,
+    }
+}
+
+/// Check 1: the CRC unit against the DESIGN vector.
+fn check_crc_unit(report: &mut Report, crc: &mut HwCrc) {
     let ascending: [u8; 128] = core::array::from_fn(|i| i as u8);
     let value = crc.checksum(&ascending);
     report.check(
         value == CRC_VECTOR,
         format_args!("crc unit: bytes 0x00..=0x7F -> {value:#010x} (want {CRC_VECTOR:#010x})"),
     );
+}
 
-    // 2. Chip ids on SPI1 (mode 3), chip selects PE7..PE10.
-    let gpioa = dp.GPIOA.split(&mut rcc);
-    let gpiob = dp.GPIOB.split(&mut rcc);
-    let gpiod = dp.GPIOD.split(&mut rcc);
-    let gpioe = dp.GPIOE.split(&mut rcc);
-    let mut spi = dp.SPI1.spi(
+/// Check 2: the four chip ids on SPI1 (mode 3, PA5/PA6/PA7), chip selects PE7..PE10.
+fn check_chip_ids(
+    report: &mut Report,
+    spi1: pac::SPI1,
+    gpioa: gpioa::Parts,
+    gpioe: gpioe::Parts,
+    rcc: &mut Rcc,
+    delay: &mut SysDelay,
+) {
+    let mut spi = spi1.spi(
         (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
         Mode {
             polarity: Polarity::IdleHigh,
             phase: Phase::CaptureOnSecondTransition,
         },
         board::SPI_HZ.Hz(),
-        &mut rcc,
+        rcc,
     );
     let mut accel = select(gpioe.pe7.into_push_pull_output().erase_number());
     let mut gyro = select(gpioe.pe8.into_push_pull_output().erase_number());
@@ -164,103 +229,106 @@ fn main() -> ! {
             format_args!("chip id {name}: {id:02x?} (want {want:#04x})"),
         );
     }
+}
 
-    // 3. One 132-byte packet by DMA1 stream 3 to USART3 (PD8, the host link, 8N2).
+/// Check 3: one 132-byte packet by DMA1 stream 3 to USART3 (PD8, the host link, 8N2).
+fn check_dma_packet(
+    report: &mut Report,
+    usart3: pac::USART3,
+    dma1: pac::DMA1,
+    tx_pin: gpio::PD8,
+    crc: &mut HwCrc,
+    rcc: &mut Rcc,
+    delay: &mut SysDelay,
+) {
     let link_config = serial::Config::default()
         .baudrate(board::LINK_BAUD.bps())
         .stopbits(StopBits::STOP2)
         .dma(serial::config::DmaConfig::Tx);
-    match dp.USART3.tx(gpiod.pd8, link_config, &mut rcc) {
-        Ok(tx) => {
-            let Some(buffer) = cortex_m::singleton!(: [u8; PACKET_LEN] = [0; PACKET_LEN]) else {
-                panic!("packet buffer taken twice");
-            };
-            *buffer = *PacketBuilder::new().build(&mut crc);
-            let streams = StreamsTuple::new(dp.DMA1, &mut rcc);
-            let mut transfer = Transfer::init_memory_to_peripheral(
-                streams.3,
-                tx,
-                buffer,
-                None,
-                DmaConfig::default().memory_increment(true),
-            );
-            transfer.start(|_| {});
-            // 3.15 ms on the wire at 460 800 baud: allow 20 ms.
-            let mut waited_us = 0u32;
-            while !transfer.is_transfer_complete() && waited_us < 20_000 {
-                delay.delay_us(10);
-                waited_us += 10;
-            }
-            let done = transfer.is_transfer_complete();
-            let error = transfer.is_transfer_error();
-            report.check(
-                done && !error,
-                format_args!(
-                    "dma packet: 132 bytes on USART3 by DMA1 stream 3, complete after ~{waited_us} us \
-                     (3151 us on the wire), transfer error {error}"
-                ),
-            );
-        }
-        Err(_) => report.check(
+    let Ok(tx) = usart3.tx(tx_pin, link_config, rcc) else {
+        report.check(
             false,
             format_args!("dma packet: USART3 rejected its configuration"),
-        ),
+        );
+        return;
+    };
+    let Some(buffer) = cortex_m::singleton!(: [u8; PACKET_LEN] = [0; PACKET_LEN]) else {
+        panic!("packet buffer taken twice");
+    };
+    *buffer = *PacketBuilder::new().build(crc);
+    let streams = StreamsTuple::new(dma1, rcc);
+    let mut transfer = Transfer::init_memory_to_peripheral(
+        streams.3,
+        tx,
+        buffer,
+        None,
+        DmaConfig::default().memory_increment(true),
+    );
+    transfer.start(|_| {});
+    // 3.15 ms on the wire at 460 800 baud: allow 20 ms.
+    let mut waited_us = 0u32;
+    while !transfer.is_transfer_complete() && waited_us < 20_000 {
+        delay.delay_us(10);
+        waited_us += 10;
     }
+    let done = transfer.is_transfer_complete();
+    let error = transfer.is_transfer_error();
+    report.check(
+        done && !error,
+        format_args!(
+            "dma packet: 132 bytes on USART3 by DMA1 stream 3, complete after ~{waited_us} us \
+             (3151 us on the wire), transfer error {error}"
+        ),
+    );
+}
 
-    // 4. GNSS bytes on USART1 (PB7, 115 200 baud).
+/// Check 4: GNSS bytes on USART1 (PB7, 115 200 baud) within [`GNSS_LISTEN_MS`].
+fn check_gnss_bytes(
+    report: &mut Report,
+    usart1: pac::USART1,
+    rx_pin: gpio::PB7,
+    rcc: &mut Rcc,
+    delay: &mut SysDelay,
+) {
     let gnss_config = serial::Config::default().baudrate(board::GNSS_BAUD.bps());
-    match dp.USART1.rx(gpiob.pb7, gnss_config, &mut rcc) {
-        Ok(mut rx) => {
-            let (mut bytes, mut ubx_sync) = (0u32, 0u32);
-            let mut previous = 0u8;
-            for _ in 0..GNSS_LISTEN_MS * 100 {
-                while let Ok(byte) = embedded_hal_nb::serial::Read::read(&mut rx) {
-                    bytes += 1;
-                    ubx_sync += u32::from(previous == 0xB5 && byte == 0x62);
-                    previous = byte;
-                }
-                delay.delay_us(10);
-            }
-            report.check(
-                bytes > 0,
-                format_args!(
-                    "gnss: {bytes} bytes in {GNSS_LISTEN_MS} ms on USART1, {ubx_sync} UBX frame starts"
-                ),
-            );
-        }
-        Err(_) => report.check(
+    let Ok(mut rx) = usart1.rx(rx_pin, gnss_config, rcc) else {
+        report.check(
             false,
             format_args!("gnss: USART1 rejected its configuration"),
-        ),
+        );
+        return;
+    };
+    let (mut bytes, mut ubx_sync) = (0u32, 0u32);
+    let mut previous = 0u8;
+    for _ in 0..GNSS_LISTEN_MS * 100 {
+        while let Ok(byte) = embedded_hal_nb::serial::Read::read(&mut rx) {
+            bytes += 1;
+            ubx_sync += u32::from(previous == 0xB5 && byte == 0x62);
+            previous = byte;
+        }
+        delay.delay_us(10);
     }
-
-    // 5. The watchdog reset record (kept in `.uninit` RAM across resets, as the firmware does).
-    let second_boot = record.watchdog_resets > 0;
     report.check(
-        !watchdog_flag || second_boot,
+        bytes > 0,
+        format_args!(
+            "gnss: {bytes} bytes in {GNSS_LISTEN_MS} ms on USART1, {ubx_sync} UBX frame starts"
+        ),
+    );
+}
+
+/// Check 5: the watchdog reset record (kept in `.uninit` RAM across resets, as the firmware
+/// does). Returns whether this is the second boot of the watchdog check (a watchdog reset
+/// is on record).
+fn check_reset_record(report: &mut Report, reset: &ResetCause) -> bool {
+    let second_boot = reset.record.watchdog_resets > 0;
+    report.check(
+        !reset.by_watchdog || second_boot,
         format_args!(
             "reset record: watchdog resets since power-on {}, this boot by the watchdog {}",
-            record.watchdog_resets, watchdog_flag
+            reset.record.watchdog_resets, reset.by_watchdog
         ),
     );
-
-    rprintln!("{} passed, {} failed", report.passed, report.failed);
-    let mut watchdog = IndependentWatchdog::new(dp.IWDG);
-    watchdog.start(board::WATCHDOG_MS.millis());
-    if second_boot {
-        rprintln!("watchdog check done: feeding the watchdog from now on");
-        loop {
-            watchdog.feed();
-            delay.delay_ms(10);
-        }
-    }
-    rprintln!(
-        "watchdog armed ({} ms) and not fed: the board resets, the next boot reports it",
-        board::WATCHDOG_MS
-    );
-    loop {
-        cortex_m::asm::wfi();
-    }
+    second_boot
 }
 
 #[panic_handler]

@@ -8,23 +8,71 @@
 //!
 //! Under QEMU (`qemu` feature) DMA is not modelled: the receive-not-empty interrupt delivers
 //! one byte at a time.
+//!
+//! USART1 TX (PB6) carries only the configuration messages of `gnss_setup`.
+
+use crate::board::GNSS_BAUD;
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::serial;
 
 #[cfg(not(feature = "qemu"))]
-pub use self::dma::GnssRx;
+pub use self::dma::{set_up, GnssRx};
 #[cfg(feature = "qemu")]
-pub use self::interrupt::GnssRx;
+pub use self::interrupt::{set_up, GnssRx};
+
+/// USART1's settings: [`GNSS_BAUD`], the HAL's defaults otherwise (8N1).
+fn serial_config() -> serial::Config {
+    serial::Config::default().baudrate(GNSS_BAUD.bps())
+}
 
 #[cfg(not(feature = "qemu"))]
 mod dma {
+    use super::serial_config;
     use crate::board::GNSS_DMA_LEN;
-    use stm32f4xx_hal::dma::{DmaFlag, PeripheralToMemory, Stream2, Transfer};
+    use stm32f4xx_hal::dma::config::DmaConfig;
+    use stm32f4xx_hal::dma::{DmaFlag, PeripheralToMemory, Stream2, StreamsTuple, Transfer};
+    use stm32f4xx_hal::gpio::{PB6, PB7};
     use stm32f4xx_hal::pac::{DMA2, USART1};
     use stm32f4xx_hal::prelude::*;
-    use stm32f4xx_hal::serial::{Rx, RxISR};
+    use stm32f4xx_hal::rcc::Rcc;
+    use stm32f4xx_hal::serial::{self, config::InvalidConfig, Rx, RxISR, Tx};
 
     /// USART1 RX is DMA2 stream 2, channel 4.
     pub type RxTransfer =
         Transfer<Stream2<DMA2>, 4, Rx<USART1>, PeripheralToMemory, &'static mut [u8; GNSS_DMA_LEN]>;
+
+    /// Brings up USART1 on PB6 (TX) and PB7 (RX, DMA requests, idle-line interrupt), then
+    /// starts DMA2 stream 2 into the first buffer (interrupting when it is full); the second
+    /// is the spare. Returns the receiver and the transmitter. Fails if USART1 rejects its
+    /// settings.
+    pub fn set_up(
+        usart1: USART1,
+        dma2: DMA2,
+        pins: (PB6, PB7),
+        [first, spare]: [&'static mut [u8; GNSS_DMA_LEN]; 2],
+        rcc: &mut Rcc,
+    ) -> Result<(GnssRx, Tx<USART1>), InvalidConfig> {
+        let (tx, mut rx) = usart1
+            .serial(
+                pins,
+                serial_config().dma(serial::config::DmaConfig::Rx),
+                rcc,
+            )?
+            .split();
+        rx.listen_idle();
+        let streams = StreamsTuple::new(dma2, rcc);
+        let mut transfer = Transfer::init_peripheral_to_memory(
+            streams.2,
+            rx,
+            first,
+            None,
+            DmaConfig::default()
+                .memory_increment(true)
+                .transfer_complete_interrupt(true),
+        );
+        transfer.start(|_| {});
+        Ok((GnssRx::new(transfer, spare), tx))
+    }
 
     /// The DMA receiver with its spare buffer.
     pub struct GnssRx {
@@ -82,8 +130,28 @@ mod dma {
 
 #[cfg(feature = "qemu")]
 mod interrupt {
-    use stm32f4xx_hal::pac::USART1;
-    use stm32f4xx_hal::serial::Rx;
+    use super::serial_config;
+    use crate::board::GNSS_DMA_LEN;
+    use stm32f4xx_hal::gpio::{PB6, PB7};
+    use stm32f4xx_hal::pac::{DMA2, USART1};
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::rcc::Rcc;
+    use stm32f4xx_hal::serial::{config::InvalidConfig, Rx, Tx};
+
+    /// Brings up USART1 on PB6 (TX) and PB7 (RX, receive-not-empty interrupt). DMA2 and the
+    /// two DMA buffers stay unused: QEMU does not model DMA. Returns the receiver and the
+    /// transmitter. Fails if USART1 rejects its settings.
+    pub fn set_up(
+        usart1: USART1,
+        _dma2: DMA2,
+        pins: (PB6, PB7),
+        _buffers: [&'static mut [u8; GNSS_DMA_LEN]; 2],
+        rcc: &mut Rcc,
+    ) -> Result<(GnssRx, Tx<USART1>), InvalidConfig> {
+        let (tx, mut rx) = usart1.serial(pins, serial_config(), rcc)?.split();
+        rx.listen();
+        Ok((GnssRx::new(rx), tx))
+    }
 
     /// The interrupt-driven receiver used under QEMU.
     pub struct GnssRx {

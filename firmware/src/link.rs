@@ -3,25 +3,63 @@
 //!
 //! On the board the bytes go out by DMA (DMA1 stream 3, channel 4); the stream's interrupt
 //! runs `link_done`. Under QEMU (`qemu` feature) DMA is not modelled: the bytes are written one
-//! by one and the completion interrupt is pended by hand, so the same completion path runs.
+//! by one and the completion interrupt is pended by hand, so the same completion path runs, and
+//! bytes on USART3's receiver (PD9) stand in for the request edge.
 
+use crate::board::LINK_BAUD;
 use dima_firmware_logic::TxDma;
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::serial::{self, config::StopBits};
 
 #[cfg(feature = "qemu")]
-pub use self::blocking::LinkDma;
+pub use self::blocking::{set_up, LinkDma};
 #[cfg(not(feature = "qemu"))]
-pub use self::dma::LinkDma;
+pub use self::dma::{set_up, LinkDma};
 
 /// The link's transmit side.
 pub type Link = dima_firmware_logic::TxLink<LinkDma>;
 
+/// The link's buffers, each `'static`: the piece buffer the stream holds at start
+/// (`INFO_PIECE_LEN` bytes) and the two packet buffers (`PACKET_LEN` bytes each).
+pub struct Buffers {
+    /// The buffer the stream holds before the first transfer.
+    pub piece: &'static mut [u8],
+    /// First packet buffer.
+    pub packet_a: &'static mut [u8],
+    /// Second packet buffer.
+    pub packet_b: &'static mut [u8],
+}
+
+/// What [`set_up`] gives `init`.
+pub struct Parts {
+    /// The transmitter, idle.
+    pub link: Link,
+    /// Under QEMU: USART3's receiver, listening; each byte on it is a request.
+    #[cfg(feature = "qemu")]
+    pub host_rx: serial::Rx<stm32f4xx_hal::pac::USART3>,
+}
+
+/// USART3's settings: [`LINK_BAUD`], 8 data bits, no parity, 2 stop bits.
+fn serial_config() -> serial::Config {
+    serial::Config::default()
+        .baudrate(LINK_BAUD.bps())
+        .wordlength_8()
+        .parity_none()
+        .stopbits(StopBits::STOP2)
+}
+
 #[cfg(not(feature = "qemu"))]
 mod dma {
-    use super::TxDma;
-    use stm32f4xx_hal::dma::{DMAError, DmaFlag, MemoryToPeripheral, Stream3, Transfer};
+    use super::{serial_config, Buffers, Link, Parts, TxDma};
+    use stm32f4xx_hal::dma::config::DmaConfig;
+    use stm32f4xx_hal::dma::{
+        DMAError, DmaFlag, MemoryToPeripheral, Stream3, StreamsTuple, Transfer,
+    };
+    use stm32f4xx_hal::gpio::{PD8, PD9};
     use stm32f4xx_hal::pac::{DMA1, USART3};
     use stm32f4xx_hal::prelude::*;
-    use stm32f4xx_hal::serial::Tx;
+    use stm32f4xx_hal::rcc::Rcc;
+    use stm32f4xx_hal::serial::{self, config::InvalidConfig, Tx};
 
     /// USART3 TX is DMA1 stream 3, channel 4.
     pub type TxTransfer =
@@ -29,6 +67,37 @@ mod dma {
 
     /// DMA1 stream 3 with the buffer it holds.
     pub struct LinkDma(pub TxTransfer);
+
+    /// Brings up USART3's transmitter on PD8 with DMA requests, then DMA1 stream 3 (not
+    /// started) holding the piece buffer, interrupting on completion and on error. PD9 stays
+    /// unused: on the board requests come on PD10. Fails if USART3 rejects its settings.
+    pub fn set_up(
+        usart3: USART3,
+        dma1: DMA1,
+        (tx_pin, _rx_pin): (PD8, PD9),
+        buffers: Buffers,
+        rcc: &mut Rcc,
+    ) -> Result<Parts, InvalidConfig> {
+        let tx = usart3.tx(
+            tx_pin,
+            serial_config().dma(serial::config::DmaConfig::Tx),
+            rcc,
+        )?;
+        let streams = StreamsTuple::new(dma1, rcc);
+        let transfer = Transfer::init_memory_to_peripheral(
+            streams.3,
+            tx,
+            buffers.piece,
+            None,
+            DmaConfig::default()
+                .memory_increment(true)
+                .transfer_complete_interrupt(true)
+                .transfer_error_interrupt(true),
+        );
+        Ok(Parts {
+            link: Link::new(LinkDma(transfer), buffers.packet_a, buffers.packet_b),
+        })
+    }
 
     impl TxDma for LinkDma {
         type Buffer = &'static mut [u8];
@@ -66,9 +135,31 @@ mod dma {
 
 #[cfg(feature = "qemu")]
 mod blocking {
-    use super::TxDma;
-    use stm32f4xx_hal::pac::{Interrupt, USART3};
-    use stm32f4xx_hal::serial::Tx;
+    use super::{serial_config, Buffers, Link, Parts, TxDma};
+    use stm32f4xx_hal::gpio::{PD8, PD9};
+    use stm32f4xx_hal::pac::{Interrupt, DMA1, USART3};
+    use stm32f4xx_hal::prelude::*;
+    use stm32f4xx_hal::rcc::Rcc;
+    use stm32f4xx_hal::serial::{config::InvalidConfig, Tx};
+
+    /// Brings up USART3 on PD8 (transmit, blocking) and PD9 (receive, listening: a byte from
+    /// the host is a request). DMA1 stays unused: QEMU does not model it. Fails if USART3
+    /// rejects its settings.
+    pub fn set_up(
+        usart3: USART3,
+        _dma1: DMA1,
+        pins: (PD8, PD9),
+        buffers: Buffers,
+        rcc: &mut Rcc,
+    ) -> Result<Parts, InvalidConfig> {
+        let (tx, mut host_rx) = usart3.serial(pins, serial_config(), rcc)?.split();
+        host_rx.listen();
+        let dma = LinkDma::new(tx, buffers.piece);
+        Ok(Parts {
+            link: Link::new(dma, buffers.packet_a, buffers.packet_b),
+            host_rx,
+        })
+    }
 
     /// Blocking writes standing in for the DMA stream under QEMU.
     pub struct LinkDma {

@@ -28,6 +28,8 @@ mod gnss;
 mod hw_crc;
 mod link;
 mod reset_record;
+mod sensors;
+mod setup;
 
 use panic_halt as _;
 use rtic_monotonics::systick::prelude::*;
@@ -38,28 +40,26 @@ systick_monotonic!(Mono, board::MONO_HZ);
 mod app {
     use super::*;
     use crate::board::*;
-    use crate::delay::CycleDelay;
+    use crate::sensors::{SensorBus, Sensors};
+    use crate::setup::Crc;
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
     use dima_firmware_logic::reset_record::BootFault;
     use dima_firmware_logic::{
-        blink as led_pattern, CheckedCrc, GnssSetupOutcome, LatestPacket, LinkProgress, ReplyPort,
-        ReplyTap, SetupStatus, Supervisor, SupervisorConfig,
+        blink as led_pattern, GnssSetupOutcome, LatestPacket, LinkProgress, ReplyPort, ReplyTap,
+        SetupStatus, Supervisor, SupervisorConfig,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::{
         BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN, INFO_PIECE_LEN,
-        INFO_SNAPSHOT_MS, INFO_VERSION, PACKET_LEN,
+        INFO_SNAPSHOT_MS, PACKET_LEN,
     };
-    use embedded_hal_bus::spi::AtomicDevice;
     use embedded_hal_bus::util::AtomicCell;
-    use stm32f4xx_hal::gpio::{self, Edge, Input, Output, PushPull};
-    use stm32f4xx_hal::pac::{self, SPI1, TIM2};
+    use stm32f4xx_hal::gpio::{self, Input, Output, PushPull};
+    use stm32f4xx_hal::pac::{self, TIM2};
     use stm32f4xx_hal::prelude::*;
-    use stm32f4xx_hal::rcc::Config;
-    use stm32f4xx_hal::serial::{self, config::StopBits};
-    use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
-    use stm32f4xx_hal::timer::{CounterHz, Event, Flag};
+    use stm32f4xx_hal::serial;
+    use stm32f4xx_hal::timer::{CounterHz, Flag};
     use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
     /// Set once the first checksum-valid NAV-PVT frame has arrived (info frame status bit 4).
@@ -104,21 +104,6 @@ mod app {
     /// Received bytes the configurator's reply queue had no room for.
     static GNSS_REPLY_DROPPED: AtomicU32 = AtomicU32::new(0);
 
-    /// SPI1, shared by the four chip selects.
-    type SensorBus = Spi<SPI1>;
-    /// A chip select on port E, its pin number kept at run time: the four devices share one
-    /// type, so their driver code exists once in flash instead of four times.
-    type ChipSelect = gpio::PartiallyErasedPin<'E', Output<PushPull>>;
-    /// One sensor die on SPI1 behind its chip select on port E.
-    pub type SensorSpi = AtomicDevice<'static, SensorBus, ChipSelect, CycleDelay>;
-
-    /// The CRC unit if it passed its boot-time self-check, else the small software CRC.
-    /// (QEMU does not model the unit: there the check fails and the fallback runs.)
-    type Crc = CheckedCrc<crate::hw_crc::HwCrc>;
-
-    /// The sensors, one SPI device per die.
-    pub type Sensors = dima_firmware_logic::Sensors<SensorSpi, SensorSpi, SensorSpi, SensorSpi>;
-
     /// Everything the sampling tick owns: the back half of the packet double buffer.
     pub struct Sampler {
         timer: CounterHz<TIM2>,
@@ -136,6 +121,34 @@ mod app {
         supervisor: Supervisor,
         /// The supervisor's latest word on the receiver (info frame status bit 7).
         gnss_silent: bool,
+    }
+
+    impl Sampler {
+        /// The sampling tick's state at boot: a fresh schedule at [`SAMPLE_RATE_HZ`], an
+        /// empty packet, no snapshot taken yet, the receiver not (yet) silent.
+        fn new(
+            timer: CounterHz<TIM2>,
+            watchdog: IndependentWatchdog,
+            crc: Crc,
+            sensors: Sensors,
+            info: InfoFrame,
+        ) -> Self {
+            Self {
+                timer,
+                watchdog,
+                schedule: Schedule::new(ScheduleConfig {
+                    period_us: 1_000_000 / SAMPLE_RATE_HZ,
+                    ..ScheduleConfig::DEFAULT
+                }),
+                builder: PacketBuilder::new(),
+                crc,
+                sensors,
+                info,
+                snapshot: 0,
+                supervisor: Supervisor::new(SUPERVISOR),
+                gnss_silent: false,
+            }
+        }
     }
 
     /// The supervisor's thresholds at `SAMPLE_RATE_HZ`: the link is stuck after 20 ms of
@@ -162,6 +175,14 @@ mod app {
     pub struct GnssLatest {
         frame: [u8; GNSS_FRAME_LEN],
         fresh: bool,
+    }
+
+    impl GnssLatest {
+        /// No frame yet.
+        const NONE: Self = Self {
+            frame: [0; GNSS_FRAME_LEN],
+            fresh: false,
+        };
     }
 
     #[shared]
@@ -199,300 +220,81 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut dp = cx.device;
+        let mut core = cx.core;
 
-        // Why did we reset? Read the flags before anything else, then clear them.
-        let csr = dp.RCC.csr().read();
-        let watchdog_reset = csr.wdgrstf().bit_is_set();
-        let reset_report =
-            crate::reset_record::after_reset(csr.porrstf().bit_is_set(), watchdog_reset);
-        if let Some(cause) = reset_report.boot_fault {
+        let reset = setup::reset_cause(&dp.RCC);
+        if let Some(cause) = reset.report.boot_fault {
             BOOT_FAULT.store(cause as u8, Ordering::Relaxed);
         }
-        dp.RCC.csr().modify(|_, w| w.rmvf().set_bit());
-
-        // QEMU models no RCC: HSE and PLL would never report ready there.
-        #[cfg(not(feature = "qemu"))]
-        let clock_config = Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz());
-        #[cfg(feature = "qemu")]
-        let clock_config = Config::hsi();
-        let mut rcc = dp.RCC.freeze(clock_config);
+        let mut rcc = dp.RCC.freeze(setup::clock_config());
         let sysclk_hz = rcc.clocks.sysclk().raw();
-        // QEMU's netduinoplus2 clocks the core at a fixed 168 MHz whatever RCC says.
-        let mut core = cx.core;
-        // SysTick (the monotonic's tick) runs below the link tasks, so it can never hold off a
-        // request edge; it stays above sampling so a long tick cannot lose a counter wrap.
-        set_systick_priority(&mut core.SCB, SYSTICK_PRIORITY);
-        #[cfg(not(feature = "qemu"))]
-        Mono::start(core.SYST, sysclk_hz);
-        #[cfg(feature = "qemu")]
-        Mono::start(core.SYST, QEMU_CORE_HZ);
+        setup::start_monotonic(&mut core.SCB, core.SYST, sysclk_hz);
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
         let gpiod = dp.GPIOD.split(&mut rcc);
         let gpioe = dp.GPIOE.split(&mut rcc);
 
-        // SPI1 mode 3, one device per chip select (high = deselected).
-        let mode = Mode {
-            polarity: Polarity::IdleHigh,
-            phase: Phase::CaptureOnSecondTransition,
-        };
-        let spi = dp.SPI1.spi(
-            (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
-            mode,
-            SPI_HZ.Hz(),
+        let (sensors, sensor_report) = sensors::set_up(
+            dp.SPI1,
+            gpioa,
+            gpioe,
+            cx.local.spi_cell,
             &mut rcc,
+            sysclk_hz,
         );
-        let bus: &'static AtomicCell<SensorBus> = cx.local.spi_cell.insert(AtomicCell::new(spi));
-        let mut delay = CycleDelay::new(sysclk_hz);
-        let (sensors, report) = Sensors::init(
-            spi_device(bus, gpioe.pe7.into_push_pull_output(), delay),
-            spi_device(bus, gpioe.pe8.into_push_pull_output(), delay),
-            spi_device(bus, gpioe.pe9.into_push_pull_output(), delay),
-            spi_device(bus, gpioe.pe10.into_push_pull_output(), delay),
-            &mut delay,
-        );
-
-        // Link to the host: USART3 TX on PD8, 8N2.
-        let link_config = serial::Config::default()
-            .baudrate(LINK_BAUD.bps())
-            .wordlength_8()
-            .parity_none()
-            .stopbits(StopBits::STOP2);
-        #[cfg(not(feature = "qemu"))]
-        let link = {
-            use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
-            let tx = dp
-                .USART3
-                .tx(
-                    gpiod.pd8,
-                    link_config.dma(serial::config::DmaConfig::Tx),
-                    &mut rcc,
-                )
-                .unwrap_or_else(|_| fault(BootFault::LinkSerial));
-            let streams = StreamsTuple::new(dp.DMA1, &mut rcc);
-            let piece_buffer: &'static mut [u8] = cx.local.piece_buffer;
-            let transfer = Transfer::init_memory_to_peripheral(
-                streams.3,
-                tx,
-                piece_buffer,
-                None,
-                DmaConfig::default()
-                    .memory_increment(true)
-                    .transfer_complete_interrupt(true)
-                    .transfer_error_interrupt(true),
-            );
-            link::Link::new(
-                link::LinkDma(transfer),
-                cx.local.packet_a,
-                cx.local.packet_b,
-            )
+        let link_buffers = link::Buffers {
+            piece: cx.local.piece_buffer,
+            packet_a: cx.local.packet_a,
+            packet_b: cx.local.packet_b,
         };
-        // Under QEMU a byte on USART3's receive side stands in for the request edge.
-        #[cfg(feature = "qemu")]
-        let (link, host_rx) = {
-            let serial = dp
-                .USART3
-                .serial((gpiod.pd8, gpiod.pd9), link_config, &mut rcc)
-                .unwrap_or_else(|_| fault(BootFault::LinkSerial));
-            let (tx, mut rx) = serial.split();
-            rx.listen();
-            let dma = link::LinkDma::new(tx, cx.local.piece_buffer);
-            let link = link::Link::new(dma, cx.local.packet_a, cx.local.packet_b);
-            (link, rx)
-        };
-
-        // GNSS: USART1 RX on PB7, TX on PB6 (configuration messages only).
-        let gnss_config = serial::Config::default().baudrate(GNSS_BAUD.bps());
-        #[cfg(not(feature = "qemu"))]
-        let (gnss_rx, gnss_tx) = {
-            use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
-            let (gnss_tx, mut rx) = dp
-                .USART1
-                .serial(
-                    (gpiob.pb6, gpiob.pb7),
-                    gnss_config.dma(serial::config::DmaConfig::Rx),
-                    &mut rcc,
-                )
-                .unwrap_or_else(|_| fault(BootFault::GnssSerial))
-                .split();
-            rx.listen_idle();
-            let streams = StreamsTuple::new(dp.DMA2, &mut rcc);
-            let mut transfer = Transfer::init_peripheral_to_memory(
-                streams.2,
-                rx,
-                cx.local.gnss_a,
-                None,
-                DmaConfig::default()
-                    .memory_increment(true)
-                    .transfer_complete_interrupt(true),
-            );
-            transfer.start(|_| {});
-            (gnss::GnssRx::new(transfer, cx.local.gnss_b), gnss_tx)
-        };
-        #[cfg(feature = "qemu")]
-        let (gnss_rx, gnss_tx) = {
-            let _ = (cx.local.gnss_a, cx.local.gnss_b);
-            let (gnss_tx, mut rx) = dp
-                .USART1
-                .serial((gpiob.pb6, gpiob.pb7), gnss_config, &mut rcc)
-                .unwrap_or_else(|_| fault(BootFault::GnssSerial))
-                .split();
-            rx.listen();
-            (gnss::GnssRx::new(rx), gnss_tx)
-        };
+        let link = link::set_up(
+            dp.USART3,
+            dp.DMA1,
+            (gpiod.pd8, gpiod.pd9),
+            link_buffers,
+            &mut rcc,
+        )
+        .unwrap_or_else(|_| setup::fault(BootFault::LinkSerial));
+        let (gnss_rx, gnss_tx) = gnss::set_up(
+            dp.USART1,
+            dp.DMA2,
+            (gpiob.pb6, gpiob.pb7),
+            [cx.local.gnss_a, cx.local.gnss_b],
+            &mut rcc,
+        )
+        .unwrap_or_else(|_| setup::fault(BootFault::GnssSerial));
         let (reply_producer, reply_consumer) = cx.local.gnss_replies.split();
-
-        // Request line: PD10, rising edge.
-        let mut syscfg = dp.SYSCFG.constrain(&mut rcc);
-        let mut request_pin = gpiod.pd10.into_pull_down_input();
-        request_pin.make_interrupt_source(&mut syscfg);
-        request_pin.trigger_on_edge(&mut dp.EXTI, Edge::Rising);
-        request_pin.enable_interrupt(&mut dp.EXTI);
-
-        // The sampling tick, and the watchdog it feeds.
-        let mut timer = dp.TIM2.counter_hz(&mut rcc);
-        // The HAL sets the prescalers for its idea of the timer clock; QEMU runs the timer at
-        // a fixed 1 GHz, so ask for a rate that lands on SAMPLE_RATE_HZ there.
-        #[cfg(not(feature = "qemu"))]
-        let tick_request_hz = SAMPLE_RATE_HZ;
-        #[cfg(feature = "qemu")]
-        let tick_request_hz =
-            (u64::from(SAMPLE_RATE_HZ) * u64::from(HSI_HZ) / u64::from(QEMU_TIMER_HZ)) as u32;
-        timer
-            .start(tick_request_hz.Hz())
-            .unwrap_or_else(|_| fault(BootFault::SampleTimer));
-        timer.listen(Event::Update);
-        let mut watchdog = IndependentWatchdog::new(dp.IWDG);
-        watchdog.start(WATCHDOG_MS.millis());
-
-        let crc = CheckedCrc::check(crate::hw_crc::HwCrc(stm32f4xx_hal::crc32::Crc32::new(
-            dp.CRC, &mut rcc,
-        )));
-
-        let mut status = report.status;
-        status.set(SensorStatus::WATCHDOG_RESET, watchdog_reset);
-        status.set(SensorStatus::CRC_UNIT_FAILED, !crc.unit_ok());
-        let info = InfoFrame {
-            version: INFO_VERSION,
-            firmware: FIRMWARE_VERSION,
-            status,
-            bmp280_calibration: report.bmp280_calibration,
-            bmm150_trim: report.bmm150_trim,
-            uptime_ms: 0,
-            requests_skipped: 0,
-            health: BoardHealth {
-                watchdog_resets: reset_report.watchdog_resets,
-                ..BoardHealth::default()
-            },
-        };
+        let request_pin = setup::request_line(dp.SYSCFG, &mut dp.EXTI, gpiod.pd10, &mut rcc);
+        let timer = setup::sample_timer(dp.TIM2, &mut rcc)
+            .unwrap_or_else(|_| setup::fault(BootFault::SampleTimer));
+        let watchdog = setup::watchdog(dp.IWDG);
+        let crc = setup::crc(dp.CRC, &mut rcc);
+        let info = setup::boot_info(&sensor_report, &reset, crc.unit_ok());
 
         let led = gpiod.pd12.into_push_pull_output();
-        status_led::spawn(status.bits()).ok();
+        status_led::spawn(info.status.bits()).ok();
         gnss_setup::spawn().ok();
-
-        // The exception priorities as the core holds them (QEMU models SCB and NVIC), for the
-        // smoke test: SysTick must be below the request interrupt (a larger value).
-        #[cfg(feature = "qemu")]
-        cortex_m_semihosting::hprintln!(
-            "priorities: systick {:#04x}, request {:#04x}",
-            cortex_m::peripheral::SCB::get_priority(
-                cortex_m::peripheral::scb::SystemHandler::SysTick
-            ),
-            cortex_m::peripheral::NVIC::get_priority(pac::Interrupt::EXTI15_10)
-        );
-        #[cfg(feature = "qemu")]
-        cortex_m_semihosting::hprintln!("ready");
+        setup::announce_ready();
 
         (
             Shared {
                 latest: LatestPacket::new(),
-                link,
-                gnss_latest: GnssLatest {
-                    frame: [0; GNSS_FRAME_LEN],
-                    fresh: false,
-                },
+                link: link.link,
+                gnss_latest: GnssLatest::NONE,
             },
             Local {
                 request_pin,
-                sampler: Sampler {
-                    timer,
-                    watchdog,
-                    schedule: Schedule::new(ScheduleConfig {
-                        period_us: 1_000_000 / SAMPLE_RATE_HZ,
-                        ..ScheduleConfig::DEFAULT
-                    }),
-                    builder: PacketBuilder::new(),
-                    crc,
-                    sensors,
-                    info,
-                    snapshot: 0,
-                    supervisor: Supervisor::new(SUPERVISOR),
-                    gnss_silent: false,
-                },
+                sampler: Sampler::new(timer, watchdog, crc, sensors, info),
                 gnss_rx,
                 reader: GnssReader::with_capacity(),
                 reply_tap: ReplyTap::new(reply_producer),
                 gnss_port: ReplyPort::new(gnss_tx, reply_consumer),
                 led,
                 #[cfg(feature = "qemu")]
-                host_rx,
+                host_rx: link.host_rx,
             },
         )
-    }
-
-    /// RTIC priority of the SysTick exception: below `request` and `link_done` (3), equal to
-    /// the GNSS tasks (2), above sampling (1).
-    const SYSTICK_PRIORITY: u8 = 2;
-
-    /// Sets SysTick's exception priority to the RTIC (logical) priority `logical`.
-    fn set_systick_priority(scb: &mut cortex_m::peripheral::SCB, logical: u8) {
-        use cortex_m::peripheral::scb::SystemHandler;
-        // RTIC's mapping: logical 1 is the lowest hardware level, higher numbers preempt.
-        let hardware = ((1u8 << pac::NVIC_PRIO_BITS) - logical) << (8 - pac::NVIC_PRIO_BITS);
-        // SAFETY: called from `init` with interrupts disabled; no RTIC lock depends on
-        // SysTick's priority (its handler only runs the monotonic's timer queue).
-        #[allow(unsafe_code)]
-        unsafe {
-            scb.set_priority(SystemHandler::SysTick, hardware)
-        };
-    }
-
-    /// One SPI device on the shared bus; the chip select starts high (deselected).
-    fn spi_device<const N: u8>(
-        bus: &'static AtomicCell<SensorBus>,
-        cs: gpio::Pin<'E', N, Output<PushPull>>,
-        delay: CycleDelay,
-    ) -> SensorSpi {
-        match AtomicDevice::new(bus, cs.erase_number(), delay) {
-            Ok(device) => device,
-            Err(never) => match never {},
-        }
-    }
-
-    /// A configuration the hardware rejected at boot: record the cause for the next boot and
-    /// let the watchdog reset the board.
-    ///
-    /// Starting the IWDG with its reset values (prescaler /4, reload 0xFFF) gives a reset
-    /// after 4096 × 4 LSI periods: 512 ms at the nominal 32 kHz, 350-960 ms over the LSI's
-    /// 17-47 kHz range. If `init` already started it, the start key changes nothing. The next
-    /// boot sees a watchdog reset (status bit 5, `watchdog_resets`) and the cause in the
-    /// reset record (`BOOT_FAULT`). QEMU models no IWDG: there this waits for ever.
-    fn fault(cause: BootFault) -> ! {
-        /// The IWDG key register's start key (RM0090 19.4.1).
-        const KEY_START: u16 = 0xCCCC;
-        crate::reset_record::record_fault(cause);
-        // SAFETY: the key register is write-only and nothing else writes it during `init`
-        // (the `IndependentWatchdog` is created after every call of `fault`); the start key
-        // only starts the counter (a running watchdog stays as it is). `fault` never
-        // returns, so nothing relies on the watchdog being stopped afterwards.
-        #[allow(unsafe_code)]
-        unsafe {
-            (*pac::IWDG::ptr()).kr().write(|w| w.key().bits(KEY_START))
-        };
-        loop {
-            cortex_m::asm::wfi();
-        }
     }
 
     /// A request edge: start the answer and return.

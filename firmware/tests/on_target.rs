@@ -47,8 +47,26 @@ fn main() -> ! {
         passed: 0,
         failed: 0,
     };
+    crc_vectors(&mut checks);
+    crc_fallback_and_self_check(&mut checks);
+    request_state_machine(&mut checks);
+    sampling_schedule(&mut checks);
+    packet_round_trip(&mut checks);
+    info_frame_round_trips(&mut checks);
 
-    // Sensor CRC vectors (DESIGN 2.1 / shared vectors: STM32 CRC unit, one byte per word).
+    hprintln!("{} passed, {} failed", checks.passed, checks.failed);
+    if checks.failed == 0 {
+        debug::exit(debug::EXIT_SUCCESS);
+    } else {
+        debug::exit(debug::EXIT_FAILURE);
+    }
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
+
+/// Sensor CRC vectors (the shared vectors: STM32 CRC unit, one byte per word).
+fn crc_vectors(checks: &mut Checks) {
     let ascending: [u8; 128] = core::array::from_fn(|i| i as u8);
     checks.check(
         Stm32Crc::compute(&ascending) == 0x6557_DE1A,
@@ -58,7 +76,13 @@ fn main() -> ! {
         Stm32Crc::compute(&[0u8; 128]) == 0xE151_AAB2,
         "CRC of 128 zero bytes is 0xE151AAB2",
     );
+}
 
+/// The software fallback of the CRC unit, and the boot self-check that selects it: QEMU has
+/// no CRC unit, so the check runs here against the table CRC standing in for a working unit
+/// and against a unit that reads zero, like QEMU's.
+fn crc_fallback_and_self_check(checks: &mut Checks) {
+    let ascending: [u8; 128] = core::array::from_fn(|i| i as u8);
     // The software fallback of the CRC unit, and the boot self-check that selects it: QEMU
     // has no CRC unit, so the check runs here against the table CRC standing in for a working
     // unit and against a unit that reads zero, like QEMU's.
@@ -82,8 +106,10 @@ fn main() -> ! {
         !dead.unit_ok() && dead.checksum(&ascending) == 0x6557_DE1A,
         "self-check replaces a unit that reads zero by the fallback",
     );
+}
 
-    // Request state machine.
+/// The request state machine: no packet yet, skips, a piece behind each packet, restarts.
+fn request_state_machine(checks: &mut Checks) {
     let mut handler = RequestHandler::new();
     checks.check(
         handler.on_request(0, false) == Answer::NotReady,
@@ -117,8 +143,10 @@ fn main() -> ! {
         handler.on_transfer_complete() == AfterTransfer::SendPiece { restart: true },
         "a pause of 500 ms starts the snapshot again",
     );
+}
 
-    // Sampling schedule.
+/// The sampling schedule's first two ticks.
+fn sampling_schedule(checks: &mut Checks) {
     let mut schedule = Schedule::new(ScheduleConfig::DEFAULT);
     let first = schedule.next_tick();
     let second = schedule.next_tick();
@@ -130,8 +158,10 @@ fn main() -> ! {
         second.mag == MagAction::Poll && !second.read_baro,
         "tick 1: magnetometer poll, no baro",
     );
+}
 
-    // A packet through the builder and the decoder.
+/// A packet through the builder and the decoder.
+fn packet_round_trip(checks: &mut Checks) {
     let mut builder = PacketBuilder::new();
     builder
         .gyro_registers([0x11, 0x22, 0x33, 0x44, 0x55, 0x66])
@@ -142,8 +172,11 @@ fn main() -> ! {
         decoded.is_ok_and(|p| p.gyro == [0x2211, 0x4433, 0x6655]),
         "packet round trip through PacketBuilder and SensorPacket::decode",
     );
+}
 
-    // An info frame through encoder and decoder.
+/// An info frame through encoder and decoder: version 1, version 2 with health (CRC from the
+/// fallback), and version 2 cut into nine pieces through the stream decoder.
+fn info_frame_round_trips(checks: &mut Checks) {
     let info = InfoFrame {
         version: 1,
         firmware: [0, 1, 0],
@@ -189,16 +222,6 @@ fn main() -> ! {
         records == 1 && decoder.stats().info_pieces == 9,
         "info pieces reassemble into the v2 frame (9 x 21 bytes)",
     );
-
-    hprintln!("{} passed, {} failed", checks.passed, checks.failed);
-    if checks.failed == 0 {
-        debug::exit(debug::EXIT_SUCCESS);
-    } else {
-        debug::exit(debug::EXIT_FAILURE);
-    }
-    loop {
-        cortex_m::asm::wfi();
-    }
 }
 
 #[panic_handler]

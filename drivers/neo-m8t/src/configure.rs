@@ -14,6 +14,7 @@ use crate::frame::{Frame, UbxFramer};
 use crate::int_commands;
 use crate::interface::{read_byte, Received};
 use crate::version::ReceiverVersion;
+use core::ops::ControlFlow;
 use embedded_hal::delay::DelayNs;
 use embedded_hal_nb::serial::{Read, Write};
 use ublox::proto23::PacketRef;
@@ -250,116 +251,178 @@ impl<const N: usize> Configurator<N> {
     where
         S: Read<u8> + Write<u8>,
     {
-        // Each arm either returns or moves to a later phase, so this ends in a few rounds.
+        // Each phase either answers the caller or moves to a later phase, so this ends in a
+        // few rounds.
         for _ in 0..8 {
-            match self.phase {
-                Phase::Start => {
-                    match self.command() {
-                        Some(command) => self.tx = command,
-                        None => {
-                            self.step = Step::Done;
-                            return Ok(Progress::Done);
-                        }
-                    }
-                    self.tx_pos = 0;
-                    self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
-                    self.phase = Phase::Sending;
-                }
-                Phase::Sending | Phase::SwitchedSending => {
-                    if !self.write_pending(serial)? {
-                        // A transmitter that never drains is a timeout too.
-                        return if expired(now_ms, self.deadline_ms) {
-                            Err(self.timeout_error())
-                        } else {
-                            Ok(Progress::Pending)
-                        };
-                    }
-                    self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
-                    self.phase = if self.phase == Phase::SwitchedSending {
-                        Phase::SwitchedAwaiting
-                    } else if self.step == Step::Port && self.config.baud_rate != self.baud_rate {
-                        Phase::Flushing
-                    } else {
-                        Phase::Awaiting
-                    };
-                }
-                Phase::Flushing => {
-                    match serial.flush() {
-                        Ok(()) => {}
-                        Err(nb::Error::WouldBlock) if expired(now_ms, self.deadline_ms) => {
-                            return Err(self.timeout_error())
-                        }
-                        Err(nb::Error::WouldBlock) => return Ok(Progress::Pending),
-                        Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
-                    }
-                    self.previous_baud_rate = self.baud_rate;
-                    self.baud_rate = self.config.baud_rate;
-                    self.framer.clear();
-                    self.tx = commands::poll_cfg_prt_uart1();
-                    self.tx_pos = 0;
-                    self.deadline_ms = now_ms.wrapping_add(self.settle_ms);
-                    self.phase = Phase::Settling;
-                    return Ok(Progress::SetBaudRate(self.baud_rate));
-                }
-                Phase::Settling => {
-                    match self.receive(serial)? {
-                        Outcome::Advance => {
-                            self.advance();
-                            continue;
-                        }
-                        Outcome::Nak { class, id } => {
-                            return Err(self.port_change_rejected(class, id))
-                        }
-                        Outcome::None => {}
-                    }
-                    if !expired(now_ms, self.deadline_ms) {
-                        return Ok(Progress::Pending);
-                    }
-                    self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
-                    self.phase = Phase::SwitchedSending;
-                }
-                Phase::Awaiting | Phase::SwitchedAwaiting => {
-                    match self.receive(serial)? {
-                        Outcome::Advance => {
-                            self.advance();
-                            continue;
-                        }
-                        Outcome::Nak { class, id } if self.phase == Phase::SwitchedAwaiting => {
-                            return Err(self.port_change_rejected(class, id))
-                        }
-                        Outcome::Nak { class, id } => {
-                            return Err(Error::Device(crate::error::DeviceError::Nak { class, id }))
-                        }
-                        Outcome::None => {}
-                    }
-                    if !expired(now_ms, self.deadline_ms) {
-                        return Ok(Progress::Pending);
-                    }
-                    self.attempt = self.attempt.saturating_add(1);
-                    let switched = self.phase == Phase::SwitchedAwaiting;
-                    if self.attempt > self.max_retries {
-                        return Err(if switched {
-                            Error::Device(crate::error::DeviceError::BaudSwitchFailed {
-                                baud_rate: self.config.baud_rate,
-                            })
-                        } else {
-                            self.timeout_error()
-                        });
-                    }
-                    self.retries = self.retries.wrapping_add(1);
-                    self.phase = Phase::Start;
-                    // A false candidate (noise with a sync pair and a long length) would
-                    // otherwise hold back the answer to the resend.
-                    self.framer.clear();
-                    if switched {
-                        // Back to the old rate, and send CFG-PRT again from there.
-                        self.baud_rate = self.previous_baud_rate;
-                        return Ok(Progress::SetBaudRate(self.baud_rate));
-                    }
-                }
+            let round = match self.phase {
+                Phase::Start => self.start_step(now_ms),
+                Phase::Sending | Phase::SwitchedSending => self.send(serial, now_ms)?,
+                Phase::Flushing => self.flush_then_switch(serial, now_ms)?,
+                Phase::Settling => self.settle(serial, now_ms)?,
+                Phase::Awaiting | Phase::SwitchedAwaiting => self.await_reply(serial, now_ms)?,
+            };
+            if let ControlFlow::Break(progress) = round {
+                return Ok(progress);
             }
         }
         Ok(Progress::Pending)
+    }
+
+    /// [`Phase::Start`]: builds the current step's command and starts sending it, or, past
+    /// the last step, reports [`Progress::Done`].
+    fn start_step(&mut self, now_ms: u32) -> ControlFlow<Progress> {
+        match self.command() {
+            Some(command) => self.tx = command,
+            None => {
+                self.step = Step::Done;
+                return ControlFlow::Break(Progress::Done);
+            }
+        }
+        self.tx_pos = 0;
+        self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
+        self.phase = Phase::Sending;
+        ControlFlow::Continue(())
+    }
+
+    /// [`Phase::Sending`] and [`Phase::SwitchedSending`]: writes what the port takes; once
+    /// all of `tx` is out, waits for the answer, or first for the port change to leave the
+    /// host UART.
+    fn send<S>(
+        &mut self,
+        serial: &mut S,
+        now_ms: u32,
+    ) -> Result<ControlFlow<Progress>, Error<S::Error>>
+    where
+        S: Write<u8>,
+    {
+        if !self.write_pending(serial)? {
+            // A transmitter that never drains is a timeout too.
+            return if expired(now_ms, self.deadline_ms) {
+                Err(self.timeout_error())
+            } else {
+                Ok(ControlFlow::Break(Progress::Pending))
+            };
+        }
+        self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
+        self.phase = if self.phase == Phase::SwitchedSending {
+            Phase::SwitchedAwaiting
+        } else if self.step == Step::Port && self.config.baud_rate != self.baud_rate {
+            Phase::Flushing
+        } else {
+            Phase::Awaiting
+        };
+        Ok(ControlFlow::Continue(()))
+    }
+
+    /// [`Phase::Flushing`]: once CFG-PRT has left the host UART, asks the caller to switch
+    /// to the new baud rate and lets the receiver settle there.
+    fn flush_then_switch<S>(
+        &mut self,
+        serial: &mut S,
+        now_ms: u32,
+    ) -> Result<ControlFlow<Progress>, Error<S::Error>>
+    where
+        S: Write<u8>,
+    {
+        match serial.flush() {
+            Ok(()) => {}
+            Err(nb::Error::WouldBlock) if expired(now_ms, self.deadline_ms) => {
+                return Err(self.timeout_error())
+            }
+            Err(nb::Error::WouldBlock) => return Ok(ControlFlow::Break(Progress::Pending)),
+            Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
+        }
+        self.previous_baud_rate = self.baud_rate;
+        self.baud_rate = self.config.baud_rate;
+        self.framer.clear();
+        self.tx = commands::poll_cfg_prt_uart1();
+        self.tx_pos = 0;
+        self.deadline_ms = now_ms.wrapping_add(self.settle_ms);
+        self.phase = Phase::Settling;
+        Ok(ControlFlow::Break(Progress::SetBaudRate(self.baud_rate)))
+    }
+
+    /// [`Phase::Settling`]: any valid frame at the new rate confirms the switch; after
+    /// `settle_ms` without one, polls CFG-PRT at the new rate.
+    fn settle<S>(
+        &mut self,
+        serial: &mut S,
+        now_ms: u32,
+    ) -> Result<ControlFlow<Progress>, Error<S::Error>>
+    where
+        S: Read<u8>,
+    {
+        match self.receive(serial)? {
+            Outcome::Advance => {
+                self.advance();
+                return Ok(ControlFlow::Continue(()));
+            }
+            Outcome::Nak { class, id } => return Err(self.port_change_rejected(class, id)),
+            Outcome::None => {}
+        }
+        if !expired(now_ms, self.deadline_ms) {
+            return Ok(ControlFlow::Break(Progress::Pending));
+        }
+        self.deadline_ms = now_ms.wrapping_add(self.timeout_ms);
+        self.phase = Phase::SwitchedSending;
+        Ok(ControlFlow::Continue(()))
+    }
+
+    /// [`Phase::Awaiting`] and [`Phase::SwitchedAwaiting`]: an answer settles the step, an
+    /// ACK-NAK ends the configuration, silence past the deadline resends.
+    fn await_reply<S>(
+        &mut self,
+        serial: &mut S,
+        now_ms: u32,
+    ) -> Result<ControlFlow<Progress>, Error<S::Error>>
+    where
+        S: Read<u8>,
+    {
+        match self.receive(serial)? {
+            Outcome::Advance => {
+                self.advance();
+                return Ok(ControlFlow::Continue(()));
+            }
+            Outcome::Nak { class, id } if self.phase == Phase::SwitchedAwaiting => {
+                return Err(self.port_change_rejected(class, id))
+            }
+            Outcome::Nak { class, id } => {
+                return Err(Error::Device(crate::error::DeviceError::Nak { class, id }))
+            }
+            Outcome::None => {}
+        }
+        if !expired(now_ms, self.deadline_ms) {
+            return Ok(ControlFlow::Break(Progress::Pending));
+        }
+        self.resend_after_silence()
+    }
+
+    /// No answer before the deadline: starts the step again, or fails once the retries are
+    /// used up. After a baud-rate switch the step starts again from the old rate, which the
+    /// caller is asked to switch back to.
+    fn resend_after_silence<E>(&mut self) -> Result<ControlFlow<Progress>, Error<E>> {
+        self.attempt = self.attempt.saturating_add(1);
+        let switched = self.phase == Phase::SwitchedAwaiting;
+        if self.attempt > self.max_retries {
+            return Err(if switched {
+                Error::Device(crate::error::DeviceError::BaudSwitchFailed {
+                    baud_rate: self.config.baud_rate,
+                })
+            } else {
+                self.timeout_error()
+            });
+        }
+        self.retries = self.retries.wrapping_add(1);
+        self.phase = Phase::Start;
+        // A false candidate (noise with a sync pair and a long length) would otherwise hold
+        // back the answer to the resend.
+        self.framer.clear();
+        if switched {
+            // Back to the old rate, and send CFG-PRT again from there.
+            self.baud_rate = self.previous_baud_rate;
+            return Ok(ControlFlow::Break(Progress::SetBaudRate(self.baud_rate)));
+        }
+        Ok(ControlFlow::Continue(()))
     }
 
     /// Runs [`poll`](Self::poll) to completion, sleeping 1 ms between polls and counting

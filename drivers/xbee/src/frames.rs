@@ -1,6 +1,9 @@
 //! Typed API frames: the frame data between the length and the checksum, starting with the
 //! frame type byte. Parsing borrows the payload from the decoder's buffer; nothing allocates.
 
+mod layout;
+
+use self::layout::{Cursor, Emitter};
 use crate::at::AtCommand;
 use crate::codec::ByteSink;
 use crate::types::{Address16, Address64, FrameError};
@@ -344,35 +347,6 @@ pub enum Frame<'a> {
     },
 }
 
-/// Bounds-checked reader over frame data; every accessor returns `None` past the end.
-struct Cursor<'a>(&'a [u8]);
-
-impl<'a> Cursor<'a> {
-    fn take<const N: usize>(&mut self) -> Option<[u8; N]> {
-        let (head, tail) = self.0.split_first_chunk::<N>()?;
-        self.0 = tail;
-        Some(*head)
-    }
-    fn u8(&mut self) -> Option<u8> {
-        self.take::<1>().map(|[b]| b)
-    }
-    fn u16(&mut self) -> Option<u16> {
-        self.take().map(u16::from_be_bytes)
-    }
-    fn addr64(&mut self) -> Option<Address64> {
-        self.take().map(|b| Address64(u64::from_be_bytes(b)))
-    }
-    fn addr16(&mut self) -> Option<Address16> {
-        self.u16().map(Address16)
-    }
-    fn command(&mut self) -> Option<AtCommand> {
-        self.take().map(AtCommand)
-    }
-    fn rest(self) -> &'a [u8] {
-        self.0
-    }
-}
-
 impl<'a> Frame<'a> {
     /// Reads frame data (frame type first, no delimiter, length or checksum).
     ///
@@ -387,99 +361,24 @@ impl<'a> Frame<'a> {
         Self::parse_body(frame_type, Cursor(body)).ok_or(invalid)
     }
 
-    fn parse_body(kind: u8, mut c: Cursor<'a>) -> Option<Self> {
+    /// The fields after the frame type byte `kind`, by the layout of that frame type;
+    /// `None` if they do not fit it.
+    fn parse_body(kind: u8, c: Cursor<'a>) -> Option<Self> {
         use crate::frames::frame_type as ft;
         Some(match kind {
-            ft::AT_COMMAND | ft::AT_COMMAND_QUEUE => {
-                let f = AtCommandFrame {
-                    frame_id: c.u8()?,
-                    command: c.command()?,
-                    parameter: c.rest(),
-                };
-                if kind == ft::AT_COMMAND {
-                    Frame::AtCommand(f)
-                } else {
-                    Frame::AtCommandQueue(f)
-                }
+            ft::AT_COMMAND => Frame::AtCommand(AtCommandFrame::parse_fields(c)?),
+            ft::AT_COMMAND_QUEUE => Frame::AtCommandQueue(AtCommandFrame::parse_fields(c)?),
+            ft::TRANSMIT_REQUEST => Frame::TransmitRequest(TransmitRequest::parse_fields(c)?),
+            ft::EXPLICIT_ADDRESSING => {
+                Frame::ExplicitAddressing(ExplicitAddressing::parse_fields(c)?)
             }
-            ft::TRANSMIT_REQUEST => Frame::TransmitRequest(TransmitRequest {
-                frame_id: c.u8()?,
-                destination: c.addr64()?,
-                destination_16: c.addr16()?,
-                broadcast_radius: c.u8()?,
-                options: c.u8()?,
-                data: c.rest(),
-            }),
-            ft::EXPLICIT_ADDRESSING => Frame::ExplicitAddressing(ExplicitAddressing {
-                frame_id: c.u8()?,
-                destination: c.addr64()?,
-                destination_16: c.addr16()?,
-                source_endpoint: c.u8()?,
-                destination_endpoint: c.u8()?,
-                cluster_id: c.u16()?,
-                profile_id: c.u16()?,
-                broadcast_radius: c.u8()?,
-                options: c.u8()?,
-                data: c.rest(),
-            }),
-            ft::REMOTE_AT_COMMAND => Frame::RemoteAtCommand(RemoteAtCommand {
-                frame_id: c.u8()?,
-                destination: c.addr64()?,
-                destination_16: c.addr16()?,
-                options: c.u8()?,
-                command: c.command()?,
-                parameter: c.rest(),
-            }),
-            ft::AT_RESPONSE => Frame::AtResponse(AtResponse {
-                frame_id: c.u8()?,
-                command: c.command()?,
-                status: c.u8()?.into(),
-                data: c.rest(),
-            }),
-            ft::MODEM_STATUS => {
-                let status = c.u8()?;
-                if !c.rest().is_empty() {
-                    return None;
-                }
-                Frame::ModemStatus(status.into())
-            }
-            ft::TRANSMIT_STATUS => {
-                let f = TransmitStatus {
-                    frame_id: c.u8()?,
-                    destination_16: c.addr16()?,
-                    retry_count: c.u8()?,
-                    delivery_status: c.u8()?,
-                    discovery_status: c.u8()?,
-                };
-                if !c.rest().is_empty() {
-                    return None;
-                }
-                Frame::TransmitStatus(f)
-            }
-            ft::RECEIVE_PACKET => Frame::ReceivePacket(ReceivePacket {
-                source: c.addr64()?,
-                source_16: c.addr16()?,
-                options: c.u8()?,
-                data: c.rest(),
-            }),
-            ft::EXPLICIT_RX => Frame::ExplicitRx(ExplicitRx {
-                source: c.addr64()?,
-                source_16: c.addr16()?,
-                source_endpoint: c.u8()?,
-                destination_endpoint: c.u8()?,
-                cluster_id: c.u16()?,
-                profile_id: c.u16()?,
-                options: c.u8()?,
-                data: c.rest(),
-            }),
-            ft::REMOTE_AT_RESPONSE => Frame::RemoteAtResponse(RemoteAtResponse {
-                frame_id: c.u8()?,
-                source: c.addr64()?,
-                source_16: c.addr16()?,
-                command: c.command()?,
-                status: c.u8()?.into(),
-                data: c.rest(),
-            }),
+            ft::REMOTE_AT_COMMAND => Frame::RemoteAtCommand(RemoteAtCommand::parse_fields(c)?),
+            ft::AT_RESPONSE => Frame::AtResponse(AtResponse::parse_fields(c)?),
+            ft::MODEM_STATUS => Frame::ModemStatus(ModemStatus::parse_fields(c)?),
+            ft::TRANSMIT_STATUS => Frame::TransmitStatus(TransmitStatus::parse_fields(c)?),
+            ft::RECEIVE_PACKET => Frame::ReceivePacket(ReceivePacket::parse_fields(c)?),
+            ft::EXPLICIT_RX => Frame::ExplicitRx(ExplicitRx::parse_fields(c)?),
+            ft::REMOTE_AT_RESPONSE => Frame::RemoteAtResponse(RemoteAtResponse::parse_fields(c)?),
             other => Frame::Unknown {
                 frame_type: other,
                 data: c.rest(),
@@ -542,90 +441,18 @@ impl<'a> Frame<'a> {
         let mut w = Emitter(sink);
         w.u8(self.frame_type())?;
         match self {
-            Frame::AtCommand(f) | Frame::AtCommandQueue(f) => {
-                w.u8(f.frame_id)?;
-                w.bytes(&f.command.0)?;
-                w.bytes(f.parameter)
-            }
-            Frame::TransmitRequest(f) => {
-                w.u8(f.frame_id)?;
-                w.bytes(&f.destination.to_be_bytes())?;
-                w.bytes(&f.destination_16.0.to_be_bytes())?;
-                w.u8(f.broadcast_radius)?;
-                w.u8(f.options)?;
-                w.bytes(f.data)
-            }
-            Frame::ExplicitAddressing(f) => {
-                w.u8(f.frame_id)?;
-                w.bytes(&f.destination.to_be_bytes())?;
-                w.bytes(&f.destination_16.0.to_be_bytes())?;
-                w.u8(f.source_endpoint)?;
-                w.u8(f.destination_endpoint)?;
-                w.bytes(&f.cluster_id.to_be_bytes())?;
-                w.bytes(&f.profile_id.to_be_bytes())?;
-                w.u8(f.broadcast_radius)?;
-                w.u8(f.options)?;
-                w.bytes(f.data)
-            }
-            Frame::RemoteAtCommand(f) => {
-                w.u8(f.frame_id)?;
-                w.bytes(&f.destination.to_be_bytes())?;
-                w.bytes(&f.destination_16.0.to_be_bytes())?;
-                w.u8(f.options)?;
-                w.bytes(&f.command.0)?;
-                w.bytes(f.parameter)
-            }
-            Frame::AtResponse(f) => {
-                w.u8(f.frame_id)?;
-                w.bytes(&f.command.0)?;
-                w.u8(f.status.into())?;
-                w.bytes(f.data)
-            }
-            Frame::ModemStatus(status) => w.u8((*status).into()),
-            Frame::TransmitStatus(f) => {
-                w.u8(f.frame_id)?;
-                w.bytes(&f.destination_16.0.to_be_bytes())?;
-                w.u8(f.retry_count)?;
-                w.u8(f.delivery_status)?;
-                w.u8(f.discovery_status)
-            }
-            Frame::ReceivePacket(f) => {
-                w.bytes(&f.source.to_be_bytes())?;
-                w.bytes(&f.source_16.0.to_be_bytes())?;
-                w.u8(f.options)?;
-                w.bytes(f.data)
-            }
-            Frame::ExplicitRx(f) => {
-                w.bytes(&f.source.to_be_bytes())?;
-                w.bytes(&f.source_16.0.to_be_bytes())?;
-                w.u8(f.source_endpoint)?;
-                w.u8(f.destination_endpoint)?;
-                w.bytes(&f.cluster_id.to_be_bytes())?;
-                w.bytes(&f.profile_id.to_be_bytes())?;
-                w.u8(f.options)?;
-                w.bytes(f.data)
-            }
-            Frame::RemoteAtResponse(f) => {
-                w.u8(f.frame_id)?;
-                w.bytes(&f.source.to_be_bytes())?;
-                w.bytes(&f.source_16.0.to_be_bytes())?;
-                w.bytes(&f.command.0)?;
-                w.u8(f.status.into())?;
-                w.bytes(f.data)
-            }
+            Frame::AtCommand(f) | Frame::AtCommandQueue(f) => f.emit_fields(&mut w),
+            Frame::TransmitRequest(f) => f.emit_fields(&mut w),
+            Frame::ExplicitAddressing(f) => f.emit_fields(&mut w),
+            Frame::RemoteAtCommand(f) => f.emit_fields(&mut w),
+            Frame::AtResponse(f) => f.emit_fields(&mut w),
+            Frame::ModemStatus(status) => status.emit_fields(&mut w),
+            Frame::TransmitStatus(f) => f.emit_fields(&mut w),
+            Frame::ReceivePacket(f) => f.emit_fields(&mut w),
+            Frame::ExplicitRx(f) => f.emit_fields(&mut w),
+            Frame::RemoteAtResponse(f) => f.emit_fields(&mut w),
             Frame::Unknown { data, .. } => w.bytes(data),
         }
-    }
-}
-
-struct Emitter<'s, K>(&'s mut K);
-
-impl<K: ByteSink> Emitter<'_, K> {
-    fn u8(&mut self, byte: u8) -> Result<(), K::Error> {
-        self.0.put(byte)
-    }
-    fn bytes(&mut self, bytes: &[u8]) -> Result<(), K::Error> {
-        bytes.iter().try_for_each(|&b| self.0.put(b))
     }
 }
 
@@ -668,6 +495,38 @@ mod tests {
             );
         }
         assert_eq!(Frame::parse(&[]), Err(FrameError::Empty));
+    }
+
+    #[test]
+    fn fixed_length_frames_refuse_trailing_bytes() {
+        assert_eq!(
+            Frame::parse(&[0x8A, 0x02]),
+            Ok(Frame::ModemStatus(ModemStatus::Joined))
+        );
+        assert_eq!(
+            Frame::parse(&[0x8A, 0x02, 0x00]),
+            Err(FrameError::InvalidLength {
+                frame_type: 0x8A,
+                len: 3
+            })
+        );
+        let status = [0x8B, 0x01, 0xFF, 0xFE, 0x00, 0x00, 0x00];
+        assert!(matches!(
+            Frame::parse(&status),
+            Ok(Frame::TransmitStatus(TransmitStatus {
+                frame_id: 1,
+                destination_16: Address16(0xFFFE),
+                ..
+            }))
+        ));
+        let longer = [0x8B, 0x01, 0xFF, 0xFE, 0x00, 0x00, 0x00, 0xAA];
+        assert_eq!(
+            Frame::parse(&longer),
+            Err(FrameError::InvalidLength {
+                frame_type: 0x8B,
+                len: 8
+            })
+        );
     }
 
     #[test]

@@ -1,0 +1,208 @@
+//! The boot-time set-up steps `init` calls, one per peripheral, in the order it calls them.
+//! The sensors, the link and the GNSS receiver have theirs in their own modules
+//! (`sensors::set_up`, `link::set_up`, `gnss::set_up`).
+//!
+//! Where QEMU's `netduinoplus2` differs from the board (`qemu` feature), the step has an
+//! emulator twin right beside it, with the same signature, so `init` never branches on the
+//! build.
+
+use crate::board::*;
+use crate::hw_crc::HwCrc;
+use dima_firmware_logic::reset_record::{BootFault, ResetReport};
+use dima_firmware_logic::{BootReport, CheckedCrc};
+use dima_sensorboard::{BoardHealth, InfoFrame, SensorStatus, INFO_VERSION};
+use stm32f4xx_hal::gpio::{self, Edge, Input};
+use stm32f4xx_hal::pac::{self, CRC, EXTI, IWDG, SYSCFG, TIM2};
+use stm32f4xx_hal::prelude::*;
+use stm32f4xx_hal::rcc::{Config, Rcc};
+use stm32f4xx_hal::timer::{self, CounterHz, Event};
+use stm32f4xx_hal::watchdog::IndependentWatchdog;
+
+/// The CRC unit if it passed its boot-time self-check, else the small software CRC.
+/// (QEMU does not model the unit: there the check fails and the fallback runs.)
+pub type Crc = CheckedCrc<HwCrc>;
+
+/// Why this boot happened, as read from RCC's reset flags and the reset record.
+pub struct ResetCause {
+    /// The independent watchdog reset the board (RCC_CSR `WDGRSTF`).
+    pub by_watchdog: bool,
+    /// What the reset record says: watchdog resets since power-on, the previous boot's fault.
+    pub report: ResetReport,
+}
+
+/// Reads RCC's reset flags, updates the reset record with them, then clears the flags. Call
+/// it before anything else: the flags say why we reset.
+pub fn reset_cause(rcc: &pac::RCC) -> ResetCause {
+    let csr = rcc.csr().read();
+    let by_watchdog = csr.wdgrstf().bit_is_set();
+    let report = crate::reset_record::after_reset(csr.porrstf().bit_is_set(), by_watchdog);
+    rcc.csr().modify(|_, w| w.rmvf().set_bit());
+    ResetCause {
+        by_watchdog,
+        report,
+    }
+}
+
+/// The board's clocks: the 8 MHz crystal through the PLL to [`SYSCLK_HZ`].
+#[cfg(not(feature = "qemu"))]
+pub fn clock_config() -> Config {
+    Config::hse(HSE_HZ.Hz()).sysclk(SYSCLK_HZ.Hz())
+}
+
+/// Emulator twin: QEMU models no RCC, so HSE and PLL would never report ready: the internal
+/// oscillator, untouched.
+#[cfg(feature = "qemu")]
+pub fn clock_config() -> Config {
+    Config::hsi()
+}
+
+/// RTIC priority of the SysTick exception: below `request` and `link_done` (3), equal to
+/// the GNSS tasks (2), above sampling (1).
+const SYSTICK_PRIORITY: u8 = 2;
+
+/// Starts the monotonic clock on SysTick, whose exception priority it sets first: below the
+/// link tasks, so it can never hold off a request edge; above sampling, so a long tick cannot
+/// lose a counter wrap.
+pub fn start_monotonic(
+    scb: &mut cortex_m::peripheral::SCB,
+    syst: cortex_m::peripheral::SYST,
+    sysclk_hz: u32,
+) {
+    set_systick_priority(scb, SYSTICK_PRIORITY);
+    crate::Mono::start(syst, core_clock_hz(sysclk_hz));
+}
+
+/// The clock SysTick counts: the system clock the HAL set up.
+#[cfg(not(feature = "qemu"))]
+fn core_clock_hz(sysclk_hz: u32) -> u32 {
+    sysclk_hz
+}
+
+/// Emulator twin: QEMU's netduinoplus2 clocks the core at a fixed 168 MHz whatever RCC says.
+#[cfg(feature = "qemu")]
+fn core_clock_hz(_sysclk_hz: u32) -> u32 {
+    QEMU_CORE_HZ
+}
+
+/// Sets SysTick's exception priority to the RTIC (logical) priority `logical`.
+fn set_systick_priority(scb: &mut cortex_m::peripheral::SCB, logical: u8) {
+    use cortex_m::peripheral::scb::SystemHandler;
+    // RTIC's mapping: logical 1 is the lowest hardware level, higher numbers preempt.
+    let hardware = ((1u8 << pac::NVIC_PRIO_BITS) - logical) << (8 - pac::NVIC_PRIO_BITS);
+    // SAFETY: called from `init` with interrupts disabled; no RTIC lock depends on
+    // SysTick's priority (its handler only runs the monotonic's timer queue).
+    #[allow(unsafe_code)]
+    unsafe {
+        scb.set_priority(SystemHandler::SysTick, hardware)
+    };
+}
+
+/// The request line: PD10, pulled down, interrupting (EXTI15_10) on a rising edge.
+pub fn request_line(
+    syscfg: SYSCFG,
+    exti: &mut EXTI,
+    pin: gpio::PD10,
+    rcc: &mut Rcc,
+) -> gpio::PD10<Input> {
+    let mut syscfg = syscfg.constrain(rcc);
+    let mut request_pin = pin.into_pull_down_input();
+    request_pin.make_interrupt_source(&mut syscfg);
+    request_pin.trigger_on_edge(exti, Edge::Rising);
+    request_pin.enable_interrupt(exti);
+    request_pin
+}
+
+/// The sampling tick: TIM2 at [`SAMPLE_RATE_HZ`], interrupting on update. Fails if the
+/// timer cannot reach the rate.
+pub fn sample_timer(tim2: TIM2, rcc: &mut Rcc) -> Result<CounterHz<TIM2>, timer::Error> {
+    let mut timer = tim2.counter_hz(rcc);
+    timer.start(SAMPLE_TIMER_REQUEST_HZ.Hz())?;
+    timer.listen(Event::Update);
+    Ok(timer)
+}
+
+/// The rate asked of the HAL for the sampling timer: the sampling rate itself.
+#[cfg(not(feature = "qemu"))]
+const SAMPLE_TIMER_REQUEST_HZ: u32 = SAMPLE_RATE_HZ;
+
+/// Emulator twin: the HAL sets the prescalers for its idea of the timer clock (HSI), but
+/// QEMU runs the timer at a fixed 1 GHz, so ask for a rate that lands on [`SAMPLE_RATE_HZ`]
+/// there.
+#[cfg(feature = "qemu")]
+const SAMPLE_TIMER_REQUEST_HZ: u32 =
+    (SAMPLE_RATE_HZ as u64 * HSI_HZ as u64 / QEMU_TIMER_HZ as u64) as u32;
+
+/// Starts the independent watchdog with a [`WATCHDOG_MS`] timeout; the sampling tick feeds it.
+pub fn watchdog(iwdg: IWDG) -> IndependentWatchdog {
+    let mut watchdog = IndependentWatchdog::new(iwdg);
+    watchdog.start(WATCHDOG_MS.millis());
+    watchdog
+}
+
+/// The CRC unit, checked against a known vector (see [`Crc`]).
+pub fn crc(crc: CRC, rcc: &mut Rcc) -> Crc {
+    CheckedCrc::check(HwCrc(stm32f4xx_hal::crc32::Crc32::new(crc, rcc)))
+}
+
+/// The info frame as it stands at boot: what the sensors reported, the reset cause and the
+/// CRC unit's self-check, no uptime and no counts yet.
+pub fn boot_info(sensors: &BootReport, reset: &ResetCause, crc_unit_ok: bool) -> InfoFrame {
+    let mut status = sensors.status;
+    status.set(SensorStatus::WATCHDOG_RESET, reset.by_watchdog);
+    status.set(SensorStatus::CRC_UNIT_FAILED, !crc_unit_ok);
+    InfoFrame {
+        version: INFO_VERSION,
+        firmware: FIRMWARE_VERSION,
+        status,
+        bmp280_calibration: sensors.bmp280_calibration,
+        bmm150_trim: sensors.bmm150_trim,
+        uptime_ms: 0,
+        requests_skipped: 0,
+        health: BoardHealth {
+            watchdog_resets: reset.report.watchdog_resets,
+            ..BoardHealth::default()
+        },
+    }
+}
+
+/// The end of the set-up. Nothing to announce on the board.
+#[cfg(not(feature = "qemu"))]
+pub fn announce_ready() {}
+
+/// Emulator twin: tells the smoke test, over semihosting, the exception priorities as the
+/// core holds them (QEMU models SCB and NVIC; SysTick must be below the request interrupt,
+/// a larger value), then `ready`.
+#[cfg(feature = "qemu")]
+pub fn announce_ready() {
+    cortex_m_semihosting::hprintln!(
+        "priorities: systick {:#04x}, request {:#04x}",
+        cortex_m::peripheral::SCB::get_priority(cortex_m::peripheral::scb::SystemHandler::SysTick),
+        cortex_m::peripheral::NVIC::get_priority(pac::Interrupt::EXTI15_10)
+    );
+    cortex_m_semihosting::hprintln!("ready");
+}
+
+/// A configuration the hardware rejected at boot: record the cause for the next boot and
+/// let the watchdog reset the board.
+///
+/// Starting the IWDG with its reset values (prescaler /4, reload 0xFFF) gives a reset
+/// after 4096 × 4 LSI periods: 512 ms at the nominal 32 kHz, 350-960 ms over the LSI's
+/// 17-47 kHz range. If `init` already started it, the start key changes nothing. The next
+/// boot sees a watchdog reset (status bit 5, `watchdog_resets`) and the cause in the
+/// reset record (`BOOT_FAULT`). QEMU models no IWDG: there this waits for ever.
+pub fn fault(cause: BootFault) -> ! {
+    /// The IWDG key register's start key (RM0090 19.4.1).
+    const KEY_START: u16 = 0xCCCC;
+    crate::reset_record::record_fault(cause);
+    // SAFETY: the key register is write-only and nothing else writes it during `init`
+    // (the `IndependentWatchdog` is created after every call of `fault`); the start key
+    // only starts the counter (a running watchdog stays as it is). `fault` never
+    // returns, so nothing relies on the watchdog being stopped afterwards.
+    #[allow(unsafe_code)]
+    unsafe {
+        (*pac::IWDG::ptr()).kr().write(|w| w.key().bits(KEY_START))
+    };
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
