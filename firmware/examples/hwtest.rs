@@ -37,7 +37,7 @@ use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
 use stm32f4xx_hal::timer::SysDelay;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
-/// The DESIGN 2.1 vector: bytes 0x00..=0x7F, one zero-extended byte per 32-bit word.
+/// The sensor CRC's reference vector (docs/wire-formats.md): bytes 0x00..=0x7F, one zero-extended byte per 32-bit word.
 const CRC_VECTOR: u32 = 0x6557_DE1A;
 
 /// How long to listen for GNSS bytes, in busy-wait milliseconds.
@@ -182,7 +182,7 @@ fn read_reset_cause(rcc: &pac::RCC) -> ResetCause {
     }
 }
 
-/// Check 1: the CRC unit against the DESIGN vector.
+/// Check 1: the CRC unit against the reference vector.
 fn check_crc_unit(report: &mut Report, crc: &mut HwCrc) {
     let ascending: [u8; 128] = core::array::from_fn(|i| i as u8);
     let value = crc.checksum(&ascending);

@@ -1,7 +1,8 @@
 //! The packet CRC with a boot-time self-check of the CRC unit and a small software fallback.
 //!
-//! At boot the firmware feeds the reference packet bytes (`0x00..=0x7F`, DESIGN 2.1) to the
-//! STM32 CRC unit and compares the result with the published vector `0x6557_DE1A`. A unit that
+//! At boot the firmware feeds the reference packet bytes (`0x00..=0x7F`, the sensor CRC's
+//! reference vector in docs/wire-formats.md) to the STM32 CRC unit and compares the result
+//! with the published vector `0x6557_DE1A`. A unit that
 //! passes computes every packet and info-frame CRC; one that fails (a broken unit, or QEMU,
 //! which does not model it) is replaced by [`NibbleCrc`], so packets stay valid either way.
 //! The outcome is a status bit of the info frame.
@@ -11,7 +12,7 @@
 
 use dima_sensorboard::{SensorCrc, INITIAL, POLYNOMIAL};
 
-/// CRC of the reference packet bytes `0x00..=0x7F` (DESIGN 2.1).
+/// CRC of the reference packet bytes `0x00..=0x7F` (docs/wire-formats.md, sensor CRC).
 pub const REFERENCE_CRC: u32 = 0x6557_DE1A;
 
 /// The reference bytes of the self-check: `0x00, 0x01, ..., 0x7F`.

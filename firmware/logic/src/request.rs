@@ -2,7 +2,8 @@
 //!
 //! The host raises the request line; the board answers with the latest complete packet, by DMA,
 //! never from inside the interrupt's own work, and then, while an info snapshot is going out,
-//! with one info piece (DESIGN 3 and the info piece contract of `dima-sensorboard`):
+//! with one info piece (docs/wire-formats.md on the request line and the info pieces, and the
+//! info piece contract of `dima-sensorboard`):
 //!
 //! - a request that arrives while a transfer (packet or piece) is still running is skipped
 //!   and counted: the packet in flight is never torn or restarted;
