@@ -37,7 +37,8 @@ use stm32f4xx_hal::spi::{Mode, Phase, Polarity, Spi};
 use stm32f4xx_hal::timer::SysDelay;
 use stm32f4xx_hal::watchdog::IndependentWatchdog;
 
-/// The sensor CRC's reference vector (docs/wire-formats.md): bytes 0x00..=0x7F, one zero-extended byte per 32-bit word.
+/// The sensor CRC's reference vector (docs/wire-formats.md): bytes 0x00..=0x7F, one
+/// zero-extended byte per 32-bit word.
 const CRC_VECTOR: u32 = 0x6557_DE1A;
 
 /// How long to listen for GNSS bytes, in busy-wait milliseconds.

@@ -12,8 +12,8 @@
 //! - `gnss_setup` (software task, once at boot): configures the NEO-M8T through USART1 TX
 //!   (PB6) with `neo_m8t::Configurator`, polled every millisecond; its replies come from
 //!   `gnss_bytes` through a byte queue. Never blocks; ends configured, NAK'd or timed out.
-//! - `status_led` (software task): the status LED pattern on PD12. the board's wiring names no LED pin;
-//!   PD12 is the STM32F4-Discovery's green LED.
+//! - `status_led` (software task): the status LED pattern on PD12. The board's wiring names no
+//!   LED pin; PD12 is the STM32F4-Discovery's green LED.
 //!
 //! Under the `qemu` feature `host_byte` (USART3 receive) stands in for the request edge.
 //!

@@ -414,8 +414,8 @@ mod tests {
         let (mut sensors, _) = Sensors::init(accel(), gyro(), mag(), baro(), &mut NoDelay);
         // Tick 0 triggers the magnetometer, tick 1 finds its data ready.
         let packet = sample(&mut sensors, 2);
-        // The packet's masks (docs/wire-formats.md): accel LSBs & 0xF0; gyro as read; mag X/Y LSB & 0xF8, Z LSB & 0xFE,
-        // RHALL LSB & 0xFC; BMP280 0xF7..=0xFC as read.
+        // The packet's masks (docs/wire-formats.md): accel LSBs & 0xF0; gyro as read; mag X/Y
+        // LSB & 0xF8, Z LSB & 0xFE, RHALL LSB & 0xFC; BMP280 0xF7..=0xFC as read.
         assert_eq!(packet[..2], *b"$$");
         assert_eq!(packet[2..8], [0x30, 0x12, 0x40, 0xFE, 0x00, 0x40]);
         assert_eq!(packet[8..14], GYRO_DATA);
