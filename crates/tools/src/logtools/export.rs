@@ -21,8 +21,7 @@ pub enum Format {
     Csv,
     /// One JSON object per line.
     Jsonl,
-    /// Apache Parquet, with a `run` column first (needs `-o`; see
-    /// [`parquet`](super::parquet)).
+    /// Apache Parquet with a first column `run`, for querying many runs together (needs -o).
     Parquet,
 }
 
