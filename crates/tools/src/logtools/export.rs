@@ -1,6 +1,7 @@
-//! `dima log export FILE --format csv|jsonl`: one row per cycle (channel `cycle`), per GNSS
-//! fix (`gnss`) or per state change (`state`), every value in physical units with the unit in
-//! its column name. The CSV opens in a spreadsheet and in PlotJuggler (first column `t_s`).
+//! `dima log export FILE --format csv|jsonl|parquet`: one row per cycle (channel `cycle`), per
+//! GNSS fix (`gnss`) or per state change (`state`), every value in physical units with the unit
+//! in its column name. The CSV opens in a spreadsheet and in PlotJuggler (first column `t_s`);
+//! the same rows go to Parquet through [`parquet`](super::parquet).
 
 use std::io::Write;
 
@@ -20,6 +21,8 @@ pub enum Format {
     Csv,
     /// One JSON object per line.
     Jsonl,
+    /// Apache Parquet with a first column `run`, for querying many runs together (needs -o).
+    Parquet,
 }
 
 /// What rows to export.
@@ -231,6 +234,12 @@ pub fn write(
                     .collect();
                 writeln!(out, "{}", Value::Object(object))?;
             }
+        }
+        Format::Parquet => {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "Parquet is written to a file by logtools::parquet::write",
+            ))
         }
     }
     Ok(())

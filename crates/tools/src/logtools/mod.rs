@@ -4,6 +4,7 @@
 pub mod export;
 pub mod info;
 pub mod inspect;
+pub mod parquet;
 pub mod plot;
 pub mod read;
 pub mod records;
@@ -35,16 +36,22 @@ pub enum LogCommand {
         /// The MCAP log.
         file: PathBuf,
     },
-    /// Every cycle (or GNSS fix, or state change) as CSV or JSON lines, in physical units.
+    /// Every cycle (or GNSS fix, or state change) as CSV, JSON lines or Parquet, in physical
+    /// units.
+    #[command(after_long_help = FLEET_HELP)]
     Export {
         /// The MCAP log.
         file: PathBuf,
         /// Output format.
         #[arg(long, value_enum, default_value = "csv")]
         format: export::Format,
-        /// Output file (default: stdout).
+        /// Output file (default: stdout; required for Parquet).
         #[arg(short, long, value_name = "OUT")]
         output: Option<PathBuf>,
+        /// The run's id in the Parquet `run` column (default: the log's file name without
+        /// `.mcap` and without the `-N` of a split run's later files).
+        #[arg(long, value_name = "ID")]
+        run: Option<String>,
         /// Rows of this channel.
         #[arg(long, value_enum, default_value = "cycle", value_name = "NAME")]
         channel: export::Channel,
@@ -87,6 +94,20 @@ pub enum LogCommand {
     },
 }
 
+/// The fleet workflow, after `dima log export --help`.
+const FLEET_HELP: &str = "\
+Fleet analysis: export each run to Parquet, then query all of them at once.
+Every row holds the run's id in its first column, `run`; the other columns
+are the CSV's, with one type each (INT64, DOUBLE, BOOLEAN or UTF8 strings;
+nullable where the CSV may leave a cell empty), the same in every file.
+
+  for f in logs/*.mcap; do
+    dima log export \"$f\" --format parquet -o \"parquet/$(basename \"$f\" .mcap).parquet\"
+  done
+  duckdb -c \"SELECT run, count(*) AS cycles, max(cycle) FROM 'parquet/*.parquet' GROUP BY run\"
+
+Spark, pandas, polars and any other Parquet reader read the same files.";
+
 /// `dima inspect`.
 #[derive(Debug, Args)]
 pub struct InspectArgs {
@@ -113,10 +134,21 @@ pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
             file,
             format,
             output,
+            run: run_id,
             channel,
             from,
             to,
         } => {
+            if format == export::Format::Parquet {
+                let path = output.context(
+                    "--format parquet writes a binary file: give it with -o FILE.parquet",
+                )?;
+                let run = open_log(&file)?;
+                let id = run_id.unwrap_or_else(|| parquet::run_id(&file));
+                parquet::export_file(&run, channel, (from, to), &id, &path)?;
+                eprintln!("wrote {} (run {id})", path.display());
+                return Ok(ExitCode::SUCCESS);
+            }
             let run = open_log(&file)?;
             let rows = export::rows(&run, channel, from, to);
             match output {
