@@ -305,8 +305,15 @@ mod tests {
             offset_us: Some(0),
         };
         let r = wakeup(&args).unwrap();
-        let n = r.histogram.count() + r.missed;
-        assert!((190..=201).contains(&n), "{n} wake-ups for 200 periods");
+        // 200 deadlines before the end: each one is either a wake-up in the histogram or a
+        // missed period, whatever else the machine is doing (a late last wake-up may also count
+        // periods past the end as missed).
+        let (woken, missed) = (r.histogram.count(), r.missed);
+        assert!(woken <= 200, "{woken} wake-ups recorded for 200 periods");
+        assert!(
+            woken + missed >= 200,
+            "{woken} wake-ups and {missed} missed periods account for fewer than 200 periods"
+        );
         let text = r.histogram.cyclictest_format();
         assert!(text.starts_with("# Histogram\n000000 "), "{}", &text[..40]);
         assert!(text.contains("# Total: "));
