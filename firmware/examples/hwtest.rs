@@ -25,6 +25,7 @@ mod reset_record;
 
 use cortex_m_rt::entry;
 use dima_firmware_logic::reset_record::ResetReport;
+use dima_firmware_logic::spi_clock;
 use dima_sensorboard::{PacketBuilder, SensorCrc, PACKET_LEN};
 use rtt_target::{rprintln, rtt_init_print};
 use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
@@ -202,15 +203,17 @@ fn check_chip_ids(
     rcc: &mut Rcc,
     delay: &mut SysDelay,
 ) {
+    let pclk2_hz = rcc.clocks.pclk2().raw();
     let mut spi = spi1.spi(
         (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
         Mode {
             polarity: Polarity::IdleHigh,
             phase: Phase::CaptureOnSecondTransition,
         },
-        board::SPI_HZ.Hz(),
+        spi_clock::sensor_request_hz(pclk2_hz).Hz(),
         rcc,
     );
+    check_spi_clock(report, pclk2_hz);
     let mut accel = select(gpioe.pe7.into_push_pull_output().erase_number());
     let mut gyro = select(gpioe.pe8.into_push_pull_output().erase_number());
     let mut mag = select(gpioe.pe9.into_push_pull_output().erase_number());
@@ -230,6 +233,23 @@ fn check_chip_ids(
             format_args!("chip id {name}: {id:02x?} (want {want:#04x})"),
         );
     }
+}
+
+/// Check 2a: the SPI1 clock as programmed (SPI1_CR1's baud-rate bits read back) is within
+/// the sensors' 10 MHz.
+fn check_spi_clock(report: &mut Report, pclk2_hz: u32) {
+    // SAFETY: a read of SPI1_CR1, which the HAL has just written; no side effect.
+    #[allow(unsafe_code)]
+    let cr1 = unsafe { (*pac::SPI1::ptr()).cr1().read().bits() };
+    let divider = spi_clock::divider_of_br(((cr1 >> 3) & 0b111) as u8);
+    let spi_hz = pclk2_hz / divider;
+    report.check(
+        spi_hz <= spi_clock::SENSOR_SPI_MAX_HZ,
+        format_args!(
+            "spi clock: SPI1_CR1 {cr1:#06x}, APB2 {pclk2_hz} Hz / {divider} = {spi_hz} Hz (at most {} Hz)",
+            spi_clock::SENSOR_SPI_MAX_HZ
+        ),
+    );
 }
 
 /// Check 3: one 132-byte packet by DMA1 stream 3 to USART3 (PD8, the host link, 8N2).

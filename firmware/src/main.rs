@@ -275,7 +275,7 @@ mod app {
         let led = gpiod.pd12.into_push_pull_output();
         status_led::spawn(info.status.bits()).ok();
         gnss_setup::spawn().ok();
-        setup::announce_ready();
+        setup::announce_ready(rcc.clocks.pclk2().raw());
 
         (
             Shared {

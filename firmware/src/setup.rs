@@ -167,13 +167,18 @@ pub fn boot_info(sensors: &BootReport, reset: &ResetCause, crc_unit_ok: bool) ->
 
 /// The end of the set-up. Nothing to announce on the board.
 #[cfg(not(feature = "qemu"))]
-pub fn announce_ready() {}
+pub fn announce_ready(_pclk2_hz: u32) {}
 
-/// Emulator twin: tells the smoke test, over semihosting, the exception priorities as the
-/// core holds them (QEMU models SCB and NVIC; SysTick must be below the request interrupt,
-/// a larger value), then `ready`.
+/// Emulator twin: tells the smoke test, over semihosting, SPI1_CR1 as the HAL wrote it with
+/// the APB2 clock `pclk2_hz` it computed the divider for (QEMU keeps the register), the
+/// exception priorities as the core holds them (QEMU models SCB and NVIC; SysTick must be
+/// below the request interrupt, a larger value), then `ready`.
 #[cfg(feature = "qemu")]
-pub fn announce_ready() {
+pub fn announce_ready(pclk2_hz: u32) {
+    // SAFETY: a read of SPI1_CR1, which the sensor set-up has written; no side effect.
+    #[allow(unsafe_code)]
+    let spi1_cr1 = unsafe { (*pac::SPI1::ptr()).cr1().read().bits() };
+    cortex_m_semihosting::hprintln!("spi1: cr1 {:#06x}, pclk2 {} Hz", spi1_cr1, pclk2_hz);
     cortex_m_semihosting::hprintln!(
         "priorities: systick {:#04x}, request {:#04x}",
         cortex_m::peripheral::SCB::get_priority(cortex_m::peripheral::scb::SystemHandler::SysTick),

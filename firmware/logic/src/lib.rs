@@ -17,6 +17,8 @@
 //! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
 //! - [`supervisor`]: whether the sampling tick may feed the watchdog (the link is not stuck
 //!   sending) and whether the GNSS receiver has gone silent;
+//! - [`spi_clock`]: the SPI1 prescaler the HAL picks, and the sensor bus rate the firmware
+//!   asks for (never above the sensors' 10 MHz);
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
 //!   register file).
@@ -34,6 +36,7 @@ pub mod request;
 pub mod reset_record;
 pub mod schedule;
 pub mod sensors;
+pub mod spi_clock;
 pub mod supervisor;
 
 pub use crc_check::{CheckedCrc, NibbleCrc};

@@ -4,7 +4,9 @@
 //! (GNSS) and USART3 (host link) on local TCP sockets, then checks what a host sees, in this
 //! order (one method of `Smoke` each):
 //!
-//! 1. SysTick's exception priority is below the request interrupt's;
+//! 1. SysTick's exception priority is below the request interrupt's, and SPI1_CR1 as the
+//!    firmware left it clocks the sensor bus at 10 MHz at most from the APB2 clock the HAL
+//!    computed for (the fastest divider that does);
 //! 2. nothing at all arrives before the first request (no packet at boot, none unrequested);
 //! 3. the first nine requests are each answered with one packet and one info piece, and the
 //!    ninth completes the first info record (version 2, with health);
@@ -181,7 +183,7 @@ fn main() {
         qemu,
         mut gnss,
         link,
-        priorities,
+        said,
     } = Board::start(&qemu_bin, &elf);
 
     let mut smoke = Smoke {
@@ -189,7 +191,8 @@ fn main() {
         checks: Checks::default(),
         records: 0,
     };
-    smoke.systick_below_the_request_interrupt(&priorities);
+    smoke.systick_below_the_request_interrupt(&said.priorities);
+    smoke.sensor_bus_within_ten_megahertz(&said.spi1);
     smoke.silence_until_requested();
     let first_info = smoke.first_record();
     smoke.quick_requests_get_one_packet_each();
@@ -215,8 +218,18 @@ struct Board {
     gnss: TcpStream,
     /// The host side of USART3 (the link).
     link: HostLink,
-    /// The firmware's "priorities: ..." line without its prefix (empty if it printed none).
+    /// What the firmware said before `ready`.
+    said: BootLines,
+}
+
+/// The firmware's semihosting lines before `ready`, each without its prefix (empty if it
+/// printed none).
+#[derive(Default)]
+struct BootLines {
+    /// "priorities: systick 0x.., request 0x..".
     priorities: String,
+    /// "spi1: cr1 0x...., pclk2 N Hz".
+    spi1: String,
 }
 
 impl Board {
@@ -248,7 +261,7 @@ impl Board {
         let (link_stream, _) = link_listener.accept().expect("QEMU connects USART3");
         link_stream.set_nodelay(true).expect("nodelay");
 
-        let priorities = wait_until_ready(stdout);
+        let said = wait_until_ready(stdout);
         Board {
             qemu,
             gnss,
@@ -257,34 +270,46 @@ impl Board {
                 decoder: StreamDecoder::new(),
                 requests: 0,
             },
-            priorities,
+            said,
         }
     }
 }
 
 /// Echoes the firmware's semihosting output (on a thread, for the whole run) and waits for
-/// its "ready" line, printed once its receivers are enabled; returns the exception
-/// priorities it printed before it ("priorities: systick 0x.., request 0x..").
-fn wait_until_ready(stdout: ChildStdout) -> String {
+/// its "ready" line, printed once its receivers are enabled; returns the lines it printed
+/// before it (see [`BootLines`]).
+fn wait_until_ready(stdout: ChildStdout) -> BootLines {
     let (ready_tx, ready_rx) = mpsc::channel();
-    let (priorities_tx, priorities_rx) = mpsc::channel();
     std::thread::spawn(move || {
+        let mut said = BootLines::default();
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
             println!("firmware: {line}");
-            if let Some(rest) = line.trim().strip_prefix("priorities: ") {
-                let _ = priorities_tx.send(rest.to_owned());
+            let line = line.trim();
+            if let Some(rest) = line.strip_prefix("priorities: ") {
+                said.priorities = rest.to_owned();
             }
-            if line.trim() == "ready" {
-                let _ = ready_tx.send(());
+            if let Some(rest) = line.strip_prefix("spi1: ") {
+                said.spi1 = rest.to_owned();
+            }
+            if line == "ready" {
+                let _ = ready_tx.send(std::mem::take(&mut said));
             }
         }
     });
     let started = Instant::now();
-    ready_rx
+    let said = ready_rx
         .recv_timeout(Duration::from_secs(20))
         .expect("firmware did not print `ready` within 20 s");
     println!("firmware ready after {:?}", started.elapsed());
-    priorities_rx.try_recv().unwrap_or_default()
+    said
+}
+
+/// SPI1_CR1 and the APB2 clock from the firmware's "spi1: cr1 0x...., pclk2 N Hz" line.
+fn parse_spi1(line: &str) -> Option<(u32, u32)> {
+    let rest = line.strip_prefix("cr1 0x")?;
+    let (cr1, rest) = rest.split_once(", pclk2 ")?;
+    let pclk2 = rest.strip_suffix(" Hz")?;
+    Some((u32::from_str_radix(cr1, 16).ok()?, pclk2.parse().ok()?))
 }
 
 /// The checks, in the order they run, over one host link.
@@ -303,6 +328,26 @@ impl Smoke {
         self.checks.check(
             priorities == "systick 0xe0, request 0xd0",
             &format!("SysTick below the request interrupt (got \"{priorities}\")"),
+        );
+    }
+
+    /// The sensor bus clock as programmed: SPI1_CR1's baud-rate bits (RM0090 28.5.1: divider
+    /// 2 << BR) from the APB2 clock the HAL computed them for give at most the BMX055's and
+    /// BMP280's 10 MHz, and the fastest divider that does (half of it would be too fast).
+    fn sensor_bus_within_ten_megahertz(&mut self, spi1: &str) {
+        const SENSOR_SPI_MAX_HZ: u32 = 10_000_000;
+        let verdict = parse_spi1(spi1).map(|(cr1, pclk2)| {
+            let divider = 2u32 << ((cr1 >> 3) & 0b111);
+            let spi_hz = pclk2 / divider;
+            let fastest = divider == 2 || pclk2 / (divider / 2) > SENSOR_SPI_MAX_HZ;
+            (spi_hz, spi_hz <= SENSOR_SPI_MAX_HZ && fastest)
+        });
+        self.checks.check(
+            verdict.is_some_and(|(_, ok)| ok),
+            &format!(
+                "SPI1 clock at most 10 MHz, the fastest divider that is (got \"{spi1}\": {} Hz)",
+                verdict.map_or(0, |(hz, _)| hz)
+            ),
         );
     }
 
