@@ -226,6 +226,12 @@ mod app {
         if let Some(cause) = reset.report.boot_fault {
             BOOT_FAULT.store(cause as u8, Ordering::Relaxed);
         }
+        // First, before anything that can wait for ever: the HAL waits for the crystal (and
+        // the PLL) with no time-out. The IWDG runs from the LSI, whatever HSE does; a crystal
+        // that never starts resets the board after WATCHDOG_MS instead of hanging it.
+        setup::boot_step("watchdog");
+        let mut watchdog = setup::watchdog(dp.IWDG);
+        setup::boot_step("clocks");
         let mut rcc = dp.RCC.freeze(setup::clock_config());
         let sysclk_hz = rcc.clocks.sysclk().raw();
         setup::start_monotonic(&mut core.SCB, core.SYST, sysclk_hz);
@@ -235,6 +241,7 @@ mod app {
         let gpiod = dp.GPIOD.split(&mut rcc);
         let gpioe = dp.GPIOE.split(&mut rcc);
 
+        setup::boot_step("sensors");
         let (sensors, sensor_report) = sensors::set_up(
             dp.SPI1,
             gpioa,
@@ -268,13 +275,14 @@ mod app {
         let request_pin = setup::request_line(dp.SYSCFG, &mut dp.EXTI, gpiod.pd10, &mut rcc);
         let timer = setup::sample_timer(dp.TIM2, &mut rcc)
             .unwrap_or_else(|_| setup::fault(BootFault::SampleTimer));
-        let watchdog = setup::watchdog(dp.IWDG);
         let crc = setup::crc(dp.CRC, &mut rcc);
         let info = setup::boot_info(&sensor_report, &reset, crc.unit_ok());
 
         let led = gpiod.pd12.into_push_pull_output();
         status_led::spawn(info.status.bits()).ok();
         gnss_setup::spawn().ok();
+        // The rest of the timeout belongs to the first sampling tick, not to `init`.
+        watchdog.feed();
         setup::announce_ready(rcc.clocks.pclk2().raw());
 
         (

@@ -7,6 +7,8 @@
 //! 1. SysTick's exception priority is below the request interrupt's, and SPI1_CR1 as the
 //!    firmware left it clocks the sensor bus at 10 MHz at most from the APB2 clock the HAL
 //!    computed for (the fastest divider that does);
+//!    the watchdog starts before the clock set-up (which can wait for ever for the crystal)
+//!    and the sensors;
 //! 2. nothing at all arrives before the first request (no packet at boot, none unrequested);
 //! 3. the first nine requests are each answered with one packet and one info piece, and the
 //!    ninth completes the first info record (version 2, with health);
@@ -191,6 +193,7 @@ fn main() {
         checks: Checks::default(),
         records: 0,
     };
+    smoke.watchdog_runs_before_anything_can_hang(&said.steps);
     smoke.systick_below_the_request_interrupt(&said.priorities);
     smoke.sensor_bus_within_ten_megahertz(&said.spi1);
     smoke.silence_until_requested();
@@ -230,6 +233,8 @@ struct BootLines {
     priorities: String,
     /// "spi1: cr1 0x...., pclk2 N Hz".
     spi1: String,
+    /// The steps of `init` in the order they started ("boot: clocks" gives "clocks").
+    steps: Vec<String>,
 }
 
 impl Board {
@@ -288,6 +293,9 @@ fn wait_until_ready(stdout: ChildStdout) -> BootLines {
             if let Some(rest) = line.strip_prefix("priorities: ") {
                 said.priorities = rest.to_owned();
             }
+            if let Some(rest) = line.strip_prefix("boot: ") {
+                said.steps.push(rest.to_owned());
+            }
             if let Some(rest) = line.strip_prefix("spi1: ") {
                 said.spi1 = rest.to_owned();
             }
@@ -321,6 +329,24 @@ struct Smoke {
 }
 
 impl Smoke {
+    /// The independent watchdog (clocked by the LSI, independent of the crystal) starts before
+    /// the clock set-up, which waits for the crystal and the PLL without a time-out, and
+    /// before the sensors: a crystal that never starts resets the board instead of hanging
+    /// it for ever.
+    fn watchdog_runs_before_anything_can_hang(&mut self, steps: &[String]) {
+        let at = |step: &str| steps.iter().position(|s| s == step);
+        let ok = match (at("watchdog"), at("clocks"), at("sensors")) {
+            (Some(watchdog), Some(clocks), Some(sensors)) => {
+                watchdog < clocks && watchdog < sensors
+            }
+            _ => false,
+        };
+        self.checks.check(
+            ok,
+            &format!("watchdog started before the clocks and the sensors (init steps {steps:?})"),
+        );
+    }
+
     /// SysTick below the request interrupt. RTIC maps its priority p to the hardware value
     /// (16 - p) << 4 on the STM32F4's 4 priority bits: request (3) 0xd0, SysTick (2) 0xe0;
     /// a larger value is a lower priority.
