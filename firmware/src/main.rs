@@ -4,7 +4,8 @@
 //! - `request` (EXTI15_10, PD10 rising edge) and `link_done` (DMA1 stream 3): answer a request
 //!   with the latest complete packet, then one info piece while a snapshot is going out
 //!   (`dima_firmware_logic::TxLink`); never tear a transfer.
-//! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
+//! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader; each
+//!   clears its own flags (`dima_firmware_logic::gnss_rx`).
 //! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
 //!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog when the
 //!   supervisor (`dima_firmware_logic::Supervisor`) finds the link alive; every 250 ms, cut
@@ -185,6 +186,54 @@ mod app {
         };
     }
 
+    /// The GNSS receive path: the receiver, the UBX reader, and the configurator's tap.
+    pub struct GnssIn {
+        rx: gnss::GnssRx,
+        reader: GnssReader,
+        tap: ReplyTap<'static>,
+    }
+
+    impl GnssIn {
+        /// Drains the receiver into the reader (and, while the receiver is being configured,
+        /// into the configurator's queue) and updates the GNSS counters; returns the NAV-PVT
+        /// frame that completed, if any.
+        fn receive(&mut self) -> Option<[u8; GNSS_FRAME_LEN]> {
+            let reader = &mut self.reader;
+            let tap = &mut self.tap;
+            self.rx.drain(|bytes| {
+                // The only writer: a plain load and store suffice.
+                let received = GNSS_BYTES
+                    .load(Ordering::Relaxed)
+                    .wrapping_add(bytes.len() as u32);
+                GNSS_BYTES.store(received, Ordering::Relaxed);
+                reader.push_slice(bytes);
+                if GNSS_SETUP.is_pending() {
+                    tap.push_slice(bytes);
+                    GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
+                }
+            });
+            let stats = reader.stats();
+            GNSS_BYTES_DROPPED.store(stats.bytes_skipped, Ordering::Relaxed);
+            GNSS_FRAME_ERRORS.store(stats.checksum_errors, Ordering::Relaxed);
+            let frame = *reader.take_nav_pvt()?.as_bytes();
+            GNSS_SEEN.store(true, Ordering::Relaxed);
+            Some(frame)
+        }
+    }
+
+    /// Hands a new NAV-PVT frame to the sampling tick.
+    fn publish_nav_pvt(
+        mut latest: impl rtic::Mutex<T = GnssLatest>,
+        frame: Option<[u8; GNSS_FRAME_LEN]>,
+    ) {
+        if let Some(frame) = frame {
+            latest.lock(|gnss| {
+                gnss.frame = frame;
+                gnss.fresh = true;
+            });
+        }
+    }
+
     #[shared]
     struct Shared {
         /// Front half of the double buffer: the latest complete packet.
@@ -194,15 +243,15 @@ mod app {
         link: link::Link,
         /// Hand-over of NAV-PVT frames from the GNSS task to the sampling tick.
         gnss_latest: GnssLatest,
+        /// The GNSS receive path, driven by both GNSS interrupts (same priority: no lock).
+        #[lock_free]
+        gnss_in: GnssIn,
     }
 
     #[local]
     struct Local {
         request_pin: gpio::PD10<Input>,
         sampler: Sampler,
-        gnss_rx: gnss::GnssRx,
-        reader: GnssReader,
-        reply_tap: ReplyTap<'static>,
         gnss_port: GnssPort,
         led: gpio::PD12<Output<PushPull>>,
         #[cfg(feature = "qemu")]
@@ -290,13 +339,15 @@ mod app {
                 latest: LatestPacket::new(),
                 link: link.link,
                 gnss_latest: GnssLatest::NONE,
+                gnss_in: GnssIn {
+                    rx: gnss_rx,
+                    reader: GnssReader::with_capacity(),
+                    tap: ReplyTap::new(reply_producer),
+                },
             },
             Local {
                 request_pin,
                 sampler: Sampler::new(timer, watchdog, crc, sensors, info),
-                gnss_rx,
-                reader: GnssReader::with_capacity(),
-                reply_tap: ReplyTap::new(reply_producer),
                 gnss_port: ReplyPort::new(gnss_tx, reply_consumer),
                 led,
                 #[cfg(feature = "qemu")]
@@ -349,39 +400,22 @@ mod app {
 
     /// GNSS bytes (idle line, or under QEMU a received byte).
     /// While the receiver is being configured, the same bytes also go to the configurator.
-    #[task(binds = USART1, priority = 2, local = [gnss_rx, reader, reply_tap], shared = [gnss_latest])]
-    fn gnss_bytes(mut cx: gnss_bytes::Context) {
-        let reader = cx.local.reader;
-        let tap = cx.local.reply_tap;
-        cx.local.gnss_rx.drain(|bytes| {
-            // The only writer: a plain load and store suffice.
-            let received = GNSS_BYTES
-                .load(Ordering::Relaxed)
-                .wrapping_add(bytes.len() as u32);
-            GNSS_BYTES.store(received, Ordering::Relaxed);
-            reader.push_slice(bytes);
-            if GNSS_SETUP.is_pending() {
-                tap.push_slice(bytes);
-                GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
-            }
-        });
-        let stats = reader.stats();
-        GNSS_BYTES_DROPPED.store(stats.bytes_skipped, Ordering::Relaxed);
-        GNSS_FRAME_ERRORS.store(stats.checksum_errors, Ordering::Relaxed);
-        if let Some(frame) = reader.take_nav_pvt() {
-            cx.shared.gnss_latest.lock(|gnss| {
-                gnss.frame = *frame.as_bytes();
-                gnss.fresh = true;
-            });
-            GNSS_SEEN.store(true, Ordering::Relaxed);
-        }
+    #[task(binds = USART1, priority = 2, shared = [gnss_in, gnss_latest])]
+    fn gnss_bytes(cx: gnss_bytes::Context) {
+        let frame = cx.shared.gnss_in.receive();
+        publish_nav_pvt(cx.shared.gnss_latest, frame);
     }
 
-    /// GNSS DMA buffer full before the line went idle.
+    /// GNSS DMA buffer full before the line went idle: the same drain, which clears this
+    /// stream's own flags (transfer complete and the rest) first. It must not count on
+    /// USART1's handler (interrupt 37, before this one's 58 when both are pending) to clear
+    /// them: with another stream or USART the line would stay pending and this handler
+    /// re-enter for ever.
     #[cfg(not(feature = "qemu"))]
-    #[task(binds = DMA2_STREAM2, priority = 2)]
-    fn gnss_dma(_cx: gnss_dma::Context) {
-        rtic::pend(pac::Interrupt::USART1);
+    #[task(binds = DMA2_STREAM2, priority = 2, shared = [gnss_in, gnss_latest])]
+    fn gnss_dma(cx: gnss_dma::Context) {
+        let frame = cx.shared.gnss_in.receive();
+        publish_nav_pvt(cx.shared.gnss_latest, frame);
     }
 
     /// One sampling tick: read what the schedule says, publish the packet, feed the watchdog.

@@ -14,6 +14,8 @@
 //! - [`crc_check`]: the CRC unit's boot-time self-check and the software fallback;
 //! - [`reset_record`]: what the board remembers across resets (watchdog resets, the fault
 //!   that made `init` reset the board);
+//! - [`gnss_rx`]: the GNSS receive double buffer; either interrupt that ends a buffer
+//!   acknowledges both sources itself;
 //! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
 //! - [`supervisor`]: whether the sampling tick may feed the watchdog (the link is not stuck
 //!   sending) and whether the GNSS receiver has gone silent;
@@ -29,6 +31,7 @@
 pub mod blink;
 pub mod crc_check;
 pub mod dima;
+pub mod gnss_rx;
 pub mod gnss_setup;
 pub mod latest;
 pub mod link;
