@@ -28,11 +28,11 @@ mod delay;
 mod gnss;
 mod hw_crc;
 mod link;
+mod panic;
 mod reset_record;
 mod sensors;
 mod setup;
 
-use panic_halt as _;
 use rtic_monotonics::systick::prelude::*;
 
 systick_monotonic!(Mono, board::MONO_HZ);
@@ -97,9 +97,10 @@ mod app {
     static GNSS_BYTES_DROPPED: AtomicU32 = AtomicU32::new(0);
     static GNSS_FRAME_ERRORS: AtomicU32 = AtomicU32::new(0);
     /// The fault that made the previous boot reset the board (a `BootFault` code: 1 link
-    /// USART3, 2 GNSS USART1, 3 sampling timer; 0 none). It also counts as a watchdog reset
-    /// (status bit 5, `watchdog_resets`), since the watchdog performs it; this static, for a
-    /// debugger, says which step failed.
+    /// USART3, 2 GNSS USART1, 3 sampling timer, 4 panic; 0 none). A fault in `init` also
+    /// counts as a watchdog reset (status bit 5, `watchdog_resets`), since the watchdog
+    /// performs it; a panic resets by software and does not. For a debugger (and under QEMU
+    /// the boot message): which fault it was.
     #[used]
     static BOOT_FAULT: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(0);
     /// Received bytes the configurator's reply queue had no room for.
@@ -332,7 +333,7 @@ mod app {
         gnss_setup::spawn().ok();
         // The rest of the timeout belongs to the first sampling tick, not to `init`.
         watchdog.feed();
-        setup::announce_ready(rcc.clocks.pclk2().raw());
+        setup::announce_ready(rcc.clocks.pclk2().raw(), reset.report.boot_fault);
 
         (
             Shared {
@@ -393,10 +394,23 @@ mod app {
     #[cfg(feature = "qemu")]
     #[task(binds = USART3, priority = 3, local = [host_rx])]
     fn host_byte(cx: host_byte::Context) {
-        while embedded_hal_nb::serial::Read::read(cx.local.host_rx).is_ok() {
-            rtic::pend(pac::Interrupt::EXTI15_10);
+        while let Ok(byte) = embedded_hal_nb::serial::Read::read(cx.local.host_rx) {
+            if byte == PANIC_BYTE {
+                PANIC_REQUESTED.store(true, Ordering::Relaxed);
+            } else {
+                rtic::pend(pac::Interrupt::EXTI15_10);
+            }
         }
     }
+
+    /// Under QEMU: this byte from the host makes the next sampling tick panic (the smoke
+    /// test's check of the panic handler); any other byte is a request.
+    #[cfg(feature = "qemu")]
+    const PANIC_BYTE: u8 = b'!';
+
+    /// Under QEMU: the host asked for a panic (see [`PANIC_BYTE`]).
+    #[cfg(feature = "qemu")]
+    static PANIC_REQUESTED: AtomicBool = AtomicBool::new(false);
 
     /// GNSS bytes (idle line, or under QEMU a received byte).
     /// While the receiver is being configured, the same bytes also go to the configurator.
@@ -423,6 +437,11 @@ mod app {
     fn sample(mut cx: sample::Context) {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
+        // A panic in the lowest-priority task, as the request task still preempts it.
+        #[cfg(feature = "qemu")]
+        if PANIC_REQUESTED.load(Ordering::Relaxed) {
+            panic!("panic requested by the host");
+        }
         // Fed only while this tick runs, the link is not stuck sending and (reported, not
         // a reset) the receiver talks.
         let verdict = sampler.supervisor.on_tick(

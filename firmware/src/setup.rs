@@ -182,14 +182,19 @@ pub fn boot_step(step: &str) {
 
 /// The end of the set-up. Nothing to announce on the board.
 #[cfg(not(feature = "qemu"))]
-pub fn announce_ready(_pclk2_hz: u32) {}
+pub fn announce_ready(_pclk2_hz: u32, _boot_fault: Option<BootFault>) {}
 
 /// Emulator twin: tells the smoke test, over semihosting, SPI1_CR1 as the HAL wrote it with
 /// the APB2 clock `pclk2_hz` it computed the divider for (QEMU keeps the register), the
 /// exception priorities as the core holds them (QEMU models SCB and NVIC; SysTick must be
-/// below the request interrupt, a larger value), then `ready`.
+/// below the request interrupt, a larger value), the fault that reset the previous boot
+/// (`reset: fault Panic`, or `none`), then `ready`.
 #[cfg(feature = "qemu")]
-pub fn announce_ready(pclk2_hz: u32) {
+pub fn announce_ready(pclk2_hz: u32, boot_fault: Option<BootFault>) {
+    match boot_fault {
+        Some(fault) => cortex_m_semihosting::hprintln!("reset: fault {:?}", fault),
+        None => cortex_m_semihosting::hprintln!("reset: fault none"),
+    }
     // SAFETY: a read of SPI1_CR1, which the sensor set-up has written; no side effect.
     #[allow(unsafe_code)]
     let spi1_cr1 = unsafe { (*pac::SPI1::ptr()).cr1().read().bits() };

@@ -17,7 +17,10 @@
 //! 6. after a pause (500 ms or more on the board's clock) a record arrives again within nine
 //!    answers, with a larger uptime and the GNSS bit set;
 //! 7. a receiver silent for 1 s is reported in the info frame;
-//! 8. the decoder counted one packet per request and every record the checks saw.
+//! 8. the decoder counted one packet per request and every record the checks saw;
+//! 9. a panic (asked for with the byte `!`, a hook of the `qemu` build) resets the board at
+//!    once (QEMU models no watchdog: only the panic handler's own reset can reboot it), the
+//!    next boot reports `reset: fault Panic`, and the answers after it come from the new boot.
 //!
 //! Every byte from USART3 goes through `dima_sensorboard::StreamDecoder`, which checks start
 //! tokens and CRCs: a packet counts only if the decoder accepts it, and any skipped byte or CRC
@@ -186,6 +189,7 @@ fn main() {
         mut gnss,
         link,
         said,
+        boots,
     } = Board::start(&qemu_bin, &elf);
 
     let mut smoke = Smoke {
@@ -203,6 +207,7 @@ fn main() {
     smoke.record_again_after_a_pause(first_info);
     smoke.silent_receiver_is_reported();
     smoke.decoder_saw_every_answer();
+    smoke.panic_resets_at_once_and_is_reported(&said, &boots);
 
     drop(qemu);
     let checks = smoke.checks;
@@ -223,6 +228,8 @@ struct Board {
     link: HostLink,
     /// What the firmware said before `ready`.
     said: BootLines,
+    /// What it says before each later `ready` (after a reset).
+    boots: mpsc::Receiver<BootLines>,
 }
 
 /// The firmware's semihosting lines before `ready`, each without its prefix (empty if it
@@ -235,6 +242,8 @@ struct BootLines {
     spi1: String,
     /// The steps of `init` in the order they started ("boot: clocks" gives "clocks").
     steps: Vec<String>,
+    /// "reset: fault X": the fault that reset the previous boot ("none", "Panic", ...).
+    reset: String,
 }
 
 impl Board {
@@ -266,7 +275,7 @@ impl Board {
         let (link_stream, _) = link_listener.accept().expect("QEMU connects USART3");
         link_stream.set_nodelay(true).expect("nodelay");
 
-        let said = wait_until_ready(stdout);
+        let (said, boots) = wait_until_ready(stdout);
         Board {
             qemu,
             gnss,
@@ -276,14 +285,15 @@ impl Board {
                 requests: 0,
             },
             said,
+            boots,
         }
     }
 }
 
 /// Echoes the firmware's semihosting output (on a thread, for the whole run) and waits for
 /// its "ready" line, printed once its receivers are enabled; returns the lines it printed
-/// before it (see [`BootLines`]).
-fn wait_until_ready(stdout: ChildStdout) -> BootLines {
+/// before it (see [`BootLines`]) and the channel that brings the lines of later boots.
+fn wait_until_ready(stdout: ChildStdout) -> (BootLines, mpsc::Receiver<BootLines>) {
     let (ready_tx, ready_rx) = mpsc::channel();
     std::thread::spawn(move || {
         let mut said = BootLines::default();
@@ -295,6 +305,9 @@ fn wait_until_ready(stdout: ChildStdout) -> BootLines {
             }
             if let Some(rest) = line.strip_prefix("boot: ") {
                 said.steps.push(rest.to_owned());
+            }
+            if let Some(rest) = line.strip_prefix("reset: ") {
+                said.reset = rest.to_owned();
             }
             if let Some(rest) = line.strip_prefix("spi1: ") {
                 said.spi1 = rest.to_owned();
@@ -309,7 +322,7 @@ fn wait_until_ready(stdout: ChildStdout) -> BootLines {
         .recv_timeout(Duration::from_secs(20))
         .expect("firmware did not print `ready` within 20 s");
     println!("firmware ready after {:?}", started.elapsed());
-    said
+    (said, ready_rx)
 }
 
 /// SPI1_CR1 and the APB2 clock from the firmware's "spi1: cr1 0x...., pclk2 N Hz" line.
@@ -604,6 +617,48 @@ impl Smoke {
             &format!(
                 "a receiver silent for 1 s is reported in status bit 7, GNSS_SEEN kept (status {:#04x})",
                 silent.map_or(0, |info| info.status.bits())
+            ),
+        );
+    }
+
+    /// A panic in the sampling task: the board reboots within a few seconds of host time (QEMU
+    /// has no watchdog, so a board that halts on a panic never comes back), its boot message
+    /// names the panic, and what answers afterwards is the new boot: its info record no longer
+    /// has the GNSS-seen bit the old boot had set. (A core halted with its interrupts on keeps
+    /// answering with the last packet and the old snapshot's pieces.)
+    fn panic_resets_at_once_and_is_reported(
+        &mut self,
+        first: &BootLines,
+        boots: &mpsc::Receiver<BootLines>,
+    ) {
+        self.checks.check(
+            first.reset == "fault none",
+            &format!("first boot reports no fault (got \"{}\")", first.reset),
+        );
+        let gnss_seen = |frames: &[Frame]| {
+            split(frames)
+                .1
+                .first()
+                .map(|info| info.status.contains(SensorStatus::GNSS_SEEN))
+        };
+        let before = gnss_seen(&self.link.request_record(10).0);
+        self.link.stream.write_all(b"!").expect("write panic byte");
+        let rebooted = boots.recv_timeout(Duration::from_secs(10)).ok();
+        self.checks.check(
+            rebooted
+                .as_ref()
+                .is_some_and(|said| said.reset == "fault Panic"),
+            &format!(
+                "a panic resets the board at once and the next boot reports it (got {:?})",
+                rebooted.as_ref().map(|said| said.reset.as_str())
+            ),
+        );
+        // QEMU's TIM2 can take a while to tick again after a reset: requests until a record.
+        let after = gnss_seen(&self.link.request_record(30).0);
+        self.checks.check(
+            before == Some(true) && after == Some(false),
+            &format!(
+                "after the panic the answers come from the new boot (GNSS seen before {before:?}, after {after:?})"
             ),
         );
     }
