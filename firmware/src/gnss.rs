@@ -20,6 +20,19 @@ pub use self::dma::{set_up, GnssRx};
 #[cfg(feature = "qemu")]
 pub use self::interrupt::{set_up, GnssRx};
 
+/// USART1's status register (USART_SR) as it stands: its error flags are counted by
+/// `dima_firmware_logic::uart_errors`. The read is the first half of the flags' clearing
+/// sequence; the second, a read of the data register, is the DMA stream's (or, under QEMU,
+/// the receive interrupt's) next byte.
+pub fn line_status() -> u32 {
+    // SAFETY: a read of USART1_SR; its only side effect is the intended first step of
+    // clearing the error flags (see above). The receive path owns USART1 otherwise.
+    #[allow(unsafe_code)]
+    unsafe {
+        u32::from((*stm32f4xx_hal::pac::USART1::ptr()).sr().read().bits())
+    }
+}
+
 /// USART1's settings: [`GNSS_BAUD`], the HAL's defaults otherwise (8N1).
 fn serial_config() -> serial::Config {
     serial::Config::default().baudrate(GNSS_BAUD.bps())

@@ -46,14 +46,15 @@ mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
     use dima_firmware_logic::reset_record::BootFault;
+    use dima_firmware_logic::uart_errors::UartErrors;
     use dima_firmware_logic::{
         blink as led_pattern, GnssSetupOutcome, LatestPacket, LinkProgress, ReplyPort, ReplyTap,
         SetupStatus, Supervisor, SupervisorConfig,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::{
-        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN, INFO_PIECE_LEN,
-        INFO_SNAPSHOT_MS, PACKET_LEN,
+        BoardFaults, BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN,
+        INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
     };
     use embedded_hal_bus::util::AtomicCell;
     use stm32f4xx_hal::gpio::{self, Input, Output, PushPull};
@@ -96,6 +97,10 @@ mod app {
     /// GNSS bytes outside valid UBX frames, and frames with a bad checksum (GNSS task's count).
     static GNSS_BYTES_DROPPED: AtomicU32 = AtomicU32::new(0);
     static GNSS_FRAME_ERRORS: AtomicU32 = AtomicU32::new(0);
+    /// GNSS UART overrun, framing and noise errors (GNSS task's counts).
+    static GNSS_OVERRUN_ERRORS: AtomicU32 = AtomicU32::new(0);
+    static GNSS_FRAMING_ERRORS: AtomicU32 = AtomicU32::new(0);
+    static GNSS_NOISE_ERRORS: AtomicU32 = AtomicU32::new(0);
     /// The fault that made the previous boot reset the board (a `BootFault` code: 1 link
     /// USART3, 2 GNSS USART1, 3 sampling timer, 4 panic; 0 none). A fault in `init` also
     /// counts as a watchdog reset (status bit 5, `watchdog_resets`), since the watchdog
@@ -123,6 +128,8 @@ mod app {
         supervisor: Supervisor,
         /// The supervisor's latest word on the receiver (info frame status bit 7).
         gnss_silent: bool,
+        /// Ticks still running when the next period began (info frame `sample_overruns`).
+        overruns: u32,
     }
 
     impl Sampler {
@@ -149,6 +156,7 @@ mod app {
                 snapshot: 0,
                 supervisor: Supervisor::new(SUPERVISOR),
                 gnss_silent: false,
+                overruns: 0,
             }
         }
     }
@@ -192,6 +200,7 @@ mod app {
         rx: gnss::GnssRx,
         reader: GnssReader,
         tap: ReplyTap<'static>,
+        errors: UartErrors,
     }
 
     impl GnssIn {
@@ -201,7 +210,11 @@ mod app {
         fn receive(&mut self) -> Option<[u8; GNSS_FRAME_LEN]> {
             let reader = &mut self.reader;
             let tap = &mut self.tap;
+            // Before the drain: the error flags of the bytes about to be handed on.
+            let line_status = gnss::line_status();
+            let mut received = 0;
             self.rx.drain(|bytes| {
+                received = bytes.len();
                 // The only writer: a plain load and store suffice.
                 let received = GNSS_BYTES
                     .load(Ordering::Relaxed)
@@ -213,6 +226,10 @@ mod app {
                     GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
                 }
             });
+            self.errors.count(line_status, received);
+            GNSS_OVERRUN_ERRORS.store(self.errors.overrun, Ordering::Relaxed);
+            GNSS_FRAMING_ERRORS.store(self.errors.framing, Ordering::Relaxed);
+            GNSS_NOISE_ERRORS.store(self.errors.noise, Ordering::Relaxed);
             let stats = reader.stats();
             GNSS_BYTES_DROPPED.store(stats.bytes_skipped, Ordering::Relaxed);
             GNSS_FRAME_ERRORS.store(stats.checksum_errors, Ordering::Relaxed);
@@ -344,6 +361,7 @@ mod app {
                     rx: gnss_rx,
                     reader: GnssReader::with_capacity(),
                     tap: ReplyTap::new(reply_producer),
+                    errors: UartErrors::new(),
                 },
             },
             Local {
@@ -397,6 +415,8 @@ mod app {
         while let Ok(byte) = embedded_hal_nb::serial::Read::read(cx.local.host_rx) {
             if byte == PANIC_BYTE {
                 PANIC_REQUESTED.store(true, Ordering::Relaxed);
+            } else if byte == SLOW_TICK_BYTE {
+                SLOW_TICK_REQUESTED.store(true, Ordering::Relaxed);
             } else {
                 rtic::pend(pac::Interrupt::EXTI15_10);
             }
@@ -411,6 +431,15 @@ mod app {
     /// Under QEMU: the host asked for a panic (see [`PANIC_BYTE`]).
     #[cfg(feature = "qemu")]
     static PANIC_REQUESTED: AtomicBool = AtomicBool::new(false);
+
+    /// Under QEMU: this byte from the host makes the next sampling tick run until the next
+    /// period has begun (the smoke test's check of the overrun count).
+    #[cfg(feature = "qemu")]
+    const SLOW_TICK_BYTE: u8 = b'~';
+
+    /// Under QEMU: the host asked for a slow tick (see [`SLOW_TICK_BYTE`]).
+    #[cfg(feature = "qemu")]
+    static SLOW_TICK_REQUESTED: AtomicBool = AtomicBool::new(false);
 
     /// GNSS bytes (idle line, or under QEMU a received byte).
     /// While the receiver is being configured, the same bytes also go to the configurator.
@@ -496,14 +525,34 @@ mod app {
                 mag_age_ms,
                 bmp280_age_ms,
             };
+            info.faults = BoardFaults {
+                gnss_overrun_errors: GNSS_OVERRUN_ERRORS.load(Ordering::Relaxed),
+                gnss_framing_errors: GNSS_FRAMING_ERRORS.load(Ordering::Relaxed),
+                gnss_noise_errors: GNSS_NOISE_ERRORS.load(Ordering::Relaxed),
+                sample_overruns: sampler.overruns,
+                reset_fault: info.faults.reset_fault,
+            };
             // Never 0 again after the first: 0 means "none taken yet".
             sampler.snapshot = sampler.snapshot.checked_add(1).unwrap_or(1);
             // Ten CRCs on the CRC unit, outside the lock; only the copy holds off requests.
-            let pieces = info.encode_v2_pieces_with(sampler.snapshot, &mut sampler.crc);
+            let pieces = info.encode_v3_pieces_with(sampler.snapshot, &mut sampler.crc);
             cx.shared.link.lock(|link| link.publish_pieces(&pieces));
         }
         let packet = sampler.builder.build(&mut sampler.crc);
         cx.shared.latest.lock(|latest| latest.publish(packet));
+        #[cfg(feature = "qemu")]
+        if SLOW_TICK_REQUESTED.swap(false, Ordering::Relaxed) {
+            // Until the next period has begun (20 ms of the board's clock at most).
+            let start = Mono::now().ticks();
+            while !sampler.timer.flags().contains(Flag::Update)
+                && Mono::now().ticks().wrapping_sub(start) < 20
+            {}
+        }
+        // The next period began while this tick ran: it starts late (and, should it overrun
+        // too, one is lost). Counted, not hidden.
+        if sampler.timer.flags().contains(Flag::Update) {
+            sampler.overruns = sampler.overruns.wrapping_add(1);
+        }
     }
 
     /// With the `gnss-setup` feature: configures the NEO-M8T once at boot (10 Hz NAV-PVT on UART1, UBX only, automotive

@@ -10,7 +10,7 @@ use crate::board::*;
 use crate::hw_crc::HwCrc;
 use dima_firmware_logic::reset_record::{BootFault, ResetReport};
 use dima_firmware_logic::{BootReport, CheckedCrc};
-use dima_sensorboard::{BoardHealth, InfoFrame, SensorStatus, INFO_VERSION};
+use dima_sensorboard::{BoardFaults, BoardHealth, InfoFrame, SensorStatus, INFO_VERSION};
 use stm32f4xx_hal::gpio::{self, Edge, Input};
 use stm32f4xx_hal::pac::{self, CRC, EXTI, IWDG, SYSCFG, TIM2};
 use stm32f4xx_hal::prelude::*;
@@ -146,8 +146,9 @@ pub fn crc(crc: CRC, rcc: &mut Rcc) -> Crc {
     CheckedCrc::check(HwCrc(stm32f4xx_hal::crc32::Crc32::new(crc, rcc)))
 }
 
-/// The info frame as it stands at boot: what the sensors reported, the reset cause and the
-/// CRC unit's self-check, no uptime and no counts yet.
+/// The info frame as it stands at boot: what the sensors reported, the reset cause (the
+/// watchdog bit, and the fault that reset the previous boot) and the CRC unit's self-check,
+/// no uptime and no counts yet.
 pub fn boot_info(sensors: &BootReport, reset: &ResetCause, crc_unit_ok: bool) -> InfoFrame {
     let mut status = sensors.status;
     status.set(SensorStatus::WATCHDOG_RESET, reset.by_watchdog);
@@ -163,6 +164,10 @@ pub fn boot_info(sensors: &BootReport, reset: &ResetCause, crc_unit_ok: bool) ->
         health: BoardHealth {
             watchdog_resets: reset.report.watchdog_resets,
             ..BoardHealth::default()
+        },
+        faults: BoardFaults {
+            reset_fault: reset.report.boot_fault.map_or(0, |fault| fault as u8),
+            ..BoardFaults::default()
         },
     }
 }

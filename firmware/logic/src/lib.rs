@@ -21,6 +21,8 @@
 //!   sending) and whether the GNSS receiver has gone silent;
 //! - [`spi_clock`]: the SPI1 prescaler the HAL picks, and the sensor bus rate the firmware
 //!   asks for (never above the sensors' 10 MHz);
+//! - [`uart_errors`]: overrun, framing and noise errors of the GNSS UART, from its status
+//!   register;
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
 //!   register file).
@@ -41,6 +43,7 @@ pub mod schedule;
 pub mod sensors;
 pub mod spi_clock;
 pub mod supervisor;
+pub mod uart_errors;
 
 pub use crc_check::{CheckedCrc, NibbleCrc};
 pub use gnss_setup::{Outcome as GnssSetupOutcome, ReplyPort, ReplyTap, SetupStatus};

@@ -10,17 +10,20 @@
 //!    the watchdog starts before the clock set-up (which can wait for ever for the crystal)
 //!    and the sensors;
 //! 2. nothing at all arrives before the first request (no packet at boot, none unrequested);
-//! 3. the first nine requests are each answered with one packet and one info piece, and the
-//!    ninth completes the first info record (version 2, with health);
+//! 3. the first eleven requests are each answered with one packet and one info piece, and the
+//!    eleventh completes the first info record (version 3, with health and faults: no GNSS
+//!    UART error, no overrun, no fault before this boot);
 //! 4. requests a few milliseconds apart get exactly one packet each;
 //! 5. a NAV-PVT frame written to the GNSS UART shows up, byte for byte, in later packets;
-//! 6. after a pause (500 ms or more on the board's clock) a record arrives again within nine
+//! 6. after a pause (500 ms or more on the board's clock) a record arrives again within eleven
 //!    answers, with a larger uptime and the GNSS bit set;
 //! 7. a receiver silent for 1 s is reported in the info frame;
-//! 8. the decoder counted one packet per request and every record the checks saw;
-//! 9. a panic (asked for with the byte `!`, a hook of the `qemu` build) resets the board at
-//!    once (QEMU models no watchdog: only the panic handler's own reset can reboot it), the
-//!    next boot reports `reset: fault Panic`, and the answers after it come from the new boot.
+//! 8. a sampling tick that runs into the next period (asked for with the byte `~`, a hook of
+//!    the `qemu` build) is counted in the info frame's `sample_overruns`;
+//! 9. the decoder counted one packet per request and every record the checks saw;
+//! 10. a panic (asked for with the byte `!`, a hook of the `qemu` build) resets the board at
+//!     once (QEMU models no watchdog: only the panic handler's own reset can reboot it), the
+//!     next boot reports `reset: fault Panic`, and the answers after it come from the new boot.
 //!
 //! Every byte from USART3 goes through `dima_sensorboard::StreamDecoder`, which checks start
 //! tokens and CRCs: a packet counts only if the decoder accepts it, and any skipped byte or CRC
@@ -36,7 +39,10 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use dima_sensorboard::{nav_pvt, NavPvt, GNSS_FRAME_LEN};
-use dima_sensorboard::{Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder};
+use dima_sensorboard::{BoardFaults, Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder};
+
+/// Pieces of the board's info record (version 3): requests until a whole record.
+const PIECES: usize = dima_sensorboard::INFO_V3_PIECES;
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
 const PAUSE: Duration = Duration::from_secs(2);
@@ -206,6 +212,7 @@ fn main() {
     smoke.nav_pvt_is_carried_verbatim(&mut gnss);
     smoke.record_again_after_a_pause(first_info);
     smoke.silent_receiver_is_reported();
+    smoke.slow_tick_is_counted();
     smoke.decoder_saw_every_answer();
     smoke.panic_resets_at_once_and_is_reported(&said, &boots);
 
@@ -399,15 +406,16 @@ impl Smoke {
         );
     }
 
-    /// The first nine requests: a packet and a piece each; the ninth completes a record, which
+    /// The first eleven requests: a packet and a piece each; the eleventh completes a record,
+    /// which
     /// this returns.
     fn first_record(&mut self) -> Option<InfoFrame> {
-        let (first, sent) = self.link.request_record(9);
+        let (first, sent) = self.link.request_record(PIECES);
         let (packets, infos) = split(&first);
         self.checks.check(
-            sent == 9 && packets.len() == 9 && infos.len() == 1,
+            sent == PIECES && packets.len() == PIECES && infos.len() == 1,
             &format!(
-                "first record after 9 answers of packet + piece (got {} in {sent} requests, {} pieces)",
+                "first record after {PIECES} answers of packet + piece (got {} in {sent} requests, {} pieces)",
                 kinds(&first),
                 self.link.decoder.stats().info_pieces
             ),
@@ -426,8 +434,17 @@ impl Smoke {
 
     /// What the first record says about a board under QEMU.
     fn first_record_contents(&mut self, info: &InfoFrame) {
-        self.checks
-            .check(info.version == 2, "info frame version 2 (with health)");
+        self.checks.check(
+            info.version == 3,
+            "info frame version 3 (with health and faults)",
+        );
+        self.checks.check(
+            info.faults == BoardFaults::default(),
+            &format!(
+                "no GNSS UART error, no sampling overrun, no fault before this boot ({:?})",
+                info.faults
+            ),
+        );
         // No sensor answers under QEMU: no read ever succeeded, none was attempted after boot.
         self.checks.check(
             info.health.accel_age_ms == u16::MAX
@@ -519,7 +536,7 @@ impl Smoke {
         );
     }
 
-    /// A pause (500 ms or more on the board's clock): a record again within nine answers, the
+    /// A pause (500 ms or more on the board's clock): a record again within eleven answers, the
     /// snapshot started from piece 0, with a larger uptime, the GNSS bit and the GNSS noise
     /// counted.
     fn record_again_after_a_pause(&mut self, first_info: Option<InfoFrame>) {
@@ -528,7 +545,7 @@ impl Smoke {
         self.checks.check(
             infos.len() == 1,
             &format!(
-                "after a {pause:?} pause a record within 9 answers (got {})",
+                "after a {pause:?} pause a record within {PIECES} answers (got {})",
                 kinds(&after_pause)
             ),
         );
@@ -570,7 +587,7 @@ impl Smoke {
         let mut after_pause = Vec::new();
         for _ in 0..3 {
             std::thread::sleep(pause);
-            let (frames, _) = self.link.request_record(9);
+            let (frames, _) = self.link.request_record(PIECES);
             after_pause = frames;
             let (_, infos) = split(&after_pause);
             self.records += infos.len();
@@ -595,7 +612,7 @@ impl Smoke {
         let mut silent = None;
         for _ in 0..3 {
             std::thread::sleep(wait);
-            let (frames, _) = self.link.request_record(9);
+            let (frames, _) = self.link.request_record(PIECES);
             let (_, infos) = split(&frames);
             self.records += infos.len();
             if let Some(info) = infos.first() {
@@ -641,7 +658,7 @@ impl Smoke {
                 .first()
                 .map(|info| info.status.contains(SensorStatus::GNSS_SEEN))
         };
-        let before = gnss_seen(&self.link.request_record(10).0);
+        let before = gnss_seen(&self.link.request_record(PIECES + 1).0);
         self.link.stream.write_all(b"!").expect("write panic byte");
         let rebooted = boots.recv_timeout(Duration::from_secs(10)).ok();
         self.checks.check(
@@ -654,11 +671,51 @@ impl Smoke {
             ),
         );
         // QEMU's TIM2 can take a while to tick again after a reset: requests until a record.
-        let after = gnss_seen(&self.link.request_record(30).0);
+        let (frames, _) = self.link.request_record(3 * PIECES);
+        let after = gnss_seen(&frames);
         self.checks.check(
             before == Some(true) && after == Some(false),
             &format!(
                 "after the panic the answers come from the new boot (GNSS seen before {before:?}, after {after:?})"
+            ),
+        );
+        let reset_fault = split(&frames).1.first().map(|info| info.faults.reset_fault);
+        self.checks.check(
+            reset_fault == Some(4),
+            &format!(
+                "the new boot's info frame reports the panic (reset fault {reset_fault:?}, want 4)"
+            ),
+        );
+    }
+
+    /// A sampling tick that overruns its period (it runs until the next one has begun, asked
+    /// for with `~`) is counted: `sample_overruns` in a later record is above the one before.
+    fn slow_tick_is_counted(&mut self) {
+        let overruns = |link: &mut HostLink, records: &mut usize| {
+            let (frames, _) = link.request_record(PIECES);
+            let (_, infos) = split(&frames);
+            *records += infos.len();
+            infos.first().map(|info| info.faults.sample_overruns)
+        };
+        let before = overruns(&mut self.link, &mut self.records);
+        // Not a request: nothing comes back.
+        self.link
+            .stream
+            .write_all(b"~")
+            .expect("write slow-tick byte");
+        // The next snapshot, 250 ms of the board's clock later, has the count.
+        let mut after = None;
+        for _ in 0..5 {
+            std::thread::sleep(Duration::from_millis(400));
+            after = overruns(&mut self.link, &mut self.records);
+            if after > before {
+                break;
+            }
+        }
+        self.checks.check(
+            matches!((before, after), (Some(b), Some(a)) if a > b),
+            &format!(
+                "a sampling tick that runs into the next period is counted in sample_overruns ({before:?} -> {after:?})"
             ),
         );
     }
