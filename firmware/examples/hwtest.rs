@@ -1,8 +1,8 @@
 //! Hardware self-test of the DIMA sensor board, reported over RTT.
 //!
 //! Checks, on the real board, what neither the host tests nor QEMU can: the CRC unit, the four
-//! sensor dies on SPI1, one DMA packet transfer on USART3, GNSS bytes on USART1 and the
-//! watchdog reset record. One line per check, `ok` or `FAILED`, then a summary line.
+//! sensor dies on SPI1 and the SPI clock read back from SPI1_CR1, one DMA packet transfer on
+//! USART3, GNSS bytes on USART1 and the watchdog reset record. Prints the reset cause first. One line per check, `ok` or `FAILED`, then a summary line.
 //!
 //! ```text
 //! cd firmware
@@ -117,6 +117,7 @@ fn main() -> ! {
         env!("CARGO_PKG_VERSION"),
         sysclk_hz
     );
+    print_reset_cause(&reset);
     let mut report = Report {
         passed: 0,
         failed: 0,
@@ -168,6 +169,8 @@ fn main() -> ! {
 struct ResetCause {
     /// The watchdog reset the board (RCC_CSR `WDGRSTF`).
     by_watchdog: bool,
+    /// RCC_CSR as read at boot, before the flags were cleared.
+    csr: u32,
     /// What the reset record says (watchdog resets since power-on).
     record: ResetReport,
 }
@@ -180,7 +183,33 @@ fn read_reset_cause(rcc: &pac::RCC) -> ResetCause {
     rcc.csr().modify(|_, w| w.rmvf().set_bit());
     ResetCause {
         by_watchdog,
+        csr: csr.bits(),
         record,
+    }
+}
+
+/// Prints why this boot happened: RCC_CSR's reset flags (RM0090 7.3.21) and the fault the
+/// reset record holds for it (a panic or a step of `init` in the firmware; the self-test
+/// itself records none).
+fn print_reset_cause(reset: &ResetCause) {
+    const FLAGS: [(u32, &str); 7] = [
+        (1 << 25, "brown-out"),
+        (1 << 26, "pin"),
+        (1 << 27, "power-on"),
+        (1 << 28, "software"),
+        (1 << 29, "independent watchdog"),
+        (1 << 30, "window watchdog"),
+        (1 << 31, "low power"),
+    ];
+    rprintln!("reset cause: RCC_CSR {:#010x}", reset.csr);
+    for (bit, name) in FLAGS {
+        if reset.csr & bit != 0 {
+            rprintln!("  {} reset", name);
+        }
+    }
+    match reset.record.boot_fault {
+        Some(fault) => rprintln!("  fault recorded by the previous boot: {:?}", fault),
+        None => rprintln!("  no fault recorded by the previous boot"),
     }
 }
 
