@@ -1,8 +1,8 @@
 //! Hardware self-test of the DIMA sensor board, reported over RTT.
 //!
 //! Checks, on the real board, what neither the host tests nor QEMU can: the CRC unit, the four
-//! sensor dies on SPI1, one DMA packet transfer on USART3, GNSS bytes on USART1 and the
-//! watchdog reset record. One line per check, `ok` or `FAILED`, then a summary line.
+//! sensor dies on SPI1 and the SPI clock read back from SPI1_CR1, one DMA packet transfer on
+//! USART3, GNSS bytes on USART1 and the watchdog reset record. Prints the reset cause first. One line per check, `ok` or `FAILED`, then a summary line.
 //!
 //! ```text
 //! cd firmware
@@ -25,6 +25,7 @@ mod reset_record;
 
 use cortex_m_rt::entry;
 use dima_firmware_logic::reset_record::ResetReport;
+use dima_firmware_logic::spi_clock;
 use dima_sensorboard::{PacketBuilder, SensorCrc, PACKET_LEN};
 use rtt_target::{rprintln, rtt_init_print};
 use stm32f4xx_hal::dma::{config::DmaConfig, StreamsTuple, Transfer};
@@ -116,6 +117,7 @@ fn main() -> ! {
         env!("CARGO_PKG_VERSION"),
         sysclk_hz
     );
+    print_reset_cause(&reset);
     let mut report = Report {
         passed: 0,
         failed: 0,
@@ -167,6 +169,8 @@ fn main() -> ! {
 struct ResetCause {
     /// The watchdog reset the board (RCC_CSR `WDGRSTF`).
     by_watchdog: bool,
+    /// RCC_CSR as read at boot, before the flags were cleared.
+    csr: u32,
     /// What the reset record says (watchdog resets since power-on).
     record: ResetReport,
 }
@@ -179,7 +183,33 @@ fn read_reset_cause(rcc: &pac::RCC) -> ResetCause {
     rcc.csr().modify(|_, w| w.rmvf().set_bit());
     ResetCause {
         by_watchdog,
+        csr: csr.bits(),
         record,
+    }
+}
+
+/// Prints why this boot happened: RCC_CSR's reset flags (RM0090 7.3.21) and the fault the
+/// reset record holds for it (a panic or a step of `init` in the firmware; the self-test
+/// itself records none).
+fn print_reset_cause(reset: &ResetCause) {
+    const FLAGS: [(u32, &str); 7] = [
+        (1 << 25, "brown-out"),
+        (1 << 26, "pin"),
+        (1 << 27, "power-on"),
+        (1 << 28, "software"),
+        (1 << 29, "independent watchdog"),
+        (1 << 30, "window watchdog"),
+        (1 << 31, "low power"),
+    ];
+    rprintln!("reset cause: RCC_CSR {:#010x}", reset.csr);
+    for (bit, name) in FLAGS {
+        if reset.csr & bit != 0 {
+            rprintln!("  {} reset", name);
+        }
+    }
+    match reset.record.boot_fault {
+        Some(fault) => rprintln!("  fault recorded by the previous boot: {:?}", fault),
+        None => rprintln!("  no fault recorded by the previous boot"),
     }
 }
 
@@ -202,15 +232,17 @@ fn check_chip_ids(
     rcc: &mut Rcc,
     delay: &mut SysDelay,
 ) {
+    let pclk2_hz = rcc.clocks.pclk2().raw();
     let mut spi = spi1.spi(
         (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
         Mode {
             polarity: Polarity::IdleHigh,
             phase: Phase::CaptureOnSecondTransition,
         },
-        board::SPI_HZ.Hz(),
+        spi_clock::sensor_request_hz(pclk2_hz).Hz(),
         rcc,
     );
+    check_spi_clock(report, pclk2_hz);
     let mut accel = select(gpioe.pe7.into_push_pull_output().erase_number());
     let mut gyro = select(gpioe.pe8.into_push_pull_output().erase_number());
     let mut mag = select(gpioe.pe9.into_push_pull_output().erase_number());
@@ -230,6 +262,23 @@ fn check_chip_ids(
             format_args!("chip id {name}: {id:02x?} (want {want:#04x})"),
         );
     }
+}
+
+/// Check 2a: the SPI1 clock as programmed (SPI1_CR1's baud-rate bits read back) is within
+/// the sensors' 10 MHz.
+fn check_spi_clock(report: &mut Report, pclk2_hz: u32) {
+    // SAFETY: a read of SPI1_CR1, which the HAL has just written; no side effect.
+    #[allow(unsafe_code)]
+    let cr1 = unsafe { (*pac::SPI1::ptr()).cr1().read().bits() };
+    let divider = spi_clock::divider_of_br(((cr1 >> 3) & 0b111) as u8);
+    let spi_hz = pclk2_hz / divider;
+    report.check(
+        spi_hz <= spi_clock::SENSOR_SPI_MAX_HZ,
+        format_args!(
+            "spi clock: SPI1_CR1 {cr1:#06x}, APB2 {pclk2_hz} Hz / {divider} = {spi_hz} Hz (at most {} Hz)",
+            spi_clock::SENSOR_SPI_MAX_HZ
+        ),
+    );
 }
 
 /// Check 3: one 132-byte packet by DMA1 stream 3 to USART3 (PD8, the host link, 8N2).

@@ -21,10 +21,6 @@ pub const QEMU_TIMER_HZ: u32 = 1_000_000_000;
 #[cfg(feature = "qemu")]
 pub const HSI_HZ: u32 = 16_000_000;
 
-/// SPI1 clock for the BMX055 and BMP280, in hertz. Both chips allow 10 MHz; the HAL picks the
-/// nearest prescaler of APB2 (84 MHz / 16 = 5.25 MHz).
-pub const SPI_HZ: u32 = 8_000_000;
-
 /// Link to the host (USART3, 8 data bits, no parity, 2 stop bits), in baud. The host must use
 /// the same rate. At 460 800 baud a 132-byte packet takes 3.15 ms.
 pub const LINK_BAUD: u32 = 460_800;

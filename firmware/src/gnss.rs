@@ -1,9 +1,9 @@
 //! The GNSS receive side: USART1 at 115 200 baud from the NEO-M8T.
 //!
 //! On the board the bytes arrive by DMA (DMA2 stream 2, channel 4) into one of two buffers; the
-//! idle-line interrupt (end of a burst) and the transfer-complete interrupt (buffer full) both
-//! hand the bytes received so far to the UBX reader and restart the stream on the other
-//! buffer. The USART keeps a byte in its data register while the stream is briefly stopped, so
+//! idle-line interrupt (end of a burst) and the transfer-complete interrupt (buffer full) each
+//! clear their flags, hand the bytes received so far to the UBX reader and restart the stream
+//! on the other buffer (`dima_firmware_logic::gnss_rx`). The USART keeps a byte in its data register while the stream is briefly stopped, so
 //! at 115 200 baud (87 µs per byte) nothing is lost in the swap.
 //!
 //! Under QEMU (`qemu` feature) DMA is not modelled: the receive-not-empty interrupt delivers
@@ -20,6 +20,19 @@ pub use self::dma::{set_up, GnssRx};
 #[cfg(feature = "qemu")]
 pub use self::interrupt::{set_up, GnssRx};
 
+/// USART1's status register (USART_SR) as it stands: its error flags are counted by
+/// `dima_firmware_logic::uart_errors`. The read is the first half of the flags' clearing
+/// sequence; the second, a read of the data register, is the DMA stream's (or, under QEMU,
+/// the receive interrupt's) next byte.
+pub fn line_status() -> u32 {
+    // SAFETY: a read of USART1_SR; its only side effect is the intended first step of
+    // clearing the error flags (see above). The receive path owns USART1 otherwise.
+    #[allow(unsafe_code)]
+    unsafe {
+        u32::from((*stm32f4xx_hal::pac::USART1::ptr()).sr().read().bits())
+    }
+}
+
 /// USART1's settings: [`GNSS_BAUD`], the HAL's defaults otherwise (8N1).
 fn serial_config() -> serial::Config {
     serial::Config::default().baudrate(GNSS_BAUD.bps())
@@ -29,8 +42,11 @@ fn serial_config() -> serial::Config {
 mod dma {
     use super::serial_config;
     use crate::board::GNSS_DMA_LEN;
+    use dima_firmware_logic::gnss_rx::{DoubleBufferRx, RxStream};
     use stm32f4xx_hal::dma::config::DmaConfig;
-    use stm32f4xx_hal::dma::{DmaFlag, PeripheralToMemory, Stream2, StreamsTuple, Transfer};
+    use stm32f4xx_hal::dma::{
+        DMAError, DmaFlag, PeripheralToMemory, Stream2, StreamsTuple, Transfer,
+    };
     use stm32f4xx_hal::gpio::{PB6, PB7};
     use stm32f4xx_hal::pac::{DMA2, USART1};
     use stm32f4xx_hal::prelude::*;
@@ -71,57 +87,47 @@ mod dma {
                 .transfer_complete_interrupt(true),
         );
         transfer.start(|_| {});
-        Ok((GnssRx::new(transfer, spare), tx))
+        Ok((GnssRx::new(RxStreamOf(transfer), spare), tx))
     }
 
-    /// The DMA receiver with its spare buffer.
-    pub struct GnssRx {
-        transfer: RxTransfer,
-        spare: Option<&'static mut [u8; GNSS_DMA_LEN]>,
-    }
+    /// The DMA receiver with its spare buffer; `drain` (from `dima_firmware_logic::gnss_rx`)
+    /// acknowledges USART1's idle line and every flag of the stream, whichever of the two
+    /// interrupts runs it.
+    pub type GnssRx = DoubleBufferRx<RxStreamOf>;
 
-    impl GnssRx {
-        /// Takes a started transfer and the second buffer.
-        pub fn new(transfer: RxTransfer, spare: &'static mut [u8; GNSS_DMA_LEN]) -> Self {
-            Self {
-                transfer,
-                spare: Some(spare),
-            }
-        }
+    /// DMA2 stream 2 behind USART1, as the double buffer sees it.
+    pub struct RxStreamOf(RxTransfer);
 
-        /// In the USART1 or DMA2 stream 2 interrupt: passes the bytes received so far to
-        /// `on_bytes` and restarts reception on the other buffer.
-        pub fn drain(&mut self, on_bytes: impl FnOnce(&[u8])) {
-            if self.transfer.is_idle() {
-                self.transfer.clear_idle_interrupt();
+    impl RxStream for RxStreamOf {
+        type Buffer = &'static mut [u8; GNSS_DMA_LEN];
+
+        fn clear_flags(&mut self) {
+            if self.0.is_idle() {
+                self.0.clear_idle_interrupt();
             }
-            self.transfer.clear_flags(
+            self.0.clear_flags(
                 DmaFlag::TransferComplete
                     | DmaFlag::HalfTransfer
                     | DmaFlag::FifoError
                     | DmaFlag::TransferError
                     | DmaFlag::DirectModeError,
             );
-            let Some(spare) = self.spare.take() else {
-                return;
-            };
-            self.transfer.pause(|_| {});
-            let received =
-                GNSS_DMA_LEN.saturating_sub(usize::from(self.transfer.number_of_transfers()));
-            match self.transfer.next_transfer(spare) {
-                Ok((full, _)) => {
-                    on_bytes(full.get(..received).unwrap_or(&[]));
-                    self.spare = Some(full);
-                }
-                Err(error) => {
-                    // Single-buffer peripheral-to-memory transfers do not fail; if one ever
-                    // did, keep receiving into the old buffer.
-                    self.transfer.start(|_| {});
-                    self.spare = Some(match error {
-                        stm32f4xx_hal::dma::DMAError::NotReady(b)
-                        | stm32f4xx_hal::dma::DMAError::SmallBuffer(b)
-                        | stm32f4xx_hal::dma::DMAError::Overrun(b) => b,
-                    });
+        }
+
+        fn swap(&mut self, spare: Self::Buffer) -> Result<(Self::Buffer, usize), Self::Buffer> {
+            self.0.pause(|_| {});
+            let received = GNSS_DMA_LEN.saturating_sub(usize::from(self.0.number_of_transfers()));
+            match self.0.next_transfer(spare) {
+                Ok((full, _)) => Ok((full, received)),
+                // Single-buffer peripheral-to-memory transfers do not fail; if one ever did,
+                // keep receiving into the old buffer.
+                Err(
+                    DMAError::NotReady(spare)
+                    | DMAError::SmallBuffer(spare)
+                    | DMAError::Overrun(spare),
+                ) => {
+                    self.0.start(|_| {});
+                    Err(spare)
                 }
             }
         }

@@ -4,7 +4,8 @@
 //! - `request` (EXTI15_10, PD10 rising edge) and `link_done` (DMA1 stream 3): answer a request
 //!   with the latest complete packet, then one info piece while a snapshot is going out
 //!   (`dima_firmware_logic::TxLink`); never tear a transfer.
-//! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader.
+//! - `gnss_bytes` / `gnss_dma` (USART1 idle line, DMA2 stream 2): feed the UBX reader; each
+//!   clears its own flags (`dima_firmware_logic::gnss_rx`).
 //! - `sample` (TIM2 at [`board::SAMPLE_RATE_HZ`]): read the sensors on schedule, assemble the
 //!   next packet, compute its CRC on the CRC unit, publish it, feed the watchdog when the
 //!   supervisor (`dima_firmware_logic::Supervisor`) finds the link alive; every 250 ms, cut
@@ -27,11 +28,11 @@ mod delay;
 mod gnss;
 mod hw_crc;
 mod link;
+mod panic;
 mod reset_record;
 mod sensors;
 mod setup;
 
-use panic_halt as _;
 use rtic_monotonics::systick::prelude::*;
 
 systick_monotonic!(Mono, board::MONO_HZ);
@@ -45,14 +46,15 @@ mod app {
     use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
     use dima_firmware_logic::gnss_setup::REPLY_QUEUE_LEN;
     use dima_firmware_logic::reset_record::BootFault;
+    use dima_firmware_logic::uart_errors::UartErrors;
     use dima_firmware_logic::{
         blink as led_pattern, GnssSetupOutcome, LatestPacket, LinkProgress, ReplyPort, ReplyTap,
         SetupStatus, Supervisor, SupervisorConfig,
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::{
-        BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN, INFO_PIECE_LEN,
-        INFO_SNAPSHOT_MS, PACKET_LEN,
+        BoardFaults, BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN,
+        INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
     };
     use embedded_hal_bus::util::AtomicCell;
     use stm32f4xx_hal::gpio::{self, Input, Output, PushPull};
@@ -95,10 +97,15 @@ mod app {
     /// GNSS bytes outside valid UBX frames, and frames with a bad checksum (GNSS task's count).
     static GNSS_BYTES_DROPPED: AtomicU32 = AtomicU32::new(0);
     static GNSS_FRAME_ERRORS: AtomicU32 = AtomicU32::new(0);
+    /// GNSS UART overrun, framing and noise errors (GNSS task's counts).
+    static GNSS_OVERRUN_ERRORS: AtomicU32 = AtomicU32::new(0);
+    static GNSS_FRAMING_ERRORS: AtomicU32 = AtomicU32::new(0);
+    static GNSS_NOISE_ERRORS: AtomicU32 = AtomicU32::new(0);
     /// The fault that made the previous boot reset the board (a `BootFault` code: 1 link
-    /// USART3, 2 GNSS USART1, 3 sampling timer; 0 none). It also counts as a watchdog reset
-    /// (status bit 5, `watchdog_resets`), since the watchdog performs it; this static, for a
-    /// debugger, says which step failed.
+    /// USART3, 2 GNSS USART1, 3 sampling timer, 4 panic; 0 none). A fault in `init` also
+    /// counts as a watchdog reset (status bit 5, `watchdog_resets`), since the watchdog
+    /// performs it; a panic resets by software and does not. For a debugger (and under QEMU
+    /// the boot message): which fault it was.
     #[used]
     static BOOT_FAULT: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(0);
     /// Received bytes the configurator's reply queue had no room for.
@@ -121,6 +128,8 @@ mod app {
         supervisor: Supervisor,
         /// The supervisor's latest word on the receiver (info frame status bit 7).
         gnss_silent: bool,
+        /// Ticks still running when the next period began (info frame `sample_overruns`).
+        overruns: u32,
     }
 
     impl Sampler {
@@ -147,6 +156,7 @@ mod app {
                 snapshot: 0,
                 supervisor: Supervisor::new(SUPERVISOR),
                 gnss_silent: false,
+                overruns: 0,
             }
         }
     }
@@ -185,6 +195,63 @@ mod app {
         };
     }
 
+    /// The GNSS receive path: the receiver, the UBX reader, and the configurator's tap.
+    pub struct GnssIn {
+        rx: gnss::GnssRx,
+        reader: GnssReader,
+        tap: ReplyTap<'static>,
+        errors: UartErrors,
+    }
+
+    impl GnssIn {
+        /// Drains the receiver into the reader (and, while the receiver is being configured,
+        /// into the configurator's queue) and updates the GNSS counters; returns the NAV-PVT
+        /// frame that completed, if any.
+        fn receive(&mut self) -> Option<[u8; GNSS_FRAME_LEN]> {
+            let reader = &mut self.reader;
+            let tap = &mut self.tap;
+            // Before the drain: the error flags of the bytes about to be handed on.
+            let line_status = gnss::line_status();
+            let mut received = 0;
+            self.rx.drain(|bytes| {
+                received = bytes.len();
+                // The only writer: a plain load and store suffice.
+                let received = GNSS_BYTES
+                    .load(Ordering::Relaxed)
+                    .wrapping_add(bytes.len() as u32);
+                GNSS_BYTES.store(received, Ordering::Relaxed);
+                reader.push_slice(bytes);
+                if GNSS_SETUP.is_pending() {
+                    tap.push_slice(bytes);
+                    GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
+                }
+            });
+            self.errors.count(line_status, received);
+            GNSS_OVERRUN_ERRORS.store(self.errors.overrun, Ordering::Relaxed);
+            GNSS_FRAMING_ERRORS.store(self.errors.framing, Ordering::Relaxed);
+            GNSS_NOISE_ERRORS.store(self.errors.noise, Ordering::Relaxed);
+            let stats = reader.stats();
+            GNSS_BYTES_DROPPED.store(stats.bytes_skipped, Ordering::Relaxed);
+            GNSS_FRAME_ERRORS.store(stats.checksum_errors, Ordering::Relaxed);
+            let frame = *reader.take_nav_pvt()?.as_bytes();
+            GNSS_SEEN.store(true, Ordering::Relaxed);
+            Some(frame)
+        }
+    }
+
+    /// Hands a new NAV-PVT frame to the sampling tick.
+    fn publish_nav_pvt(
+        mut latest: impl rtic::Mutex<T = GnssLatest>,
+        frame: Option<[u8; GNSS_FRAME_LEN]>,
+    ) {
+        if let Some(frame) = frame {
+            latest.lock(|gnss| {
+                gnss.frame = frame;
+                gnss.fresh = true;
+            });
+        }
+    }
+
     #[shared]
     struct Shared {
         /// Front half of the double buffer: the latest complete packet.
@@ -194,15 +261,15 @@ mod app {
         link: link::Link,
         /// Hand-over of NAV-PVT frames from the GNSS task to the sampling tick.
         gnss_latest: GnssLatest,
+        /// The GNSS receive path, driven by both GNSS interrupts (same priority: no lock).
+        #[lock_free]
+        gnss_in: GnssIn,
     }
 
     #[local]
     struct Local {
         request_pin: gpio::PD10<Input>,
         sampler: Sampler,
-        gnss_rx: gnss::GnssRx,
-        reader: GnssReader,
-        reply_tap: ReplyTap<'static>,
         gnss_port: GnssPort,
         led: gpio::PD12<Output<PushPull>>,
         #[cfg(feature = "qemu")]
@@ -226,6 +293,12 @@ mod app {
         if let Some(cause) = reset.report.boot_fault {
             BOOT_FAULT.store(cause as u8, Ordering::Relaxed);
         }
+        // First, before anything that can wait for ever: the HAL waits for the crystal (and
+        // the PLL) with no time-out. The IWDG runs from the LSI, whatever HSE does; a crystal
+        // that never starts resets the board after WATCHDOG_MS instead of hanging it.
+        setup::boot_step("watchdog");
+        let mut watchdog = setup::watchdog(dp.IWDG);
+        setup::boot_step("clocks");
         let mut rcc = dp.RCC.freeze(setup::clock_config());
         let sysclk_hz = rcc.clocks.sysclk().raw();
         setup::start_monotonic(&mut core.SCB, core.SYST, sysclk_hz);
@@ -235,6 +308,7 @@ mod app {
         let gpiod = dp.GPIOD.split(&mut rcc);
         let gpioe = dp.GPIOE.split(&mut rcc);
 
+        setup::boot_step("sensors");
         let (sensors, sensor_report) = sensors::set_up(
             dp.SPI1,
             gpioa,
@@ -268,27 +342,31 @@ mod app {
         let request_pin = setup::request_line(dp.SYSCFG, &mut dp.EXTI, gpiod.pd10, &mut rcc);
         let timer = setup::sample_timer(dp.TIM2, &mut rcc)
             .unwrap_or_else(|_| setup::fault(BootFault::SampleTimer));
-        let watchdog = setup::watchdog(dp.IWDG);
         let crc = setup::crc(dp.CRC, &mut rcc);
         let info = setup::boot_info(&sensor_report, &reset, crc.unit_ok());
 
         let led = gpiod.pd12.into_push_pull_output();
         status_led::spawn(info.status.bits()).ok();
         gnss_setup::spawn().ok();
-        setup::announce_ready();
+        // The rest of the timeout belongs to the first sampling tick, not to `init`.
+        watchdog.feed();
+        setup::announce_ready(rcc.clocks.pclk2().raw(), reset.report.boot_fault);
 
         (
             Shared {
                 latest: LatestPacket::new(),
                 link: link.link,
                 gnss_latest: GnssLatest::NONE,
+                gnss_in: GnssIn {
+                    rx: gnss_rx,
+                    reader: GnssReader::with_capacity(),
+                    tap: ReplyTap::new(reply_producer),
+                    errors: UartErrors::new(),
+                },
             },
             Local {
                 request_pin,
                 sampler: Sampler::new(timer, watchdog, crc, sensors, info),
-                gnss_rx,
-                reader: GnssReader::with_capacity(),
-                reply_tap: ReplyTap::new(reply_producer),
                 gnss_port: ReplyPort::new(gnss_tx, reply_consumer),
                 led,
                 #[cfg(feature = "qemu")]
@@ -334,46 +412,53 @@ mod app {
     #[cfg(feature = "qemu")]
     #[task(binds = USART3, priority = 3, local = [host_rx])]
     fn host_byte(cx: host_byte::Context) {
-        while embedded_hal_nb::serial::Read::read(cx.local.host_rx).is_ok() {
-            rtic::pend(pac::Interrupt::EXTI15_10);
+        while let Ok(byte) = embedded_hal_nb::serial::Read::read(cx.local.host_rx) {
+            if byte == PANIC_BYTE {
+                PANIC_REQUESTED.store(true, Ordering::Relaxed);
+            } else if byte == SLOW_TICK_BYTE {
+                SLOW_TICK_REQUESTED.store(true, Ordering::Relaxed);
+            } else {
+                rtic::pend(pac::Interrupt::EXTI15_10);
+            }
         }
     }
+
+    /// Under QEMU: this byte from the host makes the next sampling tick panic (the smoke
+    /// test's check of the panic handler); any other byte is a request.
+    #[cfg(feature = "qemu")]
+    const PANIC_BYTE: u8 = b'!';
+
+    /// Under QEMU: the host asked for a panic (see [`PANIC_BYTE`]).
+    #[cfg(feature = "qemu")]
+    static PANIC_REQUESTED: AtomicBool = AtomicBool::new(false);
+
+    /// Under QEMU: this byte from the host makes the next sampling tick run until the next
+    /// period has begun (the smoke test's check of the overrun count).
+    #[cfg(feature = "qemu")]
+    const SLOW_TICK_BYTE: u8 = b'~';
+
+    /// Under QEMU: the host asked for a slow tick (see [`SLOW_TICK_BYTE`]).
+    #[cfg(feature = "qemu")]
+    static SLOW_TICK_REQUESTED: AtomicBool = AtomicBool::new(false);
 
     /// GNSS bytes (idle line, or under QEMU a received byte).
     /// While the receiver is being configured, the same bytes also go to the configurator.
-    #[task(binds = USART1, priority = 2, local = [gnss_rx, reader, reply_tap], shared = [gnss_latest])]
-    fn gnss_bytes(mut cx: gnss_bytes::Context) {
-        let reader = cx.local.reader;
-        let tap = cx.local.reply_tap;
-        cx.local.gnss_rx.drain(|bytes| {
-            // The only writer: a plain load and store suffice.
-            let received = GNSS_BYTES
-                .load(Ordering::Relaxed)
-                .wrapping_add(bytes.len() as u32);
-            GNSS_BYTES.store(received, Ordering::Relaxed);
-            reader.push_slice(bytes);
-            if GNSS_SETUP.is_pending() {
-                tap.push_slice(bytes);
-                GNSS_REPLY_DROPPED.store(tap.dropped(), Ordering::Relaxed);
-            }
-        });
-        let stats = reader.stats();
-        GNSS_BYTES_DROPPED.store(stats.bytes_skipped, Ordering::Relaxed);
-        GNSS_FRAME_ERRORS.store(stats.checksum_errors, Ordering::Relaxed);
-        if let Some(frame) = reader.take_nav_pvt() {
-            cx.shared.gnss_latest.lock(|gnss| {
-                gnss.frame = *frame.as_bytes();
-                gnss.fresh = true;
-            });
-            GNSS_SEEN.store(true, Ordering::Relaxed);
-        }
+    #[task(binds = USART1, priority = 2, shared = [gnss_in, gnss_latest])]
+    fn gnss_bytes(cx: gnss_bytes::Context) {
+        let frame = cx.shared.gnss_in.receive();
+        publish_nav_pvt(cx.shared.gnss_latest, frame);
     }
 
-    /// GNSS DMA buffer full before the line went idle.
+    /// GNSS DMA buffer full before the line went idle: the same drain, which clears this
+    /// stream's own flags (transfer complete and the rest) first. It must not count on
+    /// USART1's handler (interrupt 37, before this one's 58 when both are pending) to clear
+    /// them: with another stream or USART the line would stay pending and this handler
+    /// re-enter for ever.
     #[cfg(not(feature = "qemu"))]
-    #[task(binds = DMA2_STREAM2, priority = 2)]
-    fn gnss_dma(_cx: gnss_dma::Context) {
-        rtic::pend(pac::Interrupt::USART1);
+    #[task(binds = DMA2_STREAM2, priority = 2, shared = [gnss_in, gnss_latest])]
+    fn gnss_dma(cx: gnss_dma::Context) {
+        let frame = cx.shared.gnss_in.receive();
+        publish_nav_pvt(cx.shared.gnss_latest, frame);
     }
 
     /// One sampling tick: read what the schedule says, publish the packet, feed the watchdog.
@@ -381,6 +466,11 @@ mod app {
     fn sample(mut cx: sample::Context) {
         let sampler = cx.local.sampler;
         sampler.timer.clear_flags(Flag::Update);
+        // A panic in the lowest-priority task, as the request task still preempts it.
+        #[cfg(feature = "qemu")]
+        if PANIC_REQUESTED.load(Ordering::Relaxed) {
+            panic!("panic requested by the host");
+        }
         // Fed only while this tick runs, the link is not stuck sending and (reported, not
         // a reset) the receiver talks.
         let verdict = sampler.supervisor.on_tick(
@@ -435,14 +525,34 @@ mod app {
                 mag_age_ms,
                 bmp280_age_ms,
             };
+            info.faults = BoardFaults {
+                gnss_overrun_errors: GNSS_OVERRUN_ERRORS.load(Ordering::Relaxed),
+                gnss_framing_errors: GNSS_FRAMING_ERRORS.load(Ordering::Relaxed),
+                gnss_noise_errors: GNSS_NOISE_ERRORS.load(Ordering::Relaxed),
+                sample_overruns: sampler.overruns,
+                reset_fault: info.faults.reset_fault,
+            };
             // Never 0 again after the first: 0 means "none taken yet".
             sampler.snapshot = sampler.snapshot.checked_add(1).unwrap_or(1);
             // Ten CRCs on the CRC unit, outside the lock; only the copy holds off requests.
-            let pieces = info.encode_v2_pieces_with(sampler.snapshot, &mut sampler.crc);
+            let pieces = info.encode_v3_pieces_with(sampler.snapshot, &mut sampler.crc);
             cx.shared.link.lock(|link| link.publish_pieces(&pieces));
         }
         let packet = sampler.builder.build(&mut sampler.crc);
         cx.shared.latest.lock(|latest| latest.publish(packet));
+        #[cfg(feature = "qemu")]
+        if SLOW_TICK_REQUESTED.swap(false, Ordering::Relaxed) {
+            // Until the next period has begun (20 ms of the board's clock at most).
+            let start = Mono::now().ticks();
+            while !sampler.timer.flags().contains(Flag::Update)
+                && Mono::now().ticks().wrapping_sub(start) < 20
+            {}
+        }
+        // The next period began while this tick ran: it starts late (and, should it overrun
+        // too, one is lost). Counted, not hidden.
+        if sampler.timer.flags().contains(Flag::Update) {
+            sampler.overruns = sampler.overruns.wrapping_add(1);
+        }
     }
 
     /// With the `gnss-setup` feature: configures the NEO-M8T once at boot (10 Hz NAV-PVT on UART1, UBX only, automotive

@@ -14,8 +14,9 @@ static mut RECORD: MaybeUninit<Words> = MaybeUninit::uninit();
 /// Reads the record.
 #[allow(unsafe_code)]
 fn read() -> Words {
-    // SAFETY: the record is only touched from `init` and from `fault()` (also in `init`),
-    // with interrupts disabled, so no other access can overlap. Any bit pattern is a valid
+    // SAFETY: the record is only touched from `init`, from `fault()` (also in `init`) and
+    // from the panic handler, each with interrupts disabled and the last two never
+    // returning, so no other access can overlap. Any bit pattern is a valid
     // `[u32; 3]`, so reading it uninitialised after power-on is a valid (if meaningless)
     // read; the magic word rejects it.
     unsafe { (*addr_of_mut!(RECORD)).as_ptr().read_volatile() }

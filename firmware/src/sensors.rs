@@ -4,8 +4,8 @@
 //! What the dies are asked and when lives in `dima_firmware_logic::Sensors`; this module only
 //! builds the devices it drives.
 
-use crate::board::SPI_HZ;
 use crate::delay::CycleDelay;
+use dima_firmware_logic::spi_clock::sensor_request_hz;
 use dima_firmware_logic::BootReport;
 use embedded_hal_bus::spi::AtomicDevice;
 use embedded_hal_bus::util::AtomicCell;
@@ -26,7 +26,8 @@ pub type SensorSpi = AtomicDevice<'static, SensorBus, ChipSelect, CycleDelay>;
 /// The sensors, one SPI device per die.
 pub type Sensors = dima_firmware_logic::Sensors<SensorSpi, SensorSpi, SensorSpi, SensorSpi>;
 
-/// Brings up SPI1 on PA5/PA6/PA7 (mode 3, [`SPI_HZ`]), makes the four chip selects outputs
+/// Brings up SPI1 on PA5/PA6/PA7 (mode 3, the fastest clock within the sensors' 10 MHz that
+/// APB2 allows: `dima_firmware_logic::spi_clock::sensor_request_hz`), makes the four chip selects outputs
 /// (deselected, PE7 to PE10 in that order) and starts the dies. `bus` is the static home of
 /// the shared bus; `sysclk_hz` times the start-up waits.
 pub fn set_up(
@@ -41,10 +42,13 @@ pub fn set_up(
         polarity: Polarity::IdleHigh,
         phase: Phase::CaptureOnSecondTransition,
     };
+    // From the APB2 clock the HAL actually set up, not an assumed one: the HAL rounds the
+    // request to the nearest divider, which may be faster than asked.
+    let request_hz = sensor_request_hz(rcc.clocks.pclk2().raw());
     let spi = spi1.spi(
         (Some(gpioa.pa5), Some(gpioa.pa6), Some(gpioa.pa7)),
         mode,
-        SPI_HZ.Hz(),
+        request_hz.Hz(),
         rcc,
     );
     let bus: &'static AtomicCell<SensorBus> = bus.insert(AtomicCell::new(spi));

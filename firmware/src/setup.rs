@@ -10,7 +10,7 @@ use crate::board::*;
 use crate::hw_crc::HwCrc;
 use dima_firmware_logic::reset_record::{BootFault, ResetReport};
 use dima_firmware_logic::{BootReport, CheckedCrc};
-use dima_sensorboard::{BoardHealth, InfoFrame, SensorStatus, INFO_VERSION};
+use dima_sensorboard::{BoardFaults, BoardHealth, InfoFrame, SensorStatus, INFO_VERSION};
 use stm32f4xx_hal::gpio::{self, Edge, Input};
 use stm32f4xx_hal::pac::{self, CRC, EXTI, IWDG, SYSCFG, TIM2};
 use stm32f4xx_hal::prelude::*;
@@ -133,6 +133,8 @@ const SAMPLE_TIMER_REQUEST_HZ: u32 =
     (SAMPLE_RATE_HZ as u64 * HSI_HZ as u64 / QEMU_TIMER_HZ as u64) as u32;
 
 /// Starts the independent watchdog with a [`WATCHDOG_MS`] timeout; the sampling tick feeds it.
+/// Call it first in `init`: the IWDG runs from the LSI, so it also ends a clock set-up that
+/// waits for a crystal that never starts.
 pub fn watchdog(iwdg: IWDG) -> IndependentWatchdog {
     let mut watchdog = IndependentWatchdog::new(iwdg);
     watchdog.start(WATCHDOG_MS.millis());
@@ -144,8 +146,9 @@ pub fn crc(crc: CRC, rcc: &mut Rcc) -> Crc {
     CheckedCrc::check(HwCrc(stm32f4xx_hal::crc32::Crc32::new(crc, rcc)))
 }
 
-/// The info frame as it stands at boot: what the sensors reported, the reset cause and the
-/// CRC unit's self-check, no uptime and no counts yet.
+/// The info frame as it stands at boot: what the sensors reported, the reset cause (the
+/// watchdog bit, and the fault that reset the previous boot) and the CRC unit's self-check,
+/// no uptime and no counts yet.
 pub fn boot_info(sensors: &BootReport, reset: &ResetCause, crc_unit_ok: bool) -> InfoFrame {
     let mut status = sensors.status;
     status.set(SensorStatus::WATCHDOG_RESET, reset.by_watchdog);
@@ -162,18 +165,45 @@ pub fn boot_info(sensors: &BootReport, reset: &ResetCause, crc_unit_ok: bool) ->
             watchdog_resets: reset.report.watchdog_resets,
             ..BoardHealth::default()
         },
+        faults: BoardFaults {
+            reset_fault: reset.report.boot_fault.map_or(0, |fault| fault as u8),
+            ..BoardFaults::default()
+        },
     }
+}
+
+/// A step of `init` is about to start (`watchdog`, `clocks`, `sensors`, ...). Nothing to
+/// announce on the board.
+#[cfg(not(feature = "qemu"))]
+pub fn boot_step(_step: &str) {}
+
+/// Emulator twin: tells the smoke test, over semihosting, which step of `init` starts next
+/// (`boot: clocks`), so it can check their order: the watchdog must run before anything that
+/// can wait for ever (the HAL waits for the crystal and the PLL without a time-out).
+#[cfg(feature = "qemu")]
+pub fn boot_step(step: &str) {
+    cortex_m_semihosting::hprintln!("boot: {}", step);
 }
 
 /// The end of the set-up. Nothing to announce on the board.
 #[cfg(not(feature = "qemu"))]
-pub fn announce_ready() {}
+pub fn announce_ready(_pclk2_hz: u32, _boot_fault: Option<BootFault>) {}
 
-/// Emulator twin: tells the smoke test, over semihosting, the exception priorities as the
-/// core holds them (QEMU models SCB and NVIC; SysTick must be below the request interrupt,
-/// a larger value), then `ready`.
+/// Emulator twin: tells the smoke test, over semihosting, SPI1_CR1 as the HAL wrote it with
+/// the APB2 clock `pclk2_hz` it computed the divider for (QEMU keeps the register), the
+/// exception priorities as the core holds them (QEMU models SCB and NVIC; SysTick must be
+/// below the request interrupt, a larger value), the fault that reset the previous boot
+/// (`reset: fault Panic`, or `none`), then `ready`.
 #[cfg(feature = "qemu")]
-pub fn announce_ready() {
+pub fn announce_ready(pclk2_hz: u32, boot_fault: Option<BootFault>) {
+    match boot_fault {
+        Some(fault) => cortex_m_semihosting::hprintln!("reset: fault {:?}", fault),
+        None => cortex_m_semihosting::hprintln!("reset: fault none"),
+    }
+    // SAFETY: a read of SPI1_CR1, which the sensor set-up has written; no side effect.
+    #[allow(unsafe_code)]
+    let spi1_cr1 = unsafe { (*pac::SPI1::ptr()).cr1().read().bits() };
+    cortex_m_semihosting::hprintln!("spi1: cr1 {:#06x}, pclk2 {} Hz", spi1_cr1, pclk2_hz);
     cortex_m_semihosting::hprintln!(
         "priorities: systick {:#04x}, request {:#04x}",
         cortex_m::peripheral::SCB::get_priority(cortex_m::peripheral::scb::SystemHandler::SysTick),
@@ -185,19 +215,19 @@ pub fn announce_ready() {
 /// A configuration the hardware rejected at boot: record the cause for the next boot and
 /// let the watchdog reset the board.
 ///
-/// Starting the IWDG with its reset values (prescaler /4, reload 0xFFF) gives a reset
-/// after 4096 × 4 LSI periods: 512 ms at the nominal 32 kHz, 350-960 ms over the LSI's
-/// 17-47 kHz range. If `init` already started it, the start key changes nothing. The next
-/// boot sees a watchdog reset (status bit 5, `watchdog_resets`) and the cause in the
-/// reset record (`BOOT_FAULT`). QEMU models no IWDG: there this waits for ever.
+/// `init` starts the IWDG first ([`WATCHDOG_MS`], 68-188 ms over the LSI's 17-47 kHz range),
+/// so it is already running here and the start key changes nothing. Should it not be (a
+/// future `init` calling `fault` earlier), the start key starts it with its reset values
+/// (prescaler /4, reload 0xFFF): 512 ms at the nominal 32 kHz, 350-960 ms over the LSI's
+/// range. The next boot sees a watchdog reset (status bit 5, `watchdog_resets`) and the cause
+/// in the reset record (`BOOT_FAULT`). QEMU models no IWDG: there this waits for ever.
 pub fn fault(cause: BootFault) -> ! {
     /// The IWDG key register's start key (RM0090 19.4.1).
     const KEY_START: u16 = 0xCCCC;
     crate::reset_record::record_fault(cause);
-    // SAFETY: the key register is write-only and nothing else writes it during `init`
-    // (the `IndependentWatchdog` is created after every call of `fault`); the start key
-    // only starts the counter (a running watchdog stays as it is). `fault` never
-    // returns, so nothing relies on the watchdog being stopped afterwards.
+    // SAFETY: the key register is write-only; the start key only starts the counter (a
+    // running watchdog stays as it is, its prescaler and reload untouched). `fault` never
+    // returns, so nothing relies on the watchdog being stopped or fed afterwards.
     #[allow(unsafe_code)]
     unsafe {
         (*pac::IWDG::ptr()).kr().write(|w| w.key().bits(KEY_START))

@@ -175,7 +175,8 @@ fn packet_round_trip(checks: &mut Checks) {
 }
 
 /// An info frame through encoder and decoder: version 1, version 2 with health (CRC from the
-/// fallback), and version 2 cut into nine pieces through the stream decoder.
+/// fallback), version 3 with faults, and version 3 cut into eleven pieces through the stream
+/// decoder.
 fn info_frame_round_trips(checks: &mut Checks) {
     let info = InfoFrame {
         version: 1,
@@ -209,8 +210,23 @@ fn info_frame_round_trips(checks: &mut Checks) {
         InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 108),
         "info frame v2 round trip with health (108 bytes)",
     );
-    // The same frame as the board sends it: nine pieces, through the stream decoder.
-    let pieces = info.encode_v2_pieces_with(7, &mut NibbleCrc);
+    // Version 3 as the board sends it: faults too, eleven pieces through the stream decoder.
+    let info = InfoFrame {
+        version: 3,
+        faults: dima_sensorboard::BoardFaults {
+            gnss_framing_errors: 2,
+            sample_overruns: 9,
+            reset_fault: 4,
+            ..Default::default()
+        },
+        ..info
+    };
+    let bytes = info.encode_v3_with(&mut NibbleCrc);
+    checks.check(
+        InfoFrame::decode(&bytes).is_ok_and(|(back, len)| back == info && len == 128),
+        "info frame v3 round trip with health and faults (128 bytes)",
+    );
+    let pieces = info.encode_v3_pieces_with(7, &mut NibbleCrc);
     let mut decoder = dima_sensorboard::StreamDecoder::new();
     let mut records = 0;
     for piece in &pieces {
@@ -219,8 +235,8 @@ fn info_frame_round_trips(checks: &mut Checks) {
         }
     }
     checks.check(
-        records == 1 && decoder.stats().info_pieces == 9,
-        "info pieces reassemble into the v2 frame (9 x 21 bytes)",
+        records == 1 && decoder.stats().info_pieces == 11,
+        "info pieces reassemble into the v3 frame (11 x 21 bytes)",
     );
 }
 

@@ -20,8 +20,8 @@ use bosch_bmx055::mag::MagTrim;
 use bosch_bmx055::Xyz;
 use bosch_bmx055::{packet_words_from_physical, ImuPhysical};
 use dima_sensorboard::{
-    BoardHealth, InfoFrame, InfoPieceCycle, PacketBuilder, SensorStatus, Stm32Crc, GNSS_FRAME_LEN,
-    INFO_GAP_MS, INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
+    BoardFaults, BoardHealth, InfoFrame, InfoPieceCycle, PacketBuilder, SensorStatus, Stm32Crc,
+    GNSS_FRAME_LEN, INFO_GAP_MS, INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
 };
 
 use crate::model::VehicleState;
@@ -286,6 +286,8 @@ impl BoardSim {
             requests_skipped: self.requests_skipped,
             // The simulated sensors never fail; each is read for every packet.
             health: BoardHealth::default(),
+            // Not in a version 2 frame (the board's version 3 adds them).
+            faults: BoardFaults::default(),
         }
         .encode_v2_pieces_with(self.snapshot, &mut Stm32Crc);
         self.pieces.publish(&set);

@@ -35,7 +35,21 @@
 //! | 92-95 | 4 | watchdog resets since power-on (u32) |
 //! | 96-103 | 4 x 2 | ms since the last good read: accelerometer, gyroscope, magnetometer, BMP280 (u16, 65535 = never or longer) |
 //!
-//! A version 1 frame decodes with every health field zero.
+//! **Version 3** (128 bytes, L = 120) is version 2 with the board's faults after byte 103 (the
+//! CRC moves to bytes 124-127), counters wrapping:
+//!
+//! | offset | size | content ([`BoardFaults`]) |
+//! |---|---|---|
+//! | 104-107 | 4 | GNSS UART overrun errors (u32) |
+//! | 108-111 | 4 | GNSS UART framing errors (u32) |
+//! | 112-115 | 4 | GNSS UART noise errors (u32) |
+//! | 116-119 | 4 | sampling ticks that ran into the next period (u32) |
+//! | 120 | 1 | the fault that reset the previous boot: 0 none, 1 link USART, 2 GNSS USART, 3 sampling timer, 4 panic |
+//! | 121-123 | 3 | reserved, zero |
+//!
+//! A version 1 frame decodes with every health field zero, a version 1 or 2 frame with every
+//! fault field zero. A version 2 decoder reads a version 3 frame's first 104 bytes as
+//! version 2 and skips the rest.
 //!
 //! **Future versions.** Decoders accept a version other than 1 with a larger L: the CRC covers
 //! the 4 header bytes and all L payload bytes, the first 52 payload bytes are read as above and
@@ -62,6 +76,12 @@ pub const INFO_V2_PAYLOAD_LEN: u8 = INFO_V1_PAYLOAD_LEN + BoardHealth::LEN as u8
 
 /// Total length of a version 2 frame.
 pub const INFO_V2_LEN: usize = 4 + INFO_V2_PAYLOAD_LEN as usize + 4;
+
+/// Payload length L of a version 3 frame (version 2 plus [`BoardFaults`]).
+pub const INFO_V3_PAYLOAD_LEN: u8 = INFO_V2_PAYLOAD_LEN + BoardFaults::LEN as u8;
+
+/// Total length of a version 3 frame.
+pub const INFO_V3_LEN: usize = 4 + INFO_V3_PAYLOAD_LEN as usize + 4;
 
 /// Largest payload length L a decoder accepts (from a future version). Longer claims are
 /// treated as a corrupt header.
@@ -192,6 +212,70 @@ pub struct InfoFrame {
     pub requests_skipped: u32,
     /// Health counters (version 2 frames; zero in version 1 frames).
     pub health: BoardHealth,
+    /// Fault counters and the last reset's fault (version 3 frames; zero before).
+    pub faults: BoardFaults,
+}
+
+/// What the board counts beyond [`BoardHealth`] (info frame version 3): errors on the GNSS
+/// UART, sampling ticks that overran, and the fault that reset the previous boot. Counters
+/// wrap.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BoardFaults {
+    /// Bytes the GNSS UART lost because the previous one had not been read (overrun).
+    pub gnss_overrun_errors: u32,
+    /// GNSS bytes with a framing error (no stop bit where one belongs).
+    pub gnss_framing_errors: u32,
+    /// GNSS bytes with noise detected on the line.
+    pub gnss_noise_errors: u32,
+    /// Sampling ticks that were still running when the next period began (the next tick
+    /// ran late, or was lost if it overran again).
+    pub sample_overruns: u32,
+    /// The fault that reset the previous boot, reported once after it: 0 none, 1 link USART
+    /// rejected its settings, 2 GNSS USART, 3 sampling timer, 4 panic.
+    pub reset_fault: u8,
+}
+
+impl BoardFaults {
+    /// Encoded length, bytes (3 of them reserved).
+    pub const LEN: usize = 4 * 4 + 4;
+
+    /// The wire bytes (info frame version 3, bytes 104..124).
+    #[must_use]
+    pub fn to_bytes(&self) -> [u8; Self::LEN] {
+        let mut bytes = [0u8; Self::LEN];
+        let counters = [
+            self.gnss_overrun_errors,
+            self.gnss_framing_errors,
+            self.gnss_noise_errors,
+            self.sample_overruns,
+        ];
+        for (slot, value) in bytes.chunks_exact_mut(4).zip(counters) {
+            slot.copy_from_slice(&value.to_le_bytes());
+        }
+        bytes[16] = self.reset_fault;
+        bytes
+    }
+
+    /// Reads the wire bytes (the reserved ones are ignored).
+    #[must_use]
+    pub fn from_bytes(bytes: &[u8; Self::LEN]) -> Self {
+        let u32_at = |i: usize| {
+            u32::from_le_bytes([
+                bytes[4 * i],
+                bytes[4 * i + 1],
+                bytes[4 * i + 2],
+                bytes[4 * i + 3],
+            ])
+        };
+        Self {
+            gnss_overrun_errors: u32_at(0),
+            gnss_framing_errors: u32_at(1),
+            gnss_noise_errors: u32_at(2),
+            sample_overruns: u32_at(3),
+            reset_fault: bytes[16],
+        }
+    }
 }
 
 /// What went wrong on the board after boot, and how fresh each sensor's data are (info frame
@@ -327,6 +411,7 @@ impl Default for InfoFrame {
                 mag_age_ms: 0,
                 bmp280_age_ms: 0,
             },
+            faults: BoardFaults::default(),
         }
     }
 }
@@ -372,6 +457,21 @@ impl InfoFrame {
         bytes[56..INFO_V2_LEN - 4].copy_from_slice(&self.health.to_bytes());
         let value = crc.checksum(&bytes[..INFO_V2_LEN - 4]);
         bytes[INFO_V2_LEN - 4..].copy_from_slice(&value.to_le_bytes());
+        bytes
+    }
+
+    /// Encodes a 128-byte version 3 frame (L = 120: version 2 plus [`BoardFaults`]) with the
+    /// CRC from `crc`. The `version` field is ignored: the frame says 3.
+    #[must_use]
+    pub fn encode_v3_with(&self, crc: &mut impl SensorCrc) -> [u8; INFO_V3_LEN] {
+        let mut bytes = [0u8; INFO_V3_LEN];
+        let v2 = self.encode_v2_with(&mut NoCrc);
+        bytes[..INFO_V2_LEN - 4].copy_from_slice(&v2[..INFO_V2_LEN - 4]);
+        bytes[2] = 3;
+        bytes[3] = INFO_V3_PAYLOAD_LEN;
+        bytes[INFO_V2_LEN - 4..INFO_V3_LEN - 4].copy_from_slice(&self.faults.to_bytes());
+        let value = crc.checksum(&bytes[..INFO_V3_LEN - 4]);
+        bytes[INFO_V3_LEN - 4..].copy_from_slice(&value.to_le_bytes());
         bytes
     }
 
@@ -437,6 +537,15 @@ impl InfoFrame {
                 if frame.len() >= INFO_V2_LEN {
                     out.health = BoardHealth::from_bytes(health);
                 }
+            }
+        }
+        // Version 3 and later carry the faults right after the health.
+        if out.version >= 3 && frame.len() >= INFO_V3_LEN {
+            if let Some(Ok(faults)) = frame
+                .get(INFO_V2_LEN - 4..INFO_V3_LEN - 4)
+                .map(<&[u8; BoardFaults::LEN]>::try_from)
+            {
+                out.faults = BoardFaults::from_bytes(faults);
             }
         }
         out

@@ -88,9 +88,9 @@ pub use crc::{
 pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
 pub use gnss::{nav_pvt, FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
 pub use info::{
-    info_frame_len, BoardHealth, InfoError, InfoFrame, SensorStatus, INFO_MAX_LEN,
+    info_frame_len, BoardFaults, BoardHealth, InfoError, InfoFrame, SensorStatus, INFO_MAX_LEN,
     INFO_MAX_PAYLOAD_LEN, INFO_START, INFO_V1_LEN, INFO_V1_PAYLOAD_LEN, INFO_V2_LEN,
-    INFO_V2_PAYLOAD_LEN, INFO_VERSION,
+    INFO_V2_PAYLOAD_LEN, INFO_V3_LEN, INFO_V3_PAYLOAD_LEN, INFO_VERSION,
 };
 pub use packet::{
     decode_adc20, encode_adc20, PacketError, RawPacket, SensorPacket, ACCEL_OFFSET, ACCEL_RANGE,
@@ -99,9 +99,9 @@ pub use packet::{
     TEMPERATURE_OFFSET,
 };
 pub use piece::{
-    InfoPiece, InfoPieceCycle, InfoPieceError, InfoPieceSet, INFO_GAP_MS, INFO_PIECE_LEN,
-    INFO_PIECE_MAX_COUNT, INFO_PIECE_PAYLOAD_LEN, INFO_PIECE_START, INFO_SNAPSHOT_MS,
-    INFO_V2_PIECES,
+    InfoPiece, InfoPieceCycle, InfoPieceError, InfoPieceSet, InfoPieceSetV3, INFO_GAP_MS,
+    INFO_PIECE_LEN, INFO_PIECE_MAX_COUNT, INFO_PIECE_PAYLOAD_LEN, INFO_PIECE_START,
+    INFO_SNAPSHOT_MS, INFO_V2_PIECES, INFO_V3_PIECES,
 };
 pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};
 

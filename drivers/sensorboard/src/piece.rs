@@ -9,7 +9,7 @@
 //! | 0-1 | 2 | start token `$H` (0x24 0x48) |
 //! | 2 | 1 | snapshot counter: which info record the piece belongs to (u8, wraps) |
 //! | 3 | 1 | piece index, 0 ..= count - 1 |
-//! | 4 | 1 | piece count (1 ..= [`INFO_PIECE_MAX_COUNT`]; 9 for a version 2 frame) |
+//! | 4 | 1 | piece count (1 ..= [`INFO_PIECE_MAX_COUNT`]; 9 for a version 2 frame, 11 for version 3) |
 //! | 5-16 | 12 | the next 12 bytes of the info frame (the last piece is zero-padded) |
 //! | 17-20 | 4 | sensor CRC ([`crate::crc`]: each byte a zero-extended word) over bytes 0-16, u32 LE |
 //!
@@ -28,7 +28,7 @@
 //! reassembled bytes are a valid info frame; anything else drops the record and counts it.
 
 use crate::crc::SensorCrc;
-use crate::info::{InfoFrame, INFO_MAX_LEN, INFO_V2_LEN};
+use crate::info::{InfoFrame, INFO_MAX_LEN, INFO_V2_LEN, INFO_V3_LEN};
 
 /// The start token of an info piece.
 pub const INFO_PIECE_START: [u8; 2] = *b"$H";
@@ -41,6 +41,9 @@ pub const INFO_PIECE_LEN: usize = 5 + INFO_PIECE_PAYLOAD_LEN + 4;
 
 /// Pieces of a version 2 info frame (108 bytes).
 pub const INFO_V2_PIECES: usize = INFO_V2_LEN.div_ceil(INFO_PIECE_PAYLOAD_LEN);
+
+/// Pieces of a version 3 info frame (128 bytes).
+pub const INFO_V3_PIECES: usize = INFO_V3_LEN.div_ceil(INFO_PIECE_PAYLOAD_LEN);
 
 /// Most pieces a record may have: enough for the largest info frame a decoder accepts.
 pub const INFO_PIECE_MAX_COUNT: u8 = INFO_MAX_LEN.div_ceil(INFO_PIECE_PAYLOAD_LEN) as u8;
@@ -169,28 +172,51 @@ pub(crate) fn header_ok(index: u8, count: u8) -> bool {
 /// The pieces of one version 2 info frame, on the wire, in order.
 pub type InfoPieceSet = [[u8; INFO_PIECE_LEN]; INFO_V2_PIECES];
 
+/// The pieces of one version 3 info frame, on the wire, in order.
+pub type InfoPieceSetV3 = [[u8; INFO_PIECE_LEN]; INFO_V3_PIECES];
+
 impl InfoFrame {
     /// Encodes the frame as version 2 ([`InfoFrame::encode_v2_with`]) and cuts it into the
     /// [`INFO_V2_PIECES`] pieces of snapshot `snapshot`; every CRC comes from `crc`.
     #[must_use]
     pub fn encode_v2_pieces_with(&self, snapshot: u8, crc: &mut impl SensorCrc) -> InfoPieceSet {
-        let frame = self.encode_v2_with(crc);
         let mut set = [[0u8; INFO_PIECE_LEN]; INFO_V2_PIECES];
-        for (index, (slot, chunk)) in set
-            .iter_mut()
-            .zip(frame.chunks(INFO_PIECE_PAYLOAD_LEN))
-            .enumerate()
-        {
-            let mut piece = InfoPiece {
-                snapshot,
-                index: index as u8,
-                count: INFO_V2_PIECES as u8,
-                payload: [0; INFO_PIECE_PAYLOAD_LEN],
-            };
-            piece.payload[..chunk.len()].copy_from_slice(chunk);
-            *slot = piece.encode_with(crc);
-        }
+        cut_into_pieces(&self.encode_v2_with(crc), snapshot, crc, &mut set);
         set
+    }
+
+    /// Encodes the frame as version 3 ([`InfoFrame::encode_v3_with`]) and cuts it into the
+    /// [`INFO_V3_PIECES`] pieces of snapshot `snapshot`; every CRC comes from `crc`.
+    #[must_use]
+    pub fn encode_v3_pieces_with(&self, snapshot: u8, crc: &mut impl SensorCrc) -> InfoPieceSetV3 {
+        let mut set = [[0u8; INFO_PIECE_LEN]; INFO_V3_PIECES];
+        cut_into_pieces(&self.encode_v3_with(crc), snapshot, crc, &mut set);
+        set
+    }
+}
+
+/// Cuts an encoded info frame into `set.len()` pieces of snapshot `snapshot` (the last one
+/// zero-padded); every CRC comes from `crc`.
+fn cut_into_pieces(
+    frame: &[u8],
+    snapshot: u8,
+    crc: &mut impl SensorCrc,
+    set: &mut [[u8; INFO_PIECE_LEN]],
+) {
+    let count = set.len() as u8;
+    for (index, (slot, chunk)) in set
+        .iter_mut()
+        .zip(frame.chunks(INFO_PIECE_PAYLOAD_LEN))
+        .enumerate()
+    {
+        let mut piece = InfoPiece {
+            snapshot,
+            index: index as u8,
+            count,
+            payload: [0; INFO_PIECE_PAYLOAD_LEN],
+        };
+        piece.payload[..chunk.len()].copy_from_slice(chunk);
+        *slot = piece.encode_with(crc);
     }
 }
 
@@ -202,12 +228,15 @@ impl InfoFrame {
 /// packet. Both are constant time apart from copying the set.
 #[derive(Debug, Clone)]
 pub struct InfoPieceCycle {
-    sending: InfoPieceSet,
-    waiting: InfoPieceSet,
+    sending: InfoPieceSetV3,
+    waiting: InfoPieceSetV3,
+    /// Pieces in `sending` and `waiting` (a version 2 or a version 3 set).
+    sending_count: usize,
+    waiting_count: usize,
     /// A snapshot has been started (else `sending` is empty).
     started: bool,
     waiting_fresh: bool,
-    /// Next piece of `sending` to go out; `INFO_V2_PIECES` when all are out.
+    /// Next piece of `sending` to go out; `sending_count` when all are out.
     index: usize,
 }
 
@@ -222,17 +251,22 @@ impl InfoPieceCycle {
     #[must_use]
     pub const fn new() -> Self {
         Self {
-            sending: [[0; INFO_PIECE_LEN]; INFO_V2_PIECES],
-            waiting: [[0; INFO_PIECE_LEN]; INFO_V2_PIECES],
+            sending: [[0; INFO_PIECE_LEN]; INFO_V3_PIECES],
+            waiting: [[0; INFO_PIECE_LEN]; INFO_V3_PIECES],
+            sending_count: 0,
+            waiting_count: 0,
             started: false,
             waiting_fresh: false,
-            index: INFO_V2_PIECES,
+            index: 0,
         }
     }
 
-    /// A new snapshot: sent once the current one is out (a newer publish replaces it).
-    pub fn publish(&mut self, set: &InfoPieceSet) {
-        self.waiting = *set;
+    /// A new snapshot (the pieces of a version 2 or 3 frame, [`INFO_V3_PIECES`] at most;
+    /// more are dropped): sent once the current one is out (a newer publish replaces it).
+    pub fn publish(&mut self, set: &[[u8; INFO_PIECE_LEN]]) {
+        let count = set.len().min(INFO_V3_PIECES);
+        self.waiting[..count].copy_from_slice(&set[..count]);
+        self.waiting_count = count;
         self.waiting_fresh = true;
     }
 
@@ -240,9 +274,10 @@ impl InfoPieceCycle {
     /// (a request [`INFO_GAP_MS`] after the previous one): begin a snapshot from piece 0, the
     /// newest one if a new one waits.
     pub fn next(&mut self, restart: bool) -> Option<&[u8; INFO_PIECE_LEN]> {
-        if restart || self.index >= INFO_V2_PIECES {
+        if restart || self.index >= self.sending_count {
             if self.waiting_fresh {
                 self.sending = self.waiting;
+                self.sending_count = self.waiting_count;
                 self.waiting_fresh = false;
                 self.started = true;
                 self.index = 0;
@@ -250,7 +285,7 @@ impl InfoPieceCycle {
                 self.index = 0;
             }
         }
-        let piece = self.sending.get(self.index)?;
+        let piece = self.sending[..self.sending_count].get(self.index)?;
         self.index += 1;
         Some(piece)
     }

@@ -5,7 +5,8 @@ mod common;
 
 use dima_sensorboard::{crc32_bitwise, info_frame_len, INFO_MAX_LEN};
 use dima_sensorboard::{
-    BoardHealth, InfoError, InfoFrame, SensorStatus, Stm32Crc, INFO_V1_LEN, INFO_V2_LEN,
+    BoardFaults, BoardHealth, InfoError, InfoFrame, SensorStatus, Stm32Crc, INFO_V1_LEN,
+    INFO_V2_LEN, INFO_V3_LEN,
 };
 use proptest::prelude::*;
 
@@ -111,6 +112,79 @@ fn version_2_encoder_writes_the_hand_written_bytes() {
         ..hand_info()
     };
     assert_eq!(info.encode_v2_with(&mut Stm32Crc), hand_frame_v2());
+}
+
+/// Version 3 by hand: the version 2 bytes with header 3 / 120, then the faults
+/// (104-119 four u32 counters, 120 the reset fault, 121-123 reserved), CRC at 124.
+fn hand_frame_v3() -> [u8; 128] {
+    let mut f = [0u8; 128];
+    f[..104].copy_from_slice(&hand_frame_v2()[..104]);
+    f[2] = 3;
+    f[3] = 120;
+    f[104..124].copy_from_slice(&[
+        0x01, 0x00, 0x00, 0x00, 0x02, 0x01, 0x00, 0x00, 0x03, 0x00, 0x00, 0x80, 0x04, 0x00, 0x00,
+        0x00, 0x04, 0x00, 0x00, 0x00,
+    ]);
+    let crc = crc32_bitwise(&f[..124]);
+    f[124..].copy_from_slice(&crc.to_le_bytes());
+    f
+}
+
+fn hand_faults() -> BoardFaults {
+    BoardFaults {
+        gnss_overrun_errors: 1,
+        gnss_framing_errors: 0x0102,
+        gnss_noise_errors: 0x8000_0003,
+        sample_overruns: 4,
+        reset_fault: 4,
+    }
+}
+
+#[test]
+fn hand_written_version_3_frame_decodes_with_health_and_faults() {
+    let (info, len) = InfoFrame::decode(&hand_frame_v3()).expect("valid");
+    assert_eq!(len, INFO_V3_LEN);
+    assert_eq!(
+        info,
+        InfoFrame {
+            version: 3,
+            health: hand_health(),
+            faults: hand_faults(),
+            ..hand_info()
+        }
+    );
+}
+
+#[test]
+fn version_3_encoder_writes_the_hand_written_bytes() {
+    let info = InfoFrame {
+        health: hand_health(),
+        faults: hand_faults(),
+        ..hand_info()
+    };
+    assert_eq!(info.encode_v3_with(&mut Stm32Crc), hand_frame_v3());
+}
+
+#[test]
+fn version_2_frames_carry_no_faults_and_keep_decoding_exactly() {
+    let (info, _) = InfoFrame::decode(&hand_frame_v2()).expect("valid");
+    assert_eq!(info.faults, BoardFaults::default());
+    // A version 2 encoder ignores the faults: the original board's bytes are unchanged.
+    let with_faults = InfoFrame {
+        health: hand_health(),
+        faults: hand_faults(),
+        ..hand_info()
+    };
+    assert_eq!(with_faults.encode_v2_with(&mut Stm32Crc), hand_frame_v2());
+}
+
+#[test]
+fn a_version_3_frame_starts_with_what_a_version_2_decoder_reads() {
+    let v3 = hand_frame_v3();
+    let v2 = hand_frame_v2();
+    assert_eq!(v3[4..104], v2[4..104]);
+    let (info, _) = InfoFrame::decode(&v3).expect("valid");
+    assert_eq!(info.health, hand_health());
 }
 
 #[test]

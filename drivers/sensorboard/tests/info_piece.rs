@@ -5,9 +5,9 @@
 mod common;
 
 use dima_sensorboard::{
-    BoardHealth, DecoderStats, Frame, InfoFrame, InfoPiece, InfoPieceCycle, InfoPieceError,
-    SensorPacket, SensorStatus, Stm32Crc, StreamDecoder, INFO_PIECE_LEN, INFO_PIECE_MAX_COUNT,
-    INFO_V2_LEN, INFO_V2_PIECES, PACKET_LEN,
+    BoardFaults, BoardHealth, DecoderStats, Frame, InfoFrame, InfoPiece, InfoPieceCycle,
+    InfoPieceError, SensorPacket, SensorStatus, Stm32Crc, StreamDecoder, INFO_PIECE_LEN,
+    INFO_PIECE_MAX_COUNT, INFO_V2_LEN, INFO_V2_PIECES, INFO_V3_PIECES, PACKET_LEN,
 };
 use proptest::prelude::*;
 
@@ -53,6 +53,7 @@ fn info(uptime_ms: u32) -> InfoFrame {
             mag_age_ms: 17,
             ..BoardHealth::default()
         },
+        faults: BoardFaults::default(),
     }
 }
 
@@ -154,6 +155,53 @@ fn the_pieces_of_a_v2_frame_carry_it_in_order_each_with_its_crc() {
     );
     let (decoded, _) = InfoFrame::decode(&carried).unwrap();
     assert_eq!(decoded, info(1234));
+}
+
+#[test]
+fn eleven_pieces_make_one_version_3_record() {
+    let info = InfoFrame {
+        version: 3,
+        faults: BoardFaults {
+            gnss_overrun_errors: 5,
+            sample_overruns: 6,
+            reset_fault: 4,
+            ..BoardFaults::default()
+        },
+        ..info(20)
+    };
+    let set = info.encode_v3_pieces_with(4, &mut Stm32Crc);
+    assert_eq!(set.len(), INFO_V3_PIECES);
+    assert_eq!(INFO_V3_PIECES, 11);
+    for (i, p) in set.iter().enumerate() {
+        assert_eq!(&p[..5], &[b'$', b'H', 4, i as u8, 11]);
+    }
+    let (frames, stats) = decode_all(&set.concat());
+    assert_eq!(frames, vec![Frame::Info(info)]);
+    assert_eq!(stats.info_pieces, 11);
+    assert_eq!(stats.info_records_dropped, 0);
+}
+
+#[test]
+fn the_cycle_sends_a_version_3_set_whole_then_a_version_2_set() {
+    let v3 = InfoFrame {
+        version: 3,
+        ..info(1)
+    }
+    .encode_v3_pieces_with(1, &mut Stm32Crc);
+    let v2 = pieces(2, 2);
+    let mut cycle = InfoPieceCycle::new();
+    cycle.publish(&v3);
+    cycle.publish(&v3);
+    let mut sent = Vec::new();
+    while let Some(piece) = cycle.next(false) {
+        sent.push(*piece);
+        if sent.len() == INFO_V3_PIECES {
+            cycle.publish(&v2);
+        }
+    }
+    assert_eq!(sent.len(), INFO_V3_PIECES + INFO_V2_PIECES);
+    assert_eq!(sent[..INFO_V3_PIECES], v3);
+    assert_eq!(sent[INFO_V3_PIECES..], v2);
 }
 
 #[test]

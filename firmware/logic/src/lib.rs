@@ -14,9 +14,15 @@
 //! - [`crc_check`]: the CRC unit's boot-time self-check and the software fallback;
 //! - [`reset_record`]: what the board remembers across resets (watchdog resets, the fault
 //!   that made `init` reset the board);
+//! - [`gnss_rx`]: the GNSS receive double buffer; either interrupt that ends a buffer
+//!   acknowledges both sources itself;
 //! - [`blink`]: the status LED pattern that reports sensors that did not answer at boot;
 //! - [`supervisor`]: whether the sampling tick may feed the watchdog (the link is not stuck
 //!   sending) and whether the GNSS receiver has gone silent;
+//! - [`spi_clock`]: the SPI1 prescaler the HAL picks, and the sensor bus rate the firmware
+//!   asks for (never above the sensors' 10 MHz);
+//! - [`uart_errors`]: overrun, framing and noise errors of the GNSS UART, from its status
+//!   register;
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
 //!   register file).
@@ -27,6 +33,7 @@
 pub mod blink;
 pub mod crc_check;
 pub mod dima;
+pub mod gnss_rx;
 pub mod gnss_setup;
 pub mod latest;
 pub mod link;
@@ -34,7 +41,9 @@ pub mod request;
 pub mod reset_record;
 pub mod schedule;
 pub mod sensors;
+pub mod spi_clock;
 pub mod supervisor;
+pub mod uart_errors;
 
 pub use crc_check::{CheckedCrc, NibbleCrc};
 pub use gnss_setup::{Outcome as GnssSetupOutcome, ReplyPort, ReplyTap, SetupStatus};

@@ -13,7 +13,7 @@
 //! **Errors.** A transfer error, a start the stream refuses, or no free buffer ends the answer
 //! at once (the link never stays busy) and counts in [`TxLink::dma_errors`].
 
-use dima_sensorboard::{InfoPieceCycle, InfoPieceSet, INFO_PIECE_LEN, PACKET_LEN};
+use dima_sensorboard::{InfoPieceCycle, INFO_PIECE_LEN, PACKET_LEN};
 
 use crate::request::{AfterTransfer, Answer, RequestHandler};
 
@@ -116,8 +116,9 @@ impl<D: TxDma> TxLink<D> {
         true
     }
 
-    /// A new info snapshot (sent once the current one is out): from the sampling task.
-    pub fn publish_pieces(&mut self, set: &InfoPieceSet) {
+    /// A new info snapshot (sent once the current one is out): from the sampling task. The
+    /// pieces of a version 2 or 3 info frame.
+    pub fn publish_pieces(&mut self, set: &[[u8; INFO_PIECE_LEN]]) {
         self.pieces.publish(set);
     }
 
@@ -255,7 +256,7 @@ mod tests {
         link.on_dma_interrupt()
     }
 
-    fn snapshot(n: u8) -> InfoPieceSet {
+    fn snapshot(n: u8) -> dima_sensorboard::InfoPieceSet {
         InfoFrame {
             uptime_ms: u32::from(n),
             ..InfoFrame::default()

@@ -1,9 +1,9 @@
 //! The reset record: what the board remembers across resets (not power loss).
 //!
 //! Three words in RAM that the start-up code leaves alone: a magic word, the number of
-//! watchdog resets since power-on, and the cause of a fault in `init` that is waiting to be
-//! reported. A fault before the sampling tick feeds the watchdog writes its cause here, starts
-//! the watchdog and waits for it; the next boot reads the cause back, reports it once and
+//! watchdog resets since power-on, and the cause of a fault (in `init`, or a panic) that is
+//! waiting to be reported. A fault in `init` writes its cause here, starts the watchdog and
+//! waits for it; a panic writes [`BootFault::Panic`] and resets at once; the next boot reads the cause back, reports it once and
 //! clears it. This module is the pure part (what the words become); the firmware reads and
 //! writes them.
 
@@ -23,6 +23,9 @@ pub enum BootFault {
     GnssSerial = 2,
     /// The sampling timer TIM2 rejected its rate.
     SampleTimer = 3,
+    /// The firmware panicked: the panic handler stopped the link, recorded this and reset
+    /// the board at once (a software reset, not the watchdog).
+    Panic = 4,
 }
 
 impl BootFault {
@@ -33,6 +36,7 @@ impl BootFault {
             1 => Some(Self::LinkSerial),
             2 => Some(Self::GnssSerial),
             3 => Some(Self::SampleTimer),
+            4 => Some(Self::Panic),
             _ => None,
         }
     }
@@ -131,6 +135,19 @@ mod tests {
     }
 
     #[test]
+    fn a_panic_is_reported_once_by_the_next_boot_without_a_watchdog_reset() {
+        let words = after_reset([0; 3], true, false).0;
+        let words = after_reset(words, false, true).0;
+        let panicked = with_fault(words, BootFault::Panic);
+        assert_eq!(panicked, [MAGIC, 1, 4]);
+        // The panic handler resets by software: no watchdog flag, the count stays.
+        let (words, report) = after_reset(panicked, false, false);
+        assert_eq!(report.boot_fault, Some(BootFault::Panic));
+        assert_eq!(report.watchdog_resets, 1);
+        assert_eq!(after_reset(words, false, false).1.boot_fault, None);
+    }
+
+    #[test]
     fn a_fault_keeps_the_count_and_power_loss_forgets_it() {
         let words = [MAGIC, 4, 0];
         let faulted = with_fault(words, BootFault::SampleTimer);
@@ -146,11 +163,12 @@ mod tests {
             BootFault::LinkSerial,
             BootFault::GnssSerial,
             BootFault::SampleTimer,
+            BootFault::Panic,
         ] {
             assert_eq!(BootFault::from_code(fault as u32), Some(fault));
         }
         assert_eq!(BootFault::from_code(0), None);
-        assert_eq!(BootFault::from_code(4), None);
+        assert_eq!(BootFault::from_code(5), None);
         assert_eq!(BootFault::from_code(u32::MAX), None);
     }
 }

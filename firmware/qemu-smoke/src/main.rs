@@ -4,16 +4,26 @@
 //! (GNSS) and USART3 (host link) on local TCP sockets, then checks what a host sees, in this
 //! order (one method of `Smoke` each):
 //!
-//! 1. SysTick's exception priority is below the request interrupt's;
+//! 1. SysTick's exception priority is below the request interrupt's, and SPI1_CR1 as the
+//!    firmware left it clocks the sensor bus at 10 MHz at most from the APB2 clock the HAL
+//!    computed for (the fastest divider that does);
+//!    the watchdog starts before the clock set-up (which can wait for ever for the crystal)
+//!    and the sensors;
 //! 2. nothing at all arrives before the first request (no packet at boot, none unrequested);
-//! 3. the first nine requests are each answered with one packet and one info piece, and the
-//!    ninth completes the first info record (version 2, with health);
+//! 3. the first eleven requests are each answered with one packet and one info piece, and the
+//!    eleventh completes the first info record (version 3, with health and faults: no GNSS
+//!    UART error, no fault before this boot);
 //! 4. requests a few milliseconds apart get exactly one packet each;
 //! 5. a NAV-PVT frame written to the GNSS UART shows up, byte for byte, in later packets;
-//! 6. after a pause (500 ms or more on the board's clock) a record arrives again within nine
+//! 6. after a pause (500 ms or more on the board's clock) a record arrives again within eleven
 //!    answers, with a larger uptime and the GNSS bit set;
 //! 7. a receiver silent for 1 s is reported in the info frame;
-//! 8. the decoder counted one packet per request and every record the checks saw.
+//! 8. a sampling tick that runs into the next period (asked for with the byte `~`, a hook of
+//!    the `qemu` build) is counted in the info frame's `sample_overruns`;
+//! 9. the decoder counted one packet per request and every record the checks saw;
+//! 10. a panic (asked for with the byte `!`, a hook of the `qemu` build) resets the board at
+//!     once (QEMU models no watchdog: only the panic handler's own reset can reboot it), the
+//!     next boot reports `reset: fault Panic`, and the answers after it come from the new boot.
 //!
 //! Every byte from USART3 goes through `dima_sensorboard::StreamDecoder`, which checks start
 //! tokens and CRCs: a packet counts only if the decoder accepts it, and any skipped byte or CRC
@@ -29,7 +39,10 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use dima_sensorboard::{nav_pvt, NavPvt, GNSS_FRAME_LEN};
-use dima_sensorboard::{Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder};
+use dima_sensorboard::{BoardFaults, Frame, InfoFrame, RawPacket, SensorStatus, StreamDecoder};
+
+/// Pieces of the board's info record (version 3): requests until a whole record.
+const PIECES: usize = dima_sensorboard::INFO_V3_PIECES;
 
 /// Host-side pause that must look like a host restart to the board (its threshold: 500 ms).
 const PAUSE: Duration = Duration::from_secs(2);
@@ -181,7 +194,8 @@ fn main() {
         qemu,
         mut gnss,
         link,
-        priorities,
+        said,
+        boots,
     } = Board::start(&qemu_bin, &elf);
 
     let mut smoke = Smoke {
@@ -189,14 +203,18 @@ fn main() {
         checks: Checks::default(),
         records: 0,
     };
-    smoke.systick_below_the_request_interrupt(&priorities);
+    smoke.watchdog_runs_before_anything_can_hang(&said.steps);
+    smoke.systick_below_the_request_interrupt(&said.priorities);
+    smoke.sensor_bus_within_ten_megahertz(&said.spi1);
     smoke.silence_until_requested();
     let first_info = smoke.first_record();
     smoke.quick_requests_get_one_packet_each();
     smoke.nav_pvt_is_carried_verbatim(&mut gnss);
     smoke.record_again_after_a_pause(first_info);
     smoke.silent_receiver_is_reported();
+    smoke.slow_tick_is_counted();
     smoke.decoder_saw_every_answer();
+    smoke.panic_resets_at_once_and_is_reported(&said, &boots);
 
     drop(qemu);
     let checks = smoke.checks;
@@ -215,8 +233,24 @@ struct Board {
     gnss: TcpStream,
     /// The host side of USART3 (the link).
     link: HostLink,
-    /// The firmware's "priorities: ..." line without its prefix (empty if it printed none).
+    /// What the firmware said before `ready`.
+    said: BootLines,
+    /// What it says before each later `ready` (after a reset).
+    boots: mpsc::Receiver<BootLines>,
+}
+
+/// The firmware's semihosting lines before `ready`, each without its prefix (empty if it
+/// printed none).
+#[derive(Default)]
+struct BootLines {
+    /// "priorities: systick 0x.., request 0x..".
     priorities: String,
+    /// "spi1: cr1 0x...., pclk2 N Hz".
+    spi1: String,
+    /// The steps of `init` in the order they started ("boot: clocks" gives "clocks").
+    steps: Vec<String>,
+    /// "reset: fault X": the fault that reset the previous boot ("none", "Panic", ...).
+    reset: String,
 }
 
 impl Board {
@@ -248,7 +282,7 @@ impl Board {
         let (link_stream, _) = link_listener.accept().expect("QEMU connects USART3");
         link_stream.set_nodelay(true).expect("nodelay");
 
-        let priorities = wait_until_ready(stdout);
+        let (said, boots) = wait_until_ready(stdout);
         Board {
             qemu,
             gnss,
@@ -257,34 +291,53 @@ impl Board {
                 decoder: StreamDecoder::new(),
                 requests: 0,
             },
-            priorities,
+            said,
+            boots,
         }
     }
 }
 
 /// Echoes the firmware's semihosting output (on a thread, for the whole run) and waits for
-/// its "ready" line, printed once its receivers are enabled; returns the exception
-/// priorities it printed before it ("priorities: systick 0x.., request 0x..").
-fn wait_until_ready(stdout: ChildStdout) -> String {
+/// its "ready" line, printed once its receivers are enabled; returns the lines it printed
+/// before it (see [`BootLines`]) and the channel that brings the lines of later boots.
+fn wait_until_ready(stdout: ChildStdout) -> (BootLines, mpsc::Receiver<BootLines>) {
     let (ready_tx, ready_rx) = mpsc::channel();
-    let (priorities_tx, priorities_rx) = mpsc::channel();
     std::thread::spawn(move || {
+        let mut said = BootLines::default();
         for line in BufReader::new(stdout).lines().map_while(Result::ok) {
             println!("firmware: {line}");
-            if let Some(rest) = line.trim().strip_prefix("priorities: ") {
-                let _ = priorities_tx.send(rest.to_owned());
+            let line = line.trim();
+            if let Some(rest) = line.strip_prefix("priorities: ") {
+                said.priorities = rest.to_owned();
             }
-            if line.trim() == "ready" {
-                let _ = ready_tx.send(());
+            if let Some(rest) = line.strip_prefix("boot: ") {
+                said.steps.push(rest.to_owned());
+            }
+            if let Some(rest) = line.strip_prefix("reset: ") {
+                said.reset = rest.to_owned();
+            }
+            if let Some(rest) = line.strip_prefix("spi1: ") {
+                said.spi1 = rest.to_owned();
+            }
+            if line == "ready" {
+                let _ = ready_tx.send(std::mem::take(&mut said));
             }
         }
     });
     let started = Instant::now();
-    ready_rx
+    let said = ready_rx
         .recv_timeout(Duration::from_secs(20))
         .expect("firmware did not print `ready` within 20 s");
     println!("firmware ready after {:?}", started.elapsed());
-    priorities_rx.try_recv().unwrap_or_default()
+    (said, ready_rx)
+}
+
+/// SPI1_CR1 and the APB2 clock from the firmware's "spi1: cr1 0x...., pclk2 N Hz" line.
+fn parse_spi1(line: &str) -> Option<(u32, u32)> {
+    let rest = line.strip_prefix("cr1 0x")?;
+    let (cr1, rest) = rest.split_once(", pclk2 ")?;
+    let pclk2 = rest.strip_suffix(" Hz")?;
+    Some((u32::from_str_radix(cr1, 16).ok()?, pclk2.parse().ok()?))
 }
 
 /// The checks, in the order they run, over one host link.
@@ -296,6 +349,24 @@ struct Smoke {
 }
 
 impl Smoke {
+    /// The independent watchdog (clocked by the LSI, independent of the crystal) starts before
+    /// the clock set-up, which waits for the crystal and the PLL without a time-out, and
+    /// before the sensors: a crystal that never starts resets the board instead of hanging
+    /// it for ever.
+    fn watchdog_runs_before_anything_can_hang(&mut self, steps: &[String]) {
+        let at = |step: &str| steps.iter().position(|s| s == step);
+        let ok = match (at("watchdog"), at("clocks"), at("sensors")) {
+            (Some(watchdog), Some(clocks), Some(sensors)) => {
+                watchdog < clocks && watchdog < sensors
+            }
+            _ => false,
+        };
+        self.checks.check(
+            ok,
+            &format!("watchdog started before the clocks and the sensors (init steps {steps:?})"),
+        );
+    }
+
     /// SysTick below the request interrupt. RTIC maps its priority p to the hardware value
     /// (16 - p) << 4 on the STM32F4's 4 priority bits: request (3) 0xd0, SysTick (2) 0xe0;
     /// a larger value is a lower priority.
@@ -303,6 +374,26 @@ impl Smoke {
         self.checks.check(
             priorities == "systick 0xe0, request 0xd0",
             &format!("SysTick below the request interrupt (got \"{priorities}\")"),
+        );
+    }
+
+    /// The sensor bus clock as programmed: SPI1_CR1's baud-rate bits (RM0090 28.5.1: divider
+    /// 2 << BR) from the APB2 clock the HAL computed them for give at most the BMX055's and
+    /// BMP280's 10 MHz, and the fastest divider that does (half of it would be too fast).
+    fn sensor_bus_within_ten_megahertz(&mut self, spi1: &str) {
+        const SENSOR_SPI_MAX_HZ: u32 = 10_000_000;
+        let verdict = parse_spi1(spi1).map(|(cr1, pclk2)| {
+            let divider = 2u32 << ((cr1 >> 3) & 0b111);
+            let spi_hz = pclk2 / divider;
+            let fastest = divider == 2 || pclk2 / (divider / 2) > SENSOR_SPI_MAX_HZ;
+            (spi_hz, spi_hz <= SENSOR_SPI_MAX_HZ && fastest)
+        });
+        self.checks.check(
+            verdict.is_some_and(|(_, ok)| ok),
+            &format!(
+                "SPI1 clock at most 10 MHz, the fastest divider that is (got \"{spi1}\": {} Hz)",
+                verdict.map_or(0, |(hz, _)| hz)
+            ),
         );
     }
 
@@ -315,15 +406,16 @@ impl Smoke {
         );
     }
 
-    /// The first nine requests: a packet and a piece each; the ninth completes a record, which
+    /// The first eleven requests: a packet and a piece each; the eleventh completes a record,
+    /// which
     /// this returns.
     fn first_record(&mut self) -> Option<InfoFrame> {
-        let (first, sent) = self.link.request_record(9);
+        let (first, sent) = self.link.request_record(PIECES);
         let (packets, infos) = split(&first);
         self.checks.check(
-            sent == 9 && packets.len() == 9 && infos.len() == 1,
+            sent == PIECES && packets.len() == PIECES && infos.len() == 1,
             &format!(
-                "first record after 9 answers of packet + piece (got {} in {sent} requests, {} pieces)",
+                "first record after {PIECES} answers of packet + piece (got {} in {sent} requests, {} pieces)",
                 kinds(&first),
                 self.link.decoder.stats().info_pieces
             ),
@@ -342,8 +434,23 @@ impl Smoke {
 
     /// What the first record says about a board under QEMU.
     fn first_record_contents(&mut self, info: &InfoFrame) {
-        self.checks
-            .check(info.version == 2, "info frame version 2 (with health)");
+        self.checks.check(
+            info.version == 3,
+            "info frame version 3 (with health and faults)",
+        );
+        // Not the sampling overruns: QEMU's timers follow the host's clock, and a busy host
+        // can stall a tick past the next period (the slow-tick check below covers the count).
+        self.checks.check(
+            info.faults
+                == BoardFaults {
+                    sample_overruns: info.faults.sample_overruns,
+                    ..BoardFaults::default()
+                },
+            &format!(
+                "no GNSS UART error, no fault before this boot ({:?})",
+                info.faults
+            ),
+        );
         // No sensor answers under QEMU: no read ever succeeded, none was attempted after boot.
         self.checks.check(
             info.health.accel_age_ms == u16::MAX
@@ -435,7 +542,7 @@ impl Smoke {
         );
     }
 
-    /// A pause (500 ms or more on the board's clock): a record again within nine answers, the
+    /// A pause (500 ms or more on the board's clock): a record again within eleven answers, the
     /// snapshot started from piece 0, with a larger uptime, the GNSS bit and the GNSS noise
     /// counted.
     fn record_again_after_a_pause(&mut self, first_info: Option<InfoFrame>) {
@@ -444,7 +551,7 @@ impl Smoke {
         self.checks.check(
             infos.len() == 1,
             &format!(
-                "after a {pause:?} pause a record within 9 answers (got {})",
+                "after a {pause:?} pause a record within {PIECES} answers (got {})",
                 kinds(&after_pause)
             ),
         );
@@ -486,7 +593,7 @@ impl Smoke {
         let mut after_pause = Vec::new();
         for _ in 0..3 {
             std::thread::sleep(pause);
-            let (frames, _) = self.link.request_record(9);
+            let (frames, _) = self.link.request_record(PIECES);
             after_pause = frames;
             let (_, infos) = split(&after_pause);
             self.records += infos.len();
@@ -511,7 +618,7 @@ impl Smoke {
         let mut silent = None;
         for _ in 0..3 {
             std::thread::sleep(wait);
-            let (frames, _) = self.link.request_record(9);
+            let (frames, _) = self.link.request_record(PIECES);
             let (_, infos) = split(&frames);
             self.records += infos.len();
             if let Some(info) = infos.first() {
@@ -533,6 +640,88 @@ impl Smoke {
             &format!(
                 "a receiver silent for 1 s is reported in status bit 7, GNSS_SEEN kept (status {:#04x})",
                 silent.map_or(0, |info| info.status.bits())
+            ),
+        );
+    }
+
+    /// A panic in the sampling task: the board reboots within a few seconds of host time (QEMU
+    /// has no watchdog, so a board that halts on a panic never comes back), its boot message
+    /// names the panic, and what answers afterwards is the new boot: its info record no longer
+    /// has the GNSS-seen bit the old boot had set. (A core halted with its interrupts on keeps
+    /// answering with the last packet and the old snapshot's pieces.)
+    fn panic_resets_at_once_and_is_reported(
+        &mut self,
+        first: &BootLines,
+        boots: &mpsc::Receiver<BootLines>,
+    ) {
+        self.checks.check(
+            first.reset == "fault none",
+            &format!("first boot reports no fault (got \"{}\")", first.reset),
+        );
+        let gnss_seen = |frames: &[Frame]| {
+            split(frames)
+                .1
+                .first()
+                .map(|info| info.status.contains(SensorStatus::GNSS_SEEN))
+        };
+        let before = gnss_seen(&self.link.request_record(PIECES + 1).0);
+        self.link.stream.write_all(b"!").expect("write panic byte");
+        let rebooted = boots.recv_timeout(Duration::from_secs(10)).ok();
+        self.checks.check(
+            rebooted
+                .as_ref()
+                .is_some_and(|said| said.reset == "fault Panic"),
+            &format!(
+                "a panic resets the board at once and the next boot reports it (got {:?})",
+                rebooted.as_ref().map(|said| said.reset.as_str())
+            ),
+        );
+        // QEMU's TIM2 can take a while to tick again after a reset: requests until a record.
+        let (frames, _) = self.link.request_record(3 * PIECES);
+        let after = gnss_seen(&frames);
+        self.checks.check(
+            before == Some(true) && after == Some(false),
+            &format!(
+                "after the panic the answers come from the new boot (GNSS seen before {before:?}, after {after:?})"
+            ),
+        );
+        let reset_fault = split(&frames).1.first().map(|info| info.faults.reset_fault);
+        self.checks.check(
+            reset_fault == Some(4),
+            &format!(
+                "the new boot's info frame reports the panic (reset fault {reset_fault:?}, want 4)"
+            ),
+        );
+    }
+
+    /// A sampling tick that overruns its period (it runs until the next one has begun, asked
+    /// for with `~`) is counted: `sample_overruns` in a later record is above the one before.
+    fn slow_tick_is_counted(&mut self) {
+        let overruns = |link: &mut HostLink, records: &mut usize| {
+            let (frames, _) = link.request_record(PIECES);
+            let (_, infos) = split(&frames);
+            *records += infos.len();
+            infos.first().map(|info| info.faults.sample_overruns)
+        };
+        let before = overruns(&mut self.link, &mut self.records);
+        // Not a request: nothing comes back.
+        self.link
+            .stream
+            .write_all(b"~")
+            .expect("write slow-tick byte");
+        // The next snapshot, 250 ms of the board's clock later, has the count.
+        let mut after = None;
+        for _ in 0..5 {
+            std::thread::sleep(Duration::from_millis(400));
+            after = overruns(&mut self.link, &mut self.records);
+            if after > before {
+                break;
+            }
+        }
+        self.checks.check(
+            matches!((before, after), (Some(b), Some(a)) if a > b),
+            &format!(
+                "a sampling tick that runs into the next period is counted in sample_overruns ({before:?} -> {after:?})"
             ),
         );
     }
