@@ -131,7 +131,7 @@ pub struct BoardSetup {
 pub fn spawn_board(
     world: Arc<World>,
     line: Arc<RequestLine>,
-    mut port: LinkPort,
+    port: LinkPort,
     setup: BoardSetup,
     rng: SimRng,
     stats: Arc<BoardStats>,
@@ -143,100 +143,173 @@ pub fn spawn_board(
         sensor_faults,
         pace,
     } = setup;
+    let worker = BoardWorker {
+        world,
+        line,
+        port,
+        board: BoardSim::new(config, rng.fork(1)),
+        injector: FaultInjector::new(spec.clone(), rng.fork(2)),
+        spec,
+        sensor_faults,
+        pace,
+        stats,
+        stop,
+        seen: 0,
+        out: Vec::with_capacity(512),
+        wire: Vec::with_capacity(512),
+    };
     std::thread::Builder::new()
         .name("sim-board".into())
-        .spawn(move || {
-            line.listen();
-            // Answer requests promptly on a busy machine when the system allows it.
-            let _ = set_fifo(70);
-            let mut board = BoardSim::new(config, rng.fork(1));
-            let mut injector = FaultInjector::new(spec.clone(), rng.fork(2));
-            let mut seen = line.edges();
-            let mut out = Vec::with_capacity(512);
-            let mut wire = Vec::with_capacity(512);
-            let mut junk = [0u8; 256];
-            while !stop.load(Ordering::Relaxed) {
-                let now = line.wait_edge(seen, Duration::from_millis(5));
-                let t = world.now_s();
-                let connected = port.update(&spec, t).is_some();
-                stats.opens.store(port.opens, Ordering::Relaxed);
-                if let Some(pty) = port.pty() {
-                    // The host sends nothing on this link; drop whatever arrives.
-                    let _ = pty.read(&mut junk, Duration::ZERO);
-                }
-                if now == seen {
-                    continue;
-                }
-                let edges = now - seen;
-                seen = now;
-                // The board's DMA starts sending within microseconds of the edge.
-                let edge_at = std::time::Instant::now()
-                    .checked_sub(line.since_last_edge())
-                    .unwrap_or_else(std::time::Instant::now);
-                stats.requests.fetch_add(edges, Ordering::Relaxed);
-                if edges > 1 {
-                    // Requests while the previous answer was still going out.
-                    for _ in 1..edges {
-                        board.skip_request();
-                    }
-                    stats.unanswered.fetch_add(edges - 1, Ordering::Relaxed);
-                }
-                if !connected || spec.silent_at(t) {
-                    stats.unanswered.fetch_add(1, Ordering::Relaxed);
-                    continue;
-                }
-                let state: VehicleState = world.state();
-                let faults = SensorFaultState {
-                    gnss_frozen: sensor_faults.gnss_frozen_at(t),
-                    gnss_lost: sensor_faults.gnss_lost_at(t),
-                    imu_stuck: sensor_faults.imu_stuck_at(t),
-                };
-                let answer = board.answer_with(t, &state, faults);
-                // A delay fault postpones the whole transmission.
-                let start = edge_at + injector.delay();
-                wire.clear();
-                injector.mangle(&answer.packet, &mut out);
-                wire.extend_from_slice(&out);
-                // Intact: the packet's bytes arrive unchanged and in one piece (garbage
-                // inserted before its first byte does not damage it).
-                let intact = out.windows(answer.packet.len()).any(|w| w == answer.packet);
-                if intact {
-                    stats.packets_intact.fetch_add(1, Ordering::Relaxed);
-                    if !stats.counts_only {
-                        lock(&stats.intact).insert(fingerprint(&answer.packet));
-                    }
-                } else {
-                    stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
-                    if !stats.counts_only {
-                        lock(&stats.damaged).insert(fingerprint(&out));
-                    }
-                }
-                if let Some(info) = answer.info {
-                    injector.mangle(&info, &mut out);
-                    wire.extend_from_slice(&out);
-                    stats.info_frames.fetch_add(1, Ordering::Relaxed);
-                }
-                if let Some(pty) = port.pty() {
-                    let _ = pty.write_paced_from(start, &wire, pace, Duration::from_millis(50));
-                }
-                // Late: complete after the deadline, or after the next request already came.
-                if line.edges() != seen || line.since_last_edge() > LATE_ANSWER {
-                    stats.late_answers.fetch_add(1, Ordering::Relaxed);
-                }
-                // Requests that came while the answer was going out are not answered.
-                let during = line.edges() - seen;
-                if during > 0 {
-                    seen += during;
-                    stats.requests.fetch_add(during, Ordering::Relaxed);
-                    stats.unanswered.fetch_add(during, Ordering::Relaxed);
-                    for _ in 0..during {
-                        board.skip_request();
-                    }
-                }
-                stats.answers.fetch_add(1, Ordering::Relaxed);
-                *lock(&stats.faults) = injector.stats();
+        .spawn(move || worker.run())
+}
+
+/// The sensor board thread's state.
+struct BoardWorker {
+    world: Arc<World>,
+    line: Arc<RequestLine>,
+    port: LinkPort,
+    board: BoardSim,
+    injector: FaultInjector,
+    spec: FaultSpec,
+    sensor_faults: SensorFaults,
+    pace: LinePace,
+    stats: Arc<BoardStats>,
+    stop: Arc<AtomicBool>,
+    /// Request edges taken so far.
+    seen: u64,
+    /// One frame as the fault injector left it.
+    out: Vec<u8>,
+    /// The whole answer as it goes out.
+    wire: Vec<u8>,
+}
+
+impl BoardWorker {
+    /// Answers request edges until `stop`.
+    fn run(mut self) {
+        self.line.listen();
+        // Answer requests promptly on a busy machine when the system allows it.
+        let _ = set_fifo(70);
+        self.seen = self.line.edges();
+        while !self.stop.load(Ordering::Relaxed) {
+            let now = self.line.wait_edge(self.seen, Duration::from_millis(5));
+            let t = self.world.now_s();
+            let connected = self.maintain_port(t);
+            if now == self.seen {
+                continue;
             }
-        })
+            let edge_at = self.take_edges(now);
+            if !connected || self.spec.silent_at(t) {
+                self.stats.unanswered.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            self.answer(t, edge_at);
+            self.count_late_answer();
+            self.skip_requests_during_answer();
+            self.stats.answers.fetch_add(1, Ordering::Relaxed);
+            *lock(&self.stats.faults) = self.injector.stats();
+        }
+    }
+
+    /// Opens or closes the pty by the link's disconnect windows at `t` and drains what the
+    /// host sent; true when connected.
+    fn maintain_port(&mut self, t: f64) -> bool {
+        let connected = self.port.update(&self.spec, t).is_some();
+        self.stats.opens.store(self.port.opens, Ordering::Relaxed);
+        if let Some(pty) = self.port.pty() {
+            // The host sends nothing on this link; drop whatever arrives.
+            let mut junk = [0u8; 256];
+            let _ = pty.read(&mut junk, Duration::ZERO);
+        }
+        connected
+    }
+
+    /// Takes the edges up to `now` (all but the last skipped: they came while the previous
+    /// answer was still going out) and returns when the last one came.
+    fn take_edges(&mut self, now: u64) -> std::time::Instant {
+        let edges = now - self.seen;
+        self.seen = now;
+        // The board's DMA starts sending within microseconds of the edge.
+        let edge_at = std::time::Instant::now()
+            .checked_sub(self.line.since_last_edge())
+            .unwrap_or_else(std::time::Instant::now);
+        self.stats.requests.fetch_add(edges, Ordering::Relaxed);
+        if edges > 1 {
+            // Requests while the previous answer was still going out.
+            for _ in 1..edges {
+                self.board.skip_request();
+            }
+            self.stats
+                .unanswered
+                .fetch_add(edges - 1, Ordering::Relaxed);
+        }
+        edge_at
+    }
+
+    /// Builds the answer at `t` to the request that came at `edge_at`, passes it through the
+    /// fault injector and writes it at the line's pace.
+    fn answer(&mut self, t: f64, edge_at: std::time::Instant) {
+        let state: VehicleState = self.world.state();
+        let faults = SensorFaultState {
+            gnss_frozen: self.sensor_faults.gnss_frozen_at(t),
+            gnss_lost: self.sensor_faults.gnss_lost_at(t),
+            imu_stuck: self.sensor_faults.imu_stuck_at(t),
+        };
+        let answer = self.board.answer_with(t, &state, faults);
+        // A delay fault postpones the whole transmission.
+        let start = edge_at + self.injector.delay();
+        self.wire.clear();
+        self.injector.mangle(&answer.packet, &mut self.out);
+        self.wire.extend_from_slice(&self.out);
+        self.count_packet(&answer.packet);
+        if let Some(info) = answer.info {
+            self.injector.mangle(&info, &mut self.out);
+            self.wire.extend_from_slice(&self.out);
+            self.stats.info_frames.fetch_add(1, Ordering::Relaxed);
+        }
+        if let Some(pty) = self.port.pty() {
+            let _ = pty.write_paced_from(start, &self.wire, self.pace, Duration::from_millis(50));
+        }
+    }
+
+    /// Counts `packet` as intact or damaged by what the fault injector made of it (in `out`).
+    fn count_packet(&self, packet: &[u8]) {
+        let stats = &self.stats;
+        // Intact: the packet's bytes arrive unchanged and in one piece (garbage inserted
+        // before its first byte does not damage it).
+        let intact = self.out.windows(packet.len()).any(|w| w == packet);
+        if intact {
+            stats.packets_intact.fetch_add(1, Ordering::Relaxed);
+            if !stats.counts_only {
+                lock(&stats.intact).insert(fingerprint(packet));
+            }
+        } else {
+            stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
+            if !stats.counts_only {
+                lock(&stats.damaged).insert(fingerprint(&self.out));
+            }
+        }
+    }
+
+    /// Counts the answer late when it was complete after the deadline, or after the next
+    /// request already came.
+    fn count_late_answer(&self) {
+        if self.line.edges() != self.seen || self.line.since_last_edge() > LATE_ANSWER {
+            self.stats.late_answers.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Skips the requests that came while the answer was going out: they are not answered.
+    fn skip_requests_during_answer(&mut self) {
+        let during = self.line.edges() - self.seen;
+        if during > 0 {
+            self.seen += during;
+            self.stats.requests.fetch_add(during, Ordering::Relaxed);
+            self.stats.unanswered.fetch_add(during, Ordering::Relaxed);
+            for _ in 0..during {
+                self.board.skip_request();
+            }
+        }
+    }
 }
 
 /// SCHED_FIFO for the calling thread when permitted (ignored otherwise).
