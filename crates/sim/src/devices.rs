@@ -414,83 +414,133 @@ impl MaestroStats {
 /// channel numbers whose pulses drive the model.
 pub fn spawn_maestro(
     world: Arc<World>,
-    mut port: LinkPort,
+    port: LinkPort,
     channels: [u8; 3],
     spec: FaultSpec,
     rng: SimRng,
     stats: Arc<MaestroStats>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
+    let worker = MaestroWorker {
+        world,
+        port,
+        channels,
+        decoder: CommandDecoder::new(DecoderConfig::default()),
+        injector: FaultInjector::new(spec.clone(), rng.fork(3)),
+        spec,
+        stats,
+        stop,
+        mangled: Vec::with_capacity(512),
+        last: [0xFFFF; 3],
+        opens: 0,
+    };
     std::thread::Builder::new()
         .name("sim-maestro".into())
-        .spawn(move || {
-            let mut decoder = CommandDecoder::new(DecoderConfig::default());
-            let mut injector = FaultInjector::new(spec.clone(), rng.fork(3));
-            let mut buf = [0u8; 512];
-            let mut mangled = Vec::with_capacity(512);
-            let mut last = [0xFFFFu16; 3];
-            let mut opens = 0;
-            while !stop.load(Ordering::Relaxed) {
-                let t = world.now_s();
-                let connected = port.update(&spec, t).is_some();
-                if port.opens != opens {
-                    opens = port.opens;
-                    // A Maestro that was unplugged lost its targets: the host must send them again.
-                    decoder.reset();
-                    for t in &stats.targets {
-                        t.store(0xFFFF, Ordering::Relaxed);
-                    }
-                    last = [0xFFFF; 3];
-                    stats.opens.store(opens, Ordering::Relaxed);
-                    stats.commands_since_open.store(0, Ordering::Relaxed);
-                }
-                let (true, Some(pty)) = (connected, port.pty()) else {
-                    std::thread::sleep(Duration::from_millis(5));
-                    continue;
-                };
-                let n = pty.read(&mut buf, Duration::from_millis(5)).unwrap_or(0);
-                if n == 0 {
-                    continue;
-                }
-                // Errors on the way in (the USB link) are applied to what the device receives.
-                injector.mangle(&buf[..n], &mut mangled);
-                for &b in &mangled {
-                    let Some(command) = decoder.push(b) else {
-                        continue;
-                    };
-                    let set = |ch: u8, qus: u16| {
-                        if let Some(slot) = stats.targets.get(usize::from(ch)) {
-                            slot.store(qus, Ordering::Relaxed);
-                        }
-                        stats.commands.fetch_add(1, Ordering::Relaxed);
-                        stats.commands_since_open.fetch_add(1, Ordering::Relaxed);
-                    };
-                    match command {
-                        pololu_maestro::Command::SetTarget { channel, target } => {
-                            set(channel.index(), target.get())
-                        }
-                        pololu_maestro::Command::SetMultipleTargets(m) => {
-                            for (ch, target) in m.iter() {
-                                set(ch, target.get());
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                stats
-                    .dropped_bytes
-                    .store(u64::from(decoder.stats().dropped_bytes), Ordering::Relaxed);
-                let now = stats.targets_of(channels);
-                if now != last && now.iter().all(|&q| q != 0xFFFF) {
-                    last = now;
-                    stats.record(OutputChange {
-                        t_s: world.now_s(),
-                        targets_qus: now,
-                    });
-                    world.set_pulses(now.map(|q| f64::from(q) / 4.0));
-                }
+        .spawn(move || worker.run())
+}
+
+/// The Maestro thread's state.
+struct MaestroWorker {
+    world: Arc<World>,
+    port: LinkPort,
+    /// The throttle, steering and tail channel numbers.
+    channels: [u8; 3],
+    decoder: CommandDecoder,
+    injector: FaultInjector,
+    spec: FaultSpec,
+    stats: Arc<MaestroStats>,
+    stop: Arc<AtomicBool>,
+    /// The bytes received as the fault injector left them.
+    mangled: Vec<u8>,
+    /// The outputs last handed to the model, quarter-µs (0xFFFF: not set).
+    last: [u16; 3],
+    /// The port's open count when last seen.
+    opens: u64,
+}
+
+impl MaestroWorker {
+    /// Decodes commands and drives the model until `stop`.
+    fn run(mut self) {
+        let mut buf = [0u8; 512];
+        while !self.stop.load(Ordering::Relaxed) {
+            let t = self.world.now_s();
+            let connected = self.port.update(&self.spec, t).is_some();
+            if self.port.opens != self.opens {
+                self.reopened();
             }
-        })
+            let (true, Some(pty)) = (connected, self.port.pty()) else {
+                std::thread::sleep(Duration::from_millis(5));
+                continue;
+            };
+            let n = pty.read(&mut buf, Duration::from_millis(5)).unwrap_or(0);
+            if n == 0 {
+                continue;
+            }
+            self.receive(&buf[..n]);
+            self.publish_outputs();
+        }
+    }
+
+    /// The port was reopened: a Maestro that was unplugged lost its targets, and the host
+    /// must send them again.
+    fn reopened(&mut self) {
+        self.opens = self.port.opens;
+        self.decoder.reset();
+        for t in &self.stats.targets {
+            t.store(0xFFFF, Ordering::Relaxed);
+        }
+        self.last = [0xFFFF; 3];
+        self.stats.opens.store(self.opens, Ordering::Relaxed);
+        self.stats.commands_since_open.store(0, Ordering::Relaxed);
+    }
+
+    /// Decodes `bytes` (through the link's faults) and sets the targets they command.
+    fn receive(&mut self, bytes: &[u8]) {
+        // Errors on the way in (the USB link) are applied to what the device receives.
+        self.injector.mangle(bytes, &mut self.mangled);
+        let stats = &self.stats;
+        let set = |ch: u8, qus: u16| {
+            if let Some(slot) = stats.targets.get(usize::from(ch)) {
+                slot.store(qus, Ordering::Relaxed);
+            }
+            stats.commands.fetch_add(1, Ordering::Relaxed);
+            stats.commands_since_open.fetch_add(1, Ordering::Relaxed);
+        };
+        for &b in &self.mangled {
+            let Some(command) = self.decoder.push(b) else {
+                continue;
+            };
+            match command {
+                pololu_maestro::Command::SetTarget { channel, target } => {
+                    set(channel.index(), target.get())
+                }
+                pololu_maestro::Command::SetMultipleTargets(m) => {
+                    for (ch, target) in m.iter() {
+                        set(ch, target.get());
+                    }
+                }
+                _ => {}
+            }
+        }
+        stats.dropped_bytes.store(
+            u64::from(self.decoder.stats().dropped_bytes),
+            Ordering::Relaxed,
+        );
+    }
+
+    /// Records a change of the three channels' outputs and hands the pulses to the model,
+    /// once all three are set.
+    fn publish_outputs(&mut self) {
+        let now = self.stats.targets_of(self.channels);
+        if now != self.last && now.iter().all(|&q| q != 0xFFFF) {
+            self.last = now;
+            self.stats.record(OutputChange {
+                t_s: self.world.now_s(),
+                targets_qus: now,
+            });
+            self.world.set_pulses(now.map(|q| f64::from(q) / 4.0));
+        }
+    }
 }
 
 /// One step of a ground-station script.
