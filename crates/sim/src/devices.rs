@@ -816,7 +816,7 @@ impl ScriptedStation {
 #[allow(clippy::too_many_arguments)]
 pub fn spawn_ground(
     world: Arc<World>,
-    mut port: LinkPort,
+    port: LinkPort,
     script: Vec<ScriptStep>,
     protocol: GroundProtocol,
     spec: FaultSpec,
@@ -825,76 +825,127 @@ pub fn spawn_ground(
     stats: Arc<GroundStats>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
+    let worker = GroundWorker {
+        world,
+        opens: port.opens,
+        port,
+        ground: ScriptedStation::new(protocol, script, pace),
+        injector: FaultInjector::new(spec.clone(), rng.fork(4)),
+        spec,
+        pace,
+        stats,
+        stop,
+        next_sample: 0.0,
+        out: Vec::with_capacity(64),
+        wire: Vec::with_capacity(256),
+    };
     std::thread::Builder::new()
         .name("sim-ground".into())
-        .spawn(move || {
-            let mut injector = FaultInjector::new(spec.clone(), rng.fork(4));
-            let mut ground = ScriptedStation::new(protocol, script, pace);
-            let mut opens = port.opens;
-            let mut next_sample = 0.0f64;
-            let mut buf = [0u8; 512];
-            let mut out = Vec::with_capacity(64);
-            let mut wire = Vec::with_capacity(256);
-            while !stop.load(Ordering::Relaxed) {
-                let t = world.now_s();
-                let connected = port.update(&spec, t).is_some();
-                if port.opens != opens {
-                    opens = port.opens;
-                    ground.reconnected();
-                }
-                if let Some(pty) = port.pty() {
-                    let wait = (ground.next_due_s(t).min(next_sample) - t).clamp(0.0, 0.01);
-                    let n = pty
-                        .read(&mut buf, Duration::from_secs_f64(wait))
-                        .unwrap_or(0);
-                    ground.receive(&buf[..n], world.now_s(), &stats);
-                } else {
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-                let t = world.now_s();
-                if t >= next_sample {
-                    next_sample += GROUND_PERIOD_S;
-                    if next_sample < t {
-                        next_sample = t + GROUND_PERIOD_S;
-                    }
-                    if !stats.counts_only {
-                        lock(&stats.truth).push(world.state());
-                    }
-                }
-                let frames = ground.due(t, connected);
-                // Silent: the frames are lost on the way (the station does not know).
-                if frames.is_empty() || !ground.sending || !connected || spec.silent_at(t) {
-                    continue;
-                }
-                wire.clear();
-                for frame in &frames {
-                    injector.mangle(&frame.bytes, &mut out);
-                    wire.extend_from_slice(&out);
-                }
-                let delay = injector.delay();
-                if !delay.is_zero() {
-                    std::thread::sleep(delay);
-                }
-                if let Some(pty) = port.pty() {
-                    let written = pty
-                        .write_paced(&wire, pace, Duration::from_millis(50))
-                        .unwrap_or(0);
-                    if written == wire.len() {
-                        let sent_at = world.now_s();
-                        stats
-                            .frames_sent
-                            .fetch_add(frames.len() as u64, Ordering::Relaxed);
-                        *lock(&stats.last_sent_s) = Some(sent_at);
-                        if !stats.counts_only {
-                            let mut log = lock(&stats.commands);
-                            for c in frames.iter().filter_map(|f| f.command) {
-                                log.push((sent_at, c));
-                            }
-                        }
-                    }
+        .spawn(move || worker.run())
+}
+
+/// The scripted ground station thread's state.
+struct GroundWorker {
+    world: Arc<World>,
+    port: LinkPort,
+    /// The port's open count when last seen.
+    opens: u64,
+    ground: ScriptedStation,
+    injector: FaultInjector,
+    spec: FaultSpec,
+    pace: LinePace,
+    stats: Arc<GroundStats>,
+    stop: Arc<AtomicBool>,
+    /// When the model is sampled next, s.
+    next_sample: f64,
+    /// One frame as the fault injector left it.
+    out: Vec<u8>,
+    /// The slot's frames as they go out.
+    wire: Vec<u8>,
+}
+
+impl GroundWorker {
+    /// Receives, samples the model and sends the frames due until `stop`.
+    fn run(mut self) {
+        let mut buf = [0u8; 512];
+        while !self.stop.load(Ordering::Relaxed) {
+            let t = self.world.now_s();
+            let connected = self.port.update(&self.spec, t).is_some();
+            if self.port.opens != self.opens {
+                self.opens = self.port.opens;
+                self.ground.reconnected();
+            }
+            self.receive(t, &mut buf);
+            let t = self.world.now_s();
+            self.sample_model(t);
+            let frames = self.ground.due(t, connected);
+            // Silent: the frames are lost on the way (the station does not know).
+            if frames.is_empty() || !self.ground.sending || !connected || self.spec.silent_at(t) {
+                continue;
+            }
+            self.send(&frames);
+        }
+    }
+
+    /// Reads what the robot sent until something falls due (at most 10 ms) and hands it to
+    /// the station; waits 5 ms while unplugged.
+    fn receive(&mut self, t: f64, buf: &mut [u8]) {
+        if let Some(pty) = self.port.pty() {
+            let wait = (self.ground.next_due_s(t).min(self.next_sample) - t).clamp(0.0, 0.01);
+            let n = pty.read(buf, Duration::from_secs_f64(wait)).unwrap_or(0);
+            self.ground
+                .receive(&buf[..n], self.world.now_s(), &self.stats);
+        } else {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    /// Keeps a sample of the model once per ground period.
+    fn sample_model(&mut self, t: f64) {
+        if t >= self.next_sample {
+            self.next_sample += GROUND_PERIOD_S;
+            if self.next_sample < t {
+                self.next_sample = t + GROUND_PERIOD_S;
+            }
+            if !self.stats.counts_only {
+                lock(&self.stats.truth).push(self.world.state());
+            }
+        }
+    }
+
+    /// Sends `frames` through the link's faults at the radio's pace, and records them when
+    /// they all went out.
+    fn send(&mut self, frames: &[Outgoing]) {
+        self.wire.clear();
+        for frame in frames {
+            self.injector.mangle(&frame.bytes, &mut self.out);
+            self.wire.extend_from_slice(&self.out);
+        }
+        let delay = self.injector.delay();
+        if !delay.is_zero() {
+            std::thread::sleep(delay);
+        }
+        let Some(pty) = self.port.pty() else {
+            return;
+        };
+        let written = pty
+            .write_paced(&self.wire, self.pace, Duration::from_millis(50))
+            .unwrap_or(0);
+        if written == self.wire.len() {
+            let stats = &self.stats;
+            let sent_at = self.world.now_s();
+            stats
+                .frames_sent
+                .fetch_add(frames.len() as u64, Ordering::Relaxed);
+            *lock(&stats.last_sent_s) = Some(sent_at);
+            if !stats.counts_only {
+                let mut log = lock(&stats.commands);
+                for c in frames.iter().filter_map(|f| f.command) {
+                    log.push((sent_at, c));
                 }
             }
-        })
+        }
+    }
 }
 
 /// Copies bytes (towards the robot at the radio's pace) both ways between the application's XBee pty and a second pty a ground-station
