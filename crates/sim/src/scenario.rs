@@ -164,100 +164,115 @@ impl Scenario {
     /// About 20 s: revive, manual driving, AUTO tracking a speed and a heading, a comms loss
     /// that trips the failsafe (latched while the link is back), a revive, manual, kill.
     pub fn default_tour() -> Scenario {
-        let manual = manual_us(60, 50, 50);
-        let turn = manual_us(60, 60, 50);
-        let after = manual_us(55, 50, 50);
         Scenario {
             name: "default",
             duration_s: 20.0,
             start_heading_deg: 0.0,
             heartbeat: Command::Heartbeat.encode(),
-            script: vec![
-                send(1.0, Command::Revive),
-                send(1.5, Command::Throttle(pct(60))),
-                send(1.5, Command::Steering(pct(50))),
-                send(1.5, Command::Tail(pct(50))),
-                send(3.0, Command::Steering(pct(60))),
-                send(4.5, Command::Steering(pct(50))),
-                send(6.0, Command::SpeedSetpoint { mm_s: 2_500 }),
-                send(6.0, Command::HeadingSetpoint { deg_e5: 12_000_000 }),
-                ScriptStep {
-                    at_s: 14.0,
-                    action: GroundAction::Silence,
-                },
-                ScriptStep {
-                    at_s: 16.0,
-                    action: GroundAction::Resume,
-                },
-                send(16.5, Command::Throttle(pct(70))),
-                send(17.0, Command::Revive),
-                send(17.3, Command::Throttle(pct(55))),
-                send(19.0, Command::Kill),
-            ],
-            phases: vec![
-                (0.0, "KILLED (start-up)"),
-                (1.0, "revive"),
-                (1.5, "MANUAL driving"),
-                (6.0, "AUTO 2.5 m/s, 120°"),
-                (14.0, "comms loss"),
-                (16.0, "link back, latched"),
-                (17.0, "revive, MANUAL"),
-                (19.0, "kill"),
-            ],
-            checks: vec![
-                Check::SafeThroughout {
-                    from_s: 0.0,
-                    to_s: 0.9,
-                },
-                Check::OutputsReach {
-                    from_s: 1.5,
-                    to_s: 3.0,
-                    targets_us: manual,
-                },
-                Check::OutputsReach {
-                    from_s: 3.0,
-                    to_s: 4.5,
-                    targets_us: turn,
-                },
-                Check::NeverSafe {
-                    from_s: 2.0,
-                    to_s: 14.0,
-                },
-                Check::Tracks {
-                    from_s: 12.0,
-                    to_s: 14.0,
-                    speed_m_s: 2.5,
-                    speed_tol_m_s: 0.4,
-                    heading_deg: 120.0,
-                    heading_tol_deg: 10.0,
-                },
-                Check::CommsFailsafe {
-                    after_s: 14.0,
-                    timeout_s: 1.0,
-                },
-                Check::SafeHeld {
-                    from_s: 14.0,
-                    to_s: 17.0,
-                },
-                Check::OutputsReach {
-                    from_s: 17.3,
-                    to_s: 19.0,
-                    targets_us: after,
-                },
-                Check::SafeHeld {
-                    from_s: 19.0,
-                    to_s: 20.0,
-                },
-                Check::ModesInOrder(vec![
-                    Mode::Manual,
-                    Mode::Auto,
-                    Mode::Failsafe,
-                    Mode::Manual,
-                    Mode::Killed,
-                ]),
-                Check::Failsafes(1),
-            ],
+            script: Scenario::tour_script(),
+            phases: Scenario::tour_phases(),
+            checks: Scenario::tour_checks(),
         }
+    }
+
+    /// The default tour's ground-station script.
+    fn tour_script() -> Vec<ScriptStep> {
+        vec![
+            send(1.0, Command::Revive),
+            send(1.5, Command::Throttle(pct(60))),
+            send(1.5, Command::Steering(pct(50))),
+            send(1.5, Command::Tail(pct(50))),
+            send(3.0, Command::Steering(pct(60))),
+            send(4.5, Command::Steering(pct(50))),
+            send(6.0, Command::SpeedSetpoint { mm_s: 2_500 }),
+            send(6.0, Command::HeadingSetpoint { deg_e5: 12_000_000 }),
+            ScriptStep {
+                at_s: 14.0,
+                action: GroundAction::Silence,
+            },
+            ScriptStep {
+                at_s: 16.0,
+                action: GroundAction::Resume,
+            },
+            send(16.5, Command::Throttle(pct(70))),
+            send(17.0, Command::Revive),
+            send(17.3, Command::Throttle(pct(55))),
+            send(19.0, Command::Kill),
+        ]
+    }
+
+    /// The default tour's phases, for the status line.
+    fn tour_phases() -> Vec<(f64, &'static str)> {
+        vec![
+            (0.0, "KILLED (start-up)"),
+            (1.0, "revive"),
+            (1.5, "MANUAL driving"),
+            (6.0, "AUTO 2.5 m/s, 120°"),
+            (14.0, "comms loss"),
+            (16.0, "link back, latched"),
+            (17.0, "revive, MANUAL"),
+            (19.0, "kill"),
+        ]
+    }
+
+    /// What must hold during the default tour.
+    fn tour_checks() -> Vec<Check> {
+        let manual = manual_us(60, 50, 50);
+        let turn = manual_us(60, 60, 50);
+        let after = manual_us(55, 50, 50);
+        vec![
+            Check::SafeThroughout {
+                from_s: 0.0,
+                to_s: 0.9,
+            },
+            Check::OutputsReach {
+                from_s: 1.5,
+                to_s: 3.0,
+                targets_us: manual,
+            },
+            Check::OutputsReach {
+                from_s: 3.0,
+                to_s: 4.5,
+                targets_us: turn,
+            },
+            Check::NeverSafe {
+                from_s: 2.0,
+                to_s: 14.0,
+            },
+            Check::Tracks {
+                from_s: 12.0,
+                to_s: 14.0,
+                speed_m_s: 2.5,
+                speed_tol_m_s: 0.4,
+                heading_deg: 120.0,
+                heading_tol_deg: 10.0,
+            },
+            Check::CommsFailsafe {
+                after_s: 14.0,
+                timeout_s: 1.0,
+            },
+            Check::SafeHeld {
+                from_s: 14.0,
+                to_s: 17.0,
+            },
+            Check::OutputsReach {
+                from_s: 17.3,
+                to_s: 19.0,
+                targets_us: after,
+            },
+            Check::SafeHeld {
+                from_s: 19.0,
+                to_s: 20.0,
+            },
+            Check::ModesInOrder(vec![
+                Mode::Manual,
+                Mode::Auto,
+                Mode::Failsafe,
+                Mode::Manual,
+                Mode::Killed,
+            ]),
+            Check::Failsafes(1),
+        ]
     }
 
     /// Revive and hold a manual setting for `duration_s`; no failsafe allowed.
