@@ -593,7 +593,8 @@ pub struct GroundStats {
     pub counts_only: bool,
 }
 
-/// The frame period of the ground station (DESIGN 2.2: one frame every 100 ms).
+/// The frame period of the ground station: one frame every 100 ms, as
+/// `dima_groundlink::station` sends them (docs/wire-formats.md, the ground link).
 pub const GROUND_PERIOD_S: f64 = 0.1;
 
 /// Which ground link the scripted station speaks.

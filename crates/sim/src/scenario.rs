@@ -24,8 +24,9 @@ pub const SOAK_REVIVE_EVERY_S: f64 = 1.0;
 /// Length of `--scenario soak` without `--duration`, s.
 pub const SOAK_DEFAULT_S: f64 = 60.0;
 
-/// Manual mapping of percentages to µs (DESIGN 2.4): throttle 1000 + 10 d, steering
-/// 1250 + 590 d / 100, tail 1000 + 10 d, rounded to the nearest µs.
+/// Manual mapping of percentages to µs (docs/wire-formats.md, "Servo controller: Pololu
+/// Maestro"): throttle 1000 + 10 d, steering 1250 + 590 d / 100, tail 1000 + 10 d, rounded to
+/// the nearest µs.
 pub fn manual_us(throttle: u8, steering: u8, tail: u8) -> [u16; 3] {
     let map = |min: u32, span: u32, d: u8| (min + (span * u32::from(d) + 50) / 100) as u16;
     [
@@ -778,7 +779,7 @@ mod tests {
     const SAFE_US: [u16; 3] = [1500, 1560, 1500];
 
     #[test]
-    fn manual_mapping_matches_the_design() {
+    fn manual_mapping_matches_the_documented_formulas() {
         assert_eq!(manual_us(80, 0, 100), [1800, 1250, 2000]);
         assert_eq!(manual_us(50, 50, 50), [1500, 1545, 1500]);
         assert_eq!(manual_us(0, 100, 0), [1000, 1840, 1000]);
