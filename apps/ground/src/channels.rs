@@ -81,8 +81,9 @@ mod tests {
     }
 
     #[test]
-    fn defaults_match_the_design_mapping() {
-        // DESIGN 2.4: throttle 1000 + 10 d, steering 1250 + 590 d / 100, tail 1000 + 10 d.
+    fn defaults_match_the_documented_mapping() {
+        // docs/wire-formats.md, "Servo controller: Pololu Maestro": throttle 1000 + 10 d,
+        // steering 1250 + 590 d / 100, tail 1000 + 10 d.
         let t = ChannelTable::default();
         assert_eq!(t.pulse_us(ManualChannel::Throttle, pct(75)), 1750);
         assert_eq!(t.pulse_us(ManualChannel::Steering, pct(50)), 1545);

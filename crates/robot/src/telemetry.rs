@@ -575,114 +575,190 @@ impl Downlink {
 
 /// Spawns the telemetry thread.
 pub fn spawn_telemetry(
-    mut open: Opener<SerialPort>,
+    open: Opener<SerialPort>,
     commands: rtrb::Producer<ReceivedCommand>,
-    mut snapshot: triple_buffer::Output<Snapshot>,
+    snapshot: triple_buffer::Output<Snapshot>,
     settings: TelemetrySettings,
     shared: Arc<LinkCounters>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<std::thread::JoinHandle<TelemetryStats>> {
     std::thread::Builder::new()
         .name("dima-telemetry".into())
-        .spawn(move || {
-            if let Err(e) = crate::rt::setup::set_fifo(settings.priority) {
-                tracing::warn!(
-                    "telemetry: SCHED_FIFO {} refused ({e}); running SCHED_OTHER",
-                    settings.priority
-                );
+        .spawn(move || TelemetryWorker::new(open, commands, snapshot, settings, shared, stop).run())
+}
+
+/// The telemetry thread's state.
+struct TelemetryWorker {
+    open: Opener<SerialPort>,
+    snapshot: triple_buffer::Output<Snapshot>,
+    settings: TelemetrySettings,
+    /// The link's counters for the realtime loop.
+    shared: Arc<LinkCounters>,
+    stop: Arc<AtomicBool>,
+    stats: TelemetryStats,
+    /// The XBee, while its port is open.
+    radio: Option<XBee<SerialPort, Transparent>>,
+    link: CommandLink,
+    downlink: Downlink,
+    hand_off: CommandHandOff,
+    /// The last attempt to open the port.
+    last_open: Option<Instant>,
+    arrival: ArrivalBound,
+    /// Failed opens in a row.
+    failures: u64,
+    /// When the next display frame is due.
+    next_display: Instant,
+}
+
+impl TelemetryWorker {
+    /// The thread's state before its first open.
+    fn new(
+        open: Opener<SerialPort>,
+        commands: rtrb::Producer<ReceivedCommand>,
+        snapshot: triple_buffer::Output<Snapshot>,
+        settings: TelemetrySettings,
+        shared: Arc<LinkCounters>,
+        stop: Arc<AtomicBool>,
+    ) -> TelemetryWorker {
+        TelemetryWorker {
+            open,
+            snapshot,
+            link: CommandLink::new(&settings.security),
+            downlink: Downlink::new(settings.security.clone()),
+            hand_off: CommandHandOff::new(commands),
+            next_display: Instant::now() + settings.display_period,
+            settings,
+            shared,
+            stop,
+            stats: TelemetryStats::default(),
+            radio: None,
+            last_open: None,
+            arrival: ArrivalBound::new(monotonic_ns()),
+            failures: 0,
+        }
+    }
+
+    /// Opens the radio, hands its commands to the loop and sends display frames until
+    /// `stop`; returns what it counted.
+    fn run(mut self) -> TelemetryStats {
+        if let Err(e) = crate::rt::setup::set_fifo(self.settings.priority) {
+            tracing::warn!(
+                "telemetry: SCHED_FIFO {} refused ({e}); running SCHED_OTHER",
+                self.settings.priority
+            );
+        }
+        while !self.stop.load(Ordering::Relaxed) {
+            let now = Instant::now();
+            if self.radio.is_none()
+                && self
+                    .last_open
+                    .is_none_or(|t| now - t >= self.settings.reopen_interval)
+            {
+                self.try_open(now);
             }
-            let mut stats = TelemetryStats::default();
-            let mut radio: Option<XBee<SerialPort, Transparent>> = None;
-            let mut link = CommandLink::new(&settings.security);
-            let mut downlink = Downlink::new(settings.security.clone());
-            let mut hand_off = CommandHandOff::new(commands);
-            let mut last_open: Option<Instant> = None;
-            let mut arrival = ArrivalBound::new(monotonic_ns());
-            let mut failures = 0u64;
-            let mut next_display = Instant::now() + settings.display_period;
-            while !stop.load(Ordering::Relaxed) {
-                let now = Instant::now();
-                if radio.is_none() && last_open.is_none_or(|t| now - t >= settings.reopen_interval)
-                {
-                    last_open = Some(now);
-                    let opened_ns = monotonic_ns();
-                    match open() {
-                        Ok(port) => {
-                            tracing::info!("XBee: connected");
-                            failures = 0;
-                            link.reset();
-                            arrival = ArrivalBound::new(opened_ns);
-                            radio = Some(XBee::new(port));
-                            if settings.security.key.is_some() {
-                                // The station learns the session from the first display frame.
-                                next_display = now;
-                            }
-                        }
-                        Err(e) => {
-                            failures += 1;
-                            if failures == 1 || failures.is_multiple_of(60) {
-                                tracing::warn!("{e:#} (attempt {failures}; retrying)");
-                            }
-                        }
-                    }
-                }
-                // Commands still waiting for room in the ring go first, in order.
-                hand_off.flush();
-                let Some(r) = radio.as_mut() else {
-                    std::thread::sleep(Duration::from_millis(20));
-                    continue;
-                };
-                let wait = next_display
-                    .saturating_duration_since(now)
-                    .min(Duration::from_millis(20));
-                let deadline_ns = monotonic_ns() + wait.as_nanos() as u64;
-                let mut result = match r.serial_mut().wait_input(deadline_ns) {
-                    Ok(readable) => {
-                        if !readable {
-                            arrival.wait_timed_out(deadline_ns);
-                        }
-                        receive(r, &mut link, &mut arrival, |c| {
-                            // Hand over first (a kill goes straight to the loop), then report.
-                            hand_off.push(c);
-                            if matches!(c.command, Command::Kill | Command::Revive) {
-                                tracing::info!("ground link: {:?}", c.command);
-                            }
-                        })
-                    }
-                    Err(_) => Err(RadioFailed),
-                };
-                shared.store(&link.counters());
-                if result.is_ok() && Instant::now() >= next_display {
-                    next_display += settings.display_period;
-                    if next_display < Instant::now() {
-                        next_display = Instant::now() + settings.display_period;
-                    }
-                    let snap = *snapshot.read();
-                    let frames = downlink.frames(&snap, &link);
-                    result = match send(r, &downlink.bytes, monotonic_ns() + 200_000_000) {
-                        Ok(true) => {
-                            stats.display_frames += frames;
-                            Ok(())
-                        }
-                        Ok(false) => {
-                            tracing::debug!("XBee: display frame not sent in time");
-                            Ok(())
-                        }
-                        Err(e) => Err(e),
-                    };
-                }
-                if result.is_err() {
-                    stats.port_errors += 1;
-                    tracing::warn!("XBee: port failed; reopening");
-                    radio = None;
-                    link.reset();
+            // Commands still waiting for room in the ring go first, in order.
+            self.hand_off.flush();
+            if self.radio.is_none() {
+                std::thread::sleep(Duration::from_millis(20));
+                continue;
+            }
+            let mut result = self.receive_until(now);
+            self.shared.store(&self.link.counters());
+            if result.is_ok() && Instant::now() >= self.next_display {
+                result = self.send_display();
+            }
+            if result.is_err() {
+                self.stats.port_errors += 1;
+                tracing::warn!("XBee: port failed; reopening");
+                self.radio = None;
+                self.link.reset();
+            }
+        }
+        self.stats.commands = self.link.v1_stats();
+        self.stats.link = self.link.counters();
+        self.stats.commands_dropped = self.hand_off.dropped();
+        self.stats
+    }
+
+    /// Tries to open the port at `now` (warning on the first failure and every 60th).
+    fn try_open(&mut self, now: Instant) {
+        self.last_open = Some(now);
+        let opened_ns = monotonic_ns();
+        match (self.open)() {
+            Ok(port) => {
+                tracing::info!("XBee: connected");
+                self.failures = 0;
+                self.link.reset();
+                self.arrival = ArrivalBound::new(opened_ns);
+                self.radio = Some(XBee::new(port));
+                if self.settings.security.key.is_some() {
+                    // The station learns the session from the first display frame.
+                    self.next_display = now;
                 }
             }
-            stats.commands = link.v1_stats();
-            stats.link = link.counters();
-            stats.commands_dropped = hand_off.dropped();
-            stats
-        })
+            Err(e) => {
+                self.failures += 1;
+                let failures = self.failures;
+                if failures == 1 || failures.is_multiple_of(60) {
+                    tracing::warn!("{e:#} (attempt {failures}; retrying)");
+                }
+            }
+        }
+    }
+
+    /// Waits for input until the next display frame is due (at most 20 ms from `now`) and
+    /// hands each command received to the loop.
+    fn receive_until(&mut self, now: Instant) -> Result<(), RadioFailed> {
+        let Some(r) = self.radio.as_mut() else {
+            return Ok(());
+        };
+        let wait = self
+            .next_display
+            .saturating_duration_since(now)
+            .min(Duration::from_millis(20));
+        let deadline_ns = monotonic_ns() + wait.as_nanos() as u64;
+        match r.serial_mut().wait_input(deadline_ns) {
+            Ok(readable) => {
+                if !readable {
+                    self.arrival.wait_timed_out(deadline_ns);
+                }
+                let hand_off = &mut self.hand_off;
+                receive(r, &mut self.link, &mut self.arrival, |c| {
+                    // Hand over first (a kill goes straight to the loop), then report.
+                    hand_off.push(c);
+                    if matches!(c.command, Command::Kill | Command::Revive) {
+                        tracing::info!("ground link: {:?}", c.command);
+                    }
+                })
+            }
+            Err(_) => Err(RadioFailed),
+        }
+    }
+
+    /// Sends the display frames of the latest snapshot (within 200 ms) and schedules the
+    /// next ones.
+    fn send_display(&mut self) -> Result<(), RadioFailed> {
+        self.next_display += self.settings.display_period;
+        if self.next_display < Instant::now() {
+            self.next_display = Instant::now() + self.settings.display_period;
+        }
+        let Some(r) = self.radio.as_mut() else {
+            return Ok(());
+        };
+        let snap = *self.snapshot.read();
+        let frames = self.downlink.frames(&snap, &self.link);
+        match send(r, &self.downlink.bytes, monotonic_ns() + 200_000_000) {
+            Ok(true) => {
+                self.stats.display_frames += frames;
+                Ok(())
+            }
+            Ok(false) => {
+                tracing::debug!("XBee: display frame not sent in time");
+                Ok(())
+            }
+            Err(e) => Err(e),
+        }
+    }
 }
 
 #[cfg(test)]

@@ -131,7 +131,7 @@ pub struct BoardSetup {
 pub fn spawn_board(
     world: Arc<World>,
     line: Arc<RequestLine>,
-    mut port: LinkPort,
+    port: LinkPort,
     setup: BoardSetup,
     rng: SimRng,
     stats: Arc<BoardStats>,
@@ -143,100 +143,173 @@ pub fn spawn_board(
         sensor_faults,
         pace,
     } = setup;
+    let worker = BoardWorker {
+        world,
+        line,
+        port,
+        board: BoardSim::new(config, rng.fork(1)),
+        injector: FaultInjector::new(spec.clone(), rng.fork(2)),
+        spec,
+        sensor_faults,
+        pace,
+        stats,
+        stop,
+        seen: 0,
+        out: Vec::with_capacity(512),
+        wire: Vec::with_capacity(512),
+    };
     std::thread::Builder::new()
         .name("sim-board".into())
-        .spawn(move || {
-            line.listen();
-            // Answer requests promptly on a busy machine when the system allows it.
-            let _ = set_fifo(70);
-            let mut board = BoardSim::new(config, rng.fork(1));
-            let mut injector = FaultInjector::new(spec.clone(), rng.fork(2));
-            let mut seen = line.edges();
-            let mut out = Vec::with_capacity(512);
-            let mut wire = Vec::with_capacity(512);
-            let mut junk = [0u8; 256];
-            while !stop.load(Ordering::Relaxed) {
-                let now = line.wait_edge(seen, Duration::from_millis(5));
-                let t = world.now_s();
-                let connected = port.update(&spec, t).is_some();
-                stats.opens.store(port.opens, Ordering::Relaxed);
-                if let Some(pty) = port.pty() {
-                    // The host sends nothing on this link; drop whatever arrives.
-                    let _ = pty.read(&mut junk, Duration::ZERO);
-                }
-                if now == seen {
-                    continue;
-                }
-                let edges = now - seen;
-                seen = now;
-                // The board's DMA starts sending within microseconds of the edge.
-                let edge_at = std::time::Instant::now()
-                    .checked_sub(line.since_last_edge())
-                    .unwrap_or_else(std::time::Instant::now);
-                stats.requests.fetch_add(edges, Ordering::Relaxed);
-                if edges > 1 {
-                    // Requests while the previous answer was still going out.
-                    for _ in 1..edges {
-                        board.skip_request();
-                    }
-                    stats.unanswered.fetch_add(edges - 1, Ordering::Relaxed);
-                }
-                if !connected || spec.silent_at(t) {
-                    stats.unanswered.fetch_add(1, Ordering::Relaxed);
-                    continue;
-                }
-                let state: VehicleState = world.state();
-                let faults = SensorFaultState {
-                    gnss_frozen: sensor_faults.gnss_frozen_at(t),
-                    gnss_lost: sensor_faults.gnss_lost_at(t),
-                    imu_stuck: sensor_faults.imu_stuck_at(t),
-                };
-                let answer = board.answer_with(t, &state, faults);
-                // A delay fault postpones the whole transmission.
-                let start = edge_at + injector.delay();
-                wire.clear();
-                injector.mangle(&answer.packet, &mut out);
-                wire.extend_from_slice(&out);
-                // Intact: the packet's bytes arrive unchanged and in one piece (garbage
-                // inserted before its first byte does not damage it).
-                let intact = out.windows(answer.packet.len()).any(|w| w == answer.packet);
-                if intact {
-                    stats.packets_intact.fetch_add(1, Ordering::Relaxed);
-                    if !stats.counts_only {
-                        lock(&stats.intact).insert(fingerprint(&answer.packet));
-                    }
-                } else {
-                    stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
-                    if !stats.counts_only {
-                        lock(&stats.damaged).insert(fingerprint(&out));
-                    }
-                }
-                if let Some(info) = answer.info {
-                    injector.mangle(&info, &mut out);
-                    wire.extend_from_slice(&out);
-                    stats.info_frames.fetch_add(1, Ordering::Relaxed);
-                }
-                if let Some(pty) = port.pty() {
-                    let _ = pty.write_paced_from(start, &wire, pace, Duration::from_millis(50));
-                }
-                // Late: complete after the deadline, or after the next request already came.
-                if line.edges() != seen || line.since_last_edge() > LATE_ANSWER {
-                    stats.late_answers.fetch_add(1, Ordering::Relaxed);
-                }
-                // Requests that came while the answer was going out are not answered.
-                let during = line.edges() - seen;
-                if during > 0 {
-                    seen += during;
-                    stats.requests.fetch_add(during, Ordering::Relaxed);
-                    stats.unanswered.fetch_add(during, Ordering::Relaxed);
-                    for _ in 0..during {
-                        board.skip_request();
-                    }
-                }
-                stats.answers.fetch_add(1, Ordering::Relaxed);
-                *lock(&stats.faults) = injector.stats();
+        .spawn(move || worker.run())
+}
+
+/// The sensor board thread's state.
+struct BoardWorker {
+    world: Arc<World>,
+    line: Arc<RequestLine>,
+    port: LinkPort,
+    board: BoardSim,
+    injector: FaultInjector,
+    spec: FaultSpec,
+    sensor_faults: SensorFaults,
+    pace: LinePace,
+    stats: Arc<BoardStats>,
+    stop: Arc<AtomicBool>,
+    /// Request edges taken so far.
+    seen: u64,
+    /// One frame as the fault injector left it.
+    out: Vec<u8>,
+    /// The whole answer as it goes out.
+    wire: Vec<u8>,
+}
+
+impl BoardWorker {
+    /// Answers request edges until `stop`.
+    fn run(mut self) {
+        self.line.listen();
+        // Answer requests promptly on a busy machine when the system allows it.
+        let _ = set_fifo(70);
+        self.seen = self.line.edges();
+        while !self.stop.load(Ordering::Relaxed) {
+            let now = self.line.wait_edge(self.seen, Duration::from_millis(5));
+            let t = self.world.now_s();
+            let connected = self.maintain_port(t);
+            if now == self.seen {
+                continue;
             }
-        })
+            let edge_at = self.take_edges(now);
+            if !connected || self.spec.silent_at(t) {
+                self.stats.unanswered.fetch_add(1, Ordering::Relaxed);
+                continue;
+            }
+            self.answer(t, edge_at);
+            self.count_late_answer();
+            self.skip_requests_during_answer();
+            self.stats.answers.fetch_add(1, Ordering::Relaxed);
+            *lock(&self.stats.faults) = self.injector.stats();
+        }
+    }
+
+    /// Opens or closes the pty by the link's disconnect windows at `t` and drains what the
+    /// host sent; true when connected.
+    fn maintain_port(&mut self, t: f64) -> bool {
+        let connected = self.port.update(&self.spec, t).is_some();
+        self.stats.opens.store(self.port.opens, Ordering::Relaxed);
+        if let Some(pty) = self.port.pty() {
+            // The host sends nothing on this link; drop whatever arrives.
+            let mut junk = [0u8; 256];
+            let _ = pty.read(&mut junk, Duration::ZERO);
+        }
+        connected
+    }
+
+    /// Takes the edges up to `now` (all but the last skipped: they came while the previous
+    /// answer was still going out) and returns when the last one came.
+    fn take_edges(&mut self, now: u64) -> std::time::Instant {
+        let edges = now - self.seen;
+        self.seen = now;
+        // The board's DMA starts sending within microseconds of the edge.
+        let edge_at = std::time::Instant::now()
+            .checked_sub(self.line.since_last_edge())
+            .unwrap_or_else(std::time::Instant::now);
+        self.stats.requests.fetch_add(edges, Ordering::Relaxed);
+        if edges > 1 {
+            // Requests while the previous answer was still going out.
+            for _ in 1..edges {
+                self.board.skip_request();
+            }
+            self.stats
+                .unanswered
+                .fetch_add(edges - 1, Ordering::Relaxed);
+        }
+        edge_at
+    }
+
+    /// Builds the answer at `t` to the request that came at `edge_at`, passes it through the
+    /// fault injector and writes it at the line's pace.
+    fn answer(&mut self, t: f64, edge_at: std::time::Instant) {
+        let state: VehicleState = self.world.state();
+        let faults = SensorFaultState {
+            gnss_frozen: self.sensor_faults.gnss_frozen_at(t),
+            gnss_lost: self.sensor_faults.gnss_lost_at(t),
+            imu_stuck: self.sensor_faults.imu_stuck_at(t),
+        };
+        let answer = self.board.answer_with(t, &state, faults);
+        // A delay fault postpones the whole transmission.
+        let start = edge_at + self.injector.delay();
+        self.wire.clear();
+        self.injector.mangle(&answer.packet, &mut self.out);
+        self.wire.extend_from_slice(&self.out);
+        self.count_packet(&answer.packet);
+        if let Some(info) = answer.info {
+            self.injector.mangle(&info, &mut self.out);
+            self.wire.extend_from_slice(&self.out);
+            self.stats.info_frames.fetch_add(1, Ordering::Relaxed);
+        }
+        if let Some(pty) = self.port.pty() {
+            let _ = pty.write_paced_from(start, &self.wire, self.pace, Duration::from_millis(50));
+        }
+    }
+
+    /// Counts `packet` as intact or damaged by what the fault injector made of it (in `out`).
+    fn count_packet(&self, packet: &[u8]) {
+        let stats = &self.stats;
+        // Intact: the packet's bytes arrive unchanged and in one piece (garbage inserted
+        // before its first byte does not damage it).
+        let intact = self.out.windows(packet.len()).any(|w| w == packet);
+        if intact {
+            stats.packets_intact.fetch_add(1, Ordering::Relaxed);
+            if !stats.counts_only {
+                lock(&stats.intact).insert(fingerprint(packet));
+            }
+        } else {
+            stats.packets_damaged.fetch_add(1, Ordering::Relaxed);
+            if !stats.counts_only {
+                lock(&stats.damaged).insert(fingerprint(&self.out));
+            }
+        }
+    }
+
+    /// Counts the answer late when it was complete after the deadline, or after the next
+    /// request already came.
+    fn count_late_answer(&self) {
+        if self.line.edges() != self.seen || self.line.since_last_edge() > LATE_ANSWER {
+            self.stats.late_answers.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Skips the requests that came while the answer was going out: they are not answered.
+    fn skip_requests_during_answer(&mut self) {
+        let during = self.line.edges() - self.seen;
+        if during > 0 {
+            self.seen += during;
+            self.stats.requests.fetch_add(during, Ordering::Relaxed);
+            self.stats.unanswered.fetch_add(during, Ordering::Relaxed);
+            for _ in 0..during {
+                self.board.skip_request();
+            }
+        }
+    }
 }
 
 /// SCHED_FIFO for the calling thread when permitted (ignored otherwise).
@@ -341,83 +414,133 @@ impl MaestroStats {
 /// channel numbers whose pulses drive the model.
 pub fn spawn_maestro(
     world: Arc<World>,
-    mut port: LinkPort,
+    port: LinkPort,
     channels: [u8; 3],
     spec: FaultSpec,
     rng: SimRng,
     stats: Arc<MaestroStats>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
+    let worker = MaestroWorker {
+        world,
+        port,
+        channels,
+        decoder: CommandDecoder::new(DecoderConfig::default()),
+        injector: FaultInjector::new(spec.clone(), rng.fork(3)),
+        spec,
+        stats,
+        stop,
+        mangled: Vec::with_capacity(512),
+        last: [0xFFFF; 3],
+        opens: 0,
+    };
     std::thread::Builder::new()
         .name("sim-maestro".into())
-        .spawn(move || {
-            let mut decoder = CommandDecoder::new(DecoderConfig::default());
-            let mut injector = FaultInjector::new(spec.clone(), rng.fork(3));
-            let mut buf = [0u8; 512];
-            let mut mangled = Vec::with_capacity(512);
-            let mut last = [0xFFFFu16; 3];
-            let mut opens = 0;
-            while !stop.load(Ordering::Relaxed) {
-                let t = world.now_s();
-                let connected = port.update(&spec, t).is_some();
-                if port.opens != opens {
-                    opens = port.opens;
-                    // A Maestro that was unplugged lost its targets: the host must send them again.
-                    decoder.reset();
-                    for t in &stats.targets {
-                        t.store(0xFFFF, Ordering::Relaxed);
-                    }
-                    last = [0xFFFF; 3];
-                    stats.opens.store(opens, Ordering::Relaxed);
-                    stats.commands_since_open.store(0, Ordering::Relaxed);
-                }
-                let (true, Some(pty)) = (connected, port.pty()) else {
-                    std::thread::sleep(Duration::from_millis(5));
-                    continue;
-                };
-                let n = pty.read(&mut buf, Duration::from_millis(5)).unwrap_or(0);
-                if n == 0 {
-                    continue;
-                }
-                // Errors on the way in (the USB link) are applied to what the device receives.
-                injector.mangle(&buf[..n], &mut mangled);
-                for &b in &mangled {
-                    let Some(command) = decoder.push(b) else {
-                        continue;
-                    };
-                    let set = |ch: u8, qus: u16| {
-                        if let Some(slot) = stats.targets.get(usize::from(ch)) {
-                            slot.store(qus, Ordering::Relaxed);
-                        }
-                        stats.commands.fetch_add(1, Ordering::Relaxed);
-                        stats.commands_since_open.fetch_add(1, Ordering::Relaxed);
-                    };
-                    match command {
-                        pololu_maestro::Command::SetTarget { channel, target } => {
-                            set(channel.index(), target.get())
-                        }
-                        pololu_maestro::Command::SetMultipleTargets(m) => {
-                            for (ch, target) in m.iter() {
-                                set(ch, target.get());
-                            }
-                        }
-                        _ => {}
-                    }
-                }
-                stats
-                    .dropped_bytes
-                    .store(u64::from(decoder.stats().dropped_bytes), Ordering::Relaxed);
-                let now = stats.targets_of(channels);
-                if now != last && now.iter().all(|&q| q != 0xFFFF) {
-                    last = now;
-                    stats.record(OutputChange {
-                        t_s: world.now_s(),
-                        targets_qus: now,
-                    });
-                    world.set_pulses(now.map(|q| f64::from(q) / 4.0));
-                }
+        .spawn(move || worker.run())
+}
+
+/// The Maestro thread's state.
+struct MaestroWorker {
+    world: Arc<World>,
+    port: LinkPort,
+    /// The throttle, steering and tail channel numbers.
+    channels: [u8; 3],
+    decoder: CommandDecoder,
+    injector: FaultInjector,
+    spec: FaultSpec,
+    stats: Arc<MaestroStats>,
+    stop: Arc<AtomicBool>,
+    /// The bytes received as the fault injector left them.
+    mangled: Vec<u8>,
+    /// The outputs last handed to the model, quarter-µs (0xFFFF: not set).
+    last: [u16; 3],
+    /// The port's open count when last seen.
+    opens: u64,
+}
+
+impl MaestroWorker {
+    /// Decodes commands and drives the model until `stop`.
+    fn run(mut self) {
+        let mut buf = [0u8; 512];
+        while !self.stop.load(Ordering::Relaxed) {
+            let t = self.world.now_s();
+            let connected = self.port.update(&self.spec, t).is_some();
+            if self.port.opens != self.opens {
+                self.reopened();
             }
-        })
+            let (true, Some(pty)) = (connected, self.port.pty()) else {
+                std::thread::sleep(Duration::from_millis(5));
+                continue;
+            };
+            let n = pty.read(&mut buf, Duration::from_millis(5)).unwrap_or(0);
+            if n == 0 {
+                continue;
+            }
+            self.receive(&buf[..n]);
+            self.publish_outputs();
+        }
+    }
+
+    /// The port was reopened: a Maestro that was unplugged lost its targets, and the host
+    /// must send them again.
+    fn reopened(&mut self) {
+        self.opens = self.port.opens;
+        self.decoder.reset();
+        for t in &self.stats.targets {
+            t.store(0xFFFF, Ordering::Relaxed);
+        }
+        self.last = [0xFFFF; 3];
+        self.stats.opens.store(self.opens, Ordering::Relaxed);
+        self.stats.commands_since_open.store(0, Ordering::Relaxed);
+    }
+
+    /// Decodes `bytes` (through the link's faults) and sets the targets they command.
+    fn receive(&mut self, bytes: &[u8]) {
+        // Errors on the way in (the USB link) are applied to what the device receives.
+        self.injector.mangle(bytes, &mut self.mangled);
+        let stats = &self.stats;
+        let set = |ch: u8, qus: u16| {
+            if let Some(slot) = stats.targets.get(usize::from(ch)) {
+                slot.store(qus, Ordering::Relaxed);
+            }
+            stats.commands.fetch_add(1, Ordering::Relaxed);
+            stats.commands_since_open.fetch_add(1, Ordering::Relaxed);
+        };
+        for &b in &self.mangled {
+            let Some(command) = self.decoder.push(b) else {
+                continue;
+            };
+            match command {
+                pololu_maestro::Command::SetTarget { channel, target } => {
+                    set(channel.index(), target.get())
+                }
+                pololu_maestro::Command::SetMultipleTargets(m) => {
+                    for (ch, target) in m.iter() {
+                        set(ch, target.get());
+                    }
+                }
+                _ => {}
+            }
+        }
+        stats.dropped_bytes.store(
+            u64::from(self.decoder.stats().dropped_bytes),
+            Ordering::Relaxed,
+        );
+    }
+
+    /// Records a change of the three channels' outputs and hands the pulses to the model,
+    /// once all three are set.
+    fn publish_outputs(&mut self) {
+        let now = self.stats.targets_of(self.channels);
+        if now != self.last && now.iter().all(|&q| q != 0xFFFF) {
+            self.last = now;
+            self.stats.record(OutputChange {
+                t_s: self.world.now_s(),
+                targets_qus: now,
+            });
+            self.world.set_pulses(now.map(|q| f64::from(q) / 4.0));
+        }
+    }
 }
 
 /// One step of a ground-station script.
@@ -470,7 +593,8 @@ pub struct GroundStats {
     pub counts_only: bool,
 }
 
-/// The frame period of the ground station (DESIGN 2.2: one frame every 100 ms).
+/// The frame period of the ground station: one frame every 100 ms, as
+/// `dima_groundlink::station` sends them (docs/wire-formats.md, the ground link).
 pub const GROUND_PERIOD_S: f64 = 0.1;
 
 /// Which ground link the scripted station speaks.
@@ -693,7 +817,7 @@ impl ScriptedStation {
 #[allow(clippy::too_many_arguments)]
 pub fn spawn_ground(
     world: Arc<World>,
-    mut port: LinkPort,
+    port: LinkPort,
     script: Vec<ScriptStep>,
     protocol: GroundProtocol,
     spec: FaultSpec,
@@ -702,76 +826,127 @@ pub fn spawn_ground(
     stats: Arc<GroundStats>,
     stop: Arc<AtomicBool>,
 ) -> std::io::Result<JoinHandle<()>> {
+    let worker = GroundWorker {
+        world,
+        opens: port.opens,
+        port,
+        ground: ScriptedStation::new(protocol, script, pace),
+        injector: FaultInjector::new(spec.clone(), rng.fork(4)),
+        spec,
+        pace,
+        stats,
+        stop,
+        next_sample: 0.0,
+        out: Vec::with_capacity(64),
+        wire: Vec::with_capacity(256),
+    };
     std::thread::Builder::new()
         .name("sim-ground".into())
-        .spawn(move || {
-            let mut injector = FaultInjector::new(spec.clone(), rng.fork(4));
-            let mut ground = ScriptedStation::new(protocol, script, pace);
-            let mut opens = port.opens;
-            let mut next_sample = 0.0f64;
-            let mut buf = [0u8; 512];
-            let mut out = Vec::with_capacity(64);
-            let mut wire = Vec::with_capacity(256);
-            while !stop.load(Ordering::Relaxed) {
-                let t = world.now_s();
-                let connected = port.update(&spec, t).is_some();
-                if port.opens != opens {
-                    opens = port.opens;
-                    ground.reconnected();
-                }
-                if let Some(pty) = port.pty() {
-                    let wait = (ground.next_due_s(t).min(next_sample) - t).clamp(0.0, 0.01);
-                    let n = pty
-                        .read(&mut buf, Duration::from_secs_f64(wait))
-                        .unwrap_or(0);
-                    ground.receive(&buf[..n], world.now_s(), &stats);
-                } else {
-                    std::thread::sleep(Duration::from_millis(5));
-                }
-                let t = world.now_s();
-                if t >= next_sample {
-                    next_sample += GROUND_PERIOD_S;
-                    if next_sample < t {
-                        next_sample = t + GROUND_PERIOD_S;
-                    }
-                    if !stats.counts_only {
-                        lock(&stats.truth).push(world.state());
-                    }
-                }
-                let frames = ground.due(t, connected);
-                // Silent: the frames are lost on the way (the station does not know).
-                if frames.is_empty() || !ground.sending || !connected || spec.silent_at(t) {
-                    continue;
-                }
-                wire.clear();
-                for frame in &frames {
-                    injector.mangle(&frame.bytes, &mut out);
-                    wire.extend_from_slice(&out);
-                }
-                let delay = injector.delay();
-                if !delay.is_zero() {
-                    std::thread::sleep(delay);
-                }
-                if let Some(pty) = port.pty() {
-                    let written = pty
-                        .write_paced(&wire, pace, Duration::from_millis(50))
-                        .unwrap_or(0);
-                    if written == wire.len() {
-                        let sent_at = world.now_s();
-                        stats
-                            .frames_sent
-                            .fetch_add(frames.len() as u64, Ordering::Relaxed);
-                        *lock(&stats.last_sent_s) = Some(sent_at);
-                        if !stats.counts_only {
-                            let mut log = lock(&stats.commands);
-                            for c in frames.iter().filter_map(|f| f.command) {
-                                log.push((sent_at, c));
-                            }
-                        }
-                    }
+        .spawn(move || worker.run())
+}
+
+/// The scripted ground station thread's state.
+struct GroundWorker {
+    world: Arc<World>,
+    port: LinkPort,
+    /// The port's open count when last seen.
+    opens: u64,
+    ground: ScriptedStation,
+    injector: FaultInjector,
+    spec: FaultSpec,
+    pace: LinePace,
+    stats: Arc<GroundStats>,
+    stop: Arc<AtomicBool>,
+    /// When the model is sampled next, s.
+    next_sample: f64,
+    /// One frame as the fault injector left it.
+    out: Vec<u8>,
+    /// The slot's frames as they go out.
+    wire: Vec<u8>,
+}
+
+impl GroundWorker {
+    /// Receives, samples the model and sends the frames due until `stop`.
+    fn run(mut self) {
+        let mut buf = [0u8; 512];
+        while !self.stop.load(Ordering::Relaxed) {
+            let t = self.world.now_s();
+            let connected = self.port.update(&self.spec, t).is_some();
+            if self.port.opens != self.opens {
+                self.opens = self.port.opens;
+                self.ground.reconnected();
+            }
+            self.receive(t, &mut buf);
+            let t = self.world.now_s();
+            self.sample_model(t);
+            let frames = self.ground.due(t, connected);
+            // Silent: the frames are lost on the way (the station does not know).
+            if frames.is_empty() || !self.ground.sending || !connected || self.spec.silent_at(t) {
+                continue;
+            }
+            self.send(&frames);
+        }
+    }
+
+    /// Reads what the robot sent until something falls due (at most 10 ms) and hands it to
+    /// the station; waits 5 ms while unplugged.
+    fn receive(&mut self, t: f64, buf: &mut [u8]) {
+        if let Some(pty) = self.port.pty() {
+            let wait = (self.ground.next_due_s(t).min(self.next_sample) - t).clamp(0.0, 0.01);
+            let n = pty.read(buf, Duration::from_secs_f64(wait)).unwrap_or(0);
+            self.ground
+                .receive(&buf[..n], self.world.now_s(), &self.stats);
+        } else {
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    /// Keeps a sample of the model once per ground period.
+    fn sample_model(&mut self, t: f64) {
+        if t >= self.next_sample {
+            self.next_sample += GROUND_PERIOD_S;
+            if self.next_sample < t {
+                self.next_sample = t + GROUND_PERIOD_S;
+            }
+            if !self.stats.counts_only {
+                lock(&self.stats.truth).push(self.world.state());
+            }
+        }
+    }
+
+    /// Sends `frames` through the link's faults at the radio's pace, and records them when
+    /// they all went out.
+    fn send(&mut self, frames: &[Outgoing]) {
+        self.wire.clear();
+        for frame in frames {
+            self.injector.mangle(&frame.bytes, &mut self.out);
+            self.wire.extend_from_slice(&self.out);
+        }
+        let delay = self.injector.delay();
+        if !delay.is_zero() {
+            std::thread::sleep(delay);
+        }
+        let Some(pty) = self.port.pty() else {
+            return;
+        };
+        let written = pty
+            .write_paced(&self.wire, self.pace, Duration::from_millis(50))
+            .unwrap_or(0);
+        if written == self.wire.len() {
+            let stats = &self.stats;
+            let sent_at = self.world.now_s();
+            stats
+                .frames_sent
+                .fetch_add(frames.len() as u64, Ordering::Relaxed);
+            *lock(&stats.last_sent_s) = Some(sent_at);
+            if !stats.counts_only {
+                let mut log = lock(&stats.commands);
+                for c in frames.iter().filter_map(|f| f.command) {
+                    log.push((sent_at, c));
                 }
             }
-        })
+        }
+    }
 }
 
 /// Copies bytes (towards the robot at the radio's pace) both ways between the application's XBee pty and a second pty a ground-station

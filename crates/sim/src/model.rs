@@ -214,8 +214,8 @@ impl PulseMap {
     }
 }
 
-/// The DIMA car's channels (DESIGN 2.4): throttle 1000-1500-2000, steering 1250-1545-1840,
-/// tail 1000-1500-2000 µs.
+/// The DIMA car's channels (docs/wire-formats.md, "Servo controller: Pololu Maestro"): throttle
+/// 1000-1500-2000, steering 1250-1545-1840, tail 1000-1500-2000 µs.
 pub const DIMA_PULSE_MAPS: [PulseMap; 3] = [
     PulseMap {
         min_us: 1000,

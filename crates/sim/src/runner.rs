@@ -11,6 +11,7 @@ use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use anyhow::Context;
@@ -385,281 +386,393 @@ pub fn run_simulation<F>(options: &SimOptions, app: F) -> anyhow::Result<SimRepo
 where
     F: FnOnce(AppLaunch) -> anyhow::Result<AppOutcome>,
 {
-    let o = options;
-    std::fs::create_dir_all(&o.run_dir)
-        .with_context(|| format!("creating {}", o.run_dir.display()))?;
-    let rng = SimRng::new(o.seed);
-    let world = Arc::new(World::new(o.vehicle, o.scenario.start_heading_deg));
-    let start_wall_ns = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_nanos() as u64)
-        .unwrap_or(0);
-    let stop_devices = Arc::new(AtomicBool::new(false));
-    let stop_app = Arc::new(AtomicBool::new(false));
-    let line = RequestLine::new();
+    let (run, config, key) = SimRun::prepare(options)?;
+    let devices = run.start_devices(&config, key)?;
+    let monitor = run.start_monitor()?;
+    let outcome = app(run.launch(config));
+    let ran_s = run.world.now_s();
+    run.stop(monitor, devices);
+    run.judge(outcome?, ran_s)
+}
 
-    let sensor_link = o.run_dir.join("sensor");
-    let maestro_link = o.run_dir.join("maestro");
-    let xbee_link = o.run_dir.join("xbee");
-    let config = app_config(
-        o.app_config.as_deref(),
-        SimPorts {
-            sensor: &sensor_link,
-            maestro: &maestro_link,
-            xbee: &xbee_link,
-        },
-        o.loop_rate_hz,
-        o.realtime,
-        &o.log_dir,
-    )?;
-    let mut config = config;
-    let key = link_key(o, &mut config)?;
-    let outputs = OutputMap::new(&config.channels);
-    let channels = outputs.channel_numbers();
-    let board_stats = Arc::new(BoardStats {
-        counts_only: o.bounded_evidence,
-        ..BoardStats::default()
-    });
-    let maestro_stats = Arc::new(MaestroStats {
-        safe_transitions_only: o.bounded_evidence.then(|| outputs.safe().pulse_us),
-        ..MaestroStats::default()
-    });
-    let ground_stats = Arc::new(GroundStats {
-        counts_only: o.bounded_evidence,
-        ..GroundStats::default()
-    });
-    let mut threads = Vec::new();
-    threads.push(spawn_board(
-        world.clone(),
-        line.clone(),
-        LinkPort::open(&sensor_link).context("sensor-board pty")?,
-        BoardSetup {
-            config: o.board,
-            link_faults: o.faults.sensor.clone(),
-            sensor_faults: o.faults.sensors.clone(),
-            pace: LinePace::new(config.sensor.baud, bits_per_byte(config.sensor.stop_bits)),
-        },
-        rng.fork(10),
-        board_stats.clone(),
-        stop_devices.clone(),
-    )?);
-    threads.push(spawn_maestro(
-        world.clone(),
-        LinkPort::open(&maestro_link).context("Maestro pty")?,
-        channels,
-        o.faults.maestro.clone(),
-        rng.fork(11),
-        maestro_stats.clone(),
-        stop_devices.clone(),
-    )?);
-    let xbee = LinkPort::open(&xbee_link).context("XBee pty")?;
-    let radio_pace = LinePace::new(config.xbee.baud, bits_per_byte(1));
-    if o.ground_pty {
-        let station = SimPty::open(&o.run_dir.join("ground-station")).context("ground pty")?;
-        eprintln!(
-            "ground station: connect the GUI to {} (9600 8N1); the robot starts KILLED",
-            station.device_path().display()
-        );
-        threads.push(spawn_relay(
-            world.clone(),
-            xbee,
-            station,
-            o.faults.ground.clone(),
-            radio_pace,
-            rng.fork(12),
-            stop_devices.clone(),
-        )?);
-    } else {
-        threads.push(spawn_ground(
-            world.clone(),
+/// What the steps of one run share: the model, the device statistics and the stop flags.
+struct SimRun<'a> {
+    o: &'a SimOptions,
+    world: Arc<World>,
+    line: Arc<RequestLine>,
+    /// Wall-clock time at the start, ns since the Unix epoch.
+    start_wall_ns: u64,
+    stop_devices: Arc<AtomicBool>,
+    stop_app: Arc<AtomicBool>,
+    /// Set when the monitor ended the run at its length (not a signal).
+    ended_by_runner: Arc<AtomicBool>,
+    board_stats: Arc<BoardStats>,
+    maestro_stats: Arc<MaestroStats>,
+    ground_stats: Arc<GroundStats>,
+    app_status: Arc<AppStatus>,
+    /// The throttle, steering and tail channel numbers.
+    channels: [u8; 3],
+    /// The safe outputs, µs.
+    safe_us: [u16; 3],
+}
+
+impl<'a> SimRun<'a> {
+    /// Creates the run directory, the application's configuration (with the simulation's pty
+    /// links and the ground-link key) and the shared state.
+    fn prepare(o: &'a SimOptions) -> anyhow::Result<(SimRun<'a>, Config, Option<LinkKey>)> {
+        std::fs::create_dir_all(&o.run_dir)
+            .with_context(|| format!("creating {}", o.run_dir.display()))?;
+        let world = Arc::new(World::new(o.vehicle, o.scenario.start_heading_deg));
+        let start_wall_ns = SystemTime::now()
+            .duration_since(UNIX_EPOCH)
+            .map(|d| d.as_nanos() as u64)
+            .unwrap_or(0);
+        let mut config = app_config(
+            o.app_config.as_deref(),
+            SimPorts {
+                sensor: &o.run_dir.join("sensor"),
+                maestro: &o.run_dir.join("maestro"),
+                xbee: &o.run_dir.join("xbee"),
+            },
+            o.loop_rate_hz,
+            o.realtime,
+            &o.log_dir,
+        )?;
+        let key = link_key(o, &mut config)?;
+        let outputs = OutputMap::new(&config.channels);
+        let run = SimRun {
+            o,
+            world,
+            line: RequestLine::new(),
+            start_wall_ns,
+            stop_devices: Arc::new(AtomicBool::new(false)),
+            stop_app: Arc::new(AtomicBool::new(false)),
+            ended_by_runner: Arc::new(AtomicBool::new(false)),
+            board_stats: Arc::new(BoardStats {
+                counts_only: o.bounded_evidence,
+                ..BoardStats::default()
+            }),
+            maestro_stats: Arc::new(MaestroStats {
+                safe_transitions_only: o.bounded_evidence.then(|| outputs.safe().pulse_us),
+                ..MaestroStats::default()
+            }),
+            ground_stats: Arc::new(GroundStats {
+                counts_only: o.bounded_evidence,
+                ..GroundStats::default()
+            }),
+            app_status: Arc::new(AppStatus::default()),
+            channels: outputs.channel_numbers(),
+            safe_us: outputs.safe().pulse_us,
+        };
+        Ok((run, config, key))
+    }
+
+    /// Starts the simulated sensor board, the Maestro and the ground side of the radio link
+    /// (the scripted station, or a relay to a GUI's pty).
+    fn start_devices(
+        &self,
+        config: &Config,
+        key: Option<LinkKey>,
+    ) -> anyhow::Result<Vec<JoinHandle<()>>> {
+        let o = self.o;
+        let rng = SimRng::new(o.seed);
+        let board = spawn_board(
+            self.world.clone(),
+            self.line.clone(),
+            LinkPort::open(&o.run_dir.join("sensor")).context("sensor-board pty")?,
+            BoardSetup {
+                config: o.board,
+                link_faults: o.faults.sensor.clone(),
+                sensor_faults: o.faults.sensors.clone(),
+                pace: LinePace::new(config.sensor.baud, bits_per_byte(config.sensor.stop_bits)),
+            },
+            rng.fork(10),
+            self.board_stats.clone(),
+            self.stop_devices.clone(),
+        )?;
+        let maestro = spawn_maestro(
+            self.world.clone(),
+            LinkPort::open(&o.run_dir.join("maestro")).context("Maestro pty")?,
+            self.channels,
+            o.faults.maestro.clone(),
+            rng.fork(11),
+            self.maestro_stats.clone(),
+            self.stop_devices.clone(),
+        )?;
+        let ground = self.start_ground(config, key, &rng)?;
+        Ok(vec![board, maestro, ground])
+    }
+
+    /// Starts the ground side of the radio link: a relay to a second pty for a GUI, or the
+    /// scripted station (v2 with `key`, else v1).
+    fn start_ground(
+        &self,
+        config: &Config,
+        key: Option<LinkKey>,
+        rng: &SimRng,
+    ) -> anyhow::Result<JoinHandle<()>> {
+        let o = self.o;
+        let xbee = LinkPort::open(&o.run_dir.join("xbee")).context("XBee pty")?;
+        let radio_pace = LinePace::new(config.xbee.baud, bits_per_byte(1));
+        if o.ground_pty {
+            let station = SimPty::open(&o.run_dir.join("ground-station")).context("ground pty")?;
+            eprintln!(
+                "ground station: connect the GUI to {} (9600 8N1); the robot starts KILLED",
+                station.device_path().display()
+            );
+            return Ok(spawn_relay(
+                self.world.clone(),
+                xbee,
+                station,
+                o.faults.ground.clone(),
+                radio_pace,
+                rng.fork(12),
+                self.stop_devices.clone(),
+            )?);
+        }
+        let protocol = match key {
+            Some(key) => GroundProtocol::V2 { key },
+            None => GroundProtocol::V1 {
+                heartbeat: o.scenario.heartbeat,
+            },
+        };
+        Ok(spawn_ground(
+            self.world.clone(),
             xbee,
             o.scenario.script.clone(),
-            match key {
-                Some(key) => GroundProtocol::V2 { key },
-                None => GroundProtocol::V1 {
-                    heartbeat: o.scenario.heartbeat,
-                },
-            },
+            protocol,
             o.faults.ground.clone(),
             radio_pace,
             rng.fork(13),
-            ground_stats.clone(),
-            stop_devices.clone(),
-        )?);
+            self.ground_stats.clone(),
+            self.stop_devices.clone(),
+        )?)
     }
 
-    // The monitor: status line and the end of the run.
-    let app_status = Arc::new(AppStatus::default());
-    let run_length = o.run_length_s();
-    let ended_by_runner = Arc::new(AtomicBool::new(false));
-    let monitor = {
-        let (world, stop_app, ended) = (world.clone(), stop_app.clone(), ended_by_runner.clone());
-        let (board, maestro, ground) = (
-            board_stats.clone(),
-            maestro_stats.clone(),
-            ground_stats.clone(),
-        );
-        let scenario = o.scenario.clone();
-        let app = app_status.clone();
-        let tty = match o.status {
-            StatusMode::Auto => Some(std::io::stderr().is_terminal()),
-            StatusMode::Plain => Some(false),
-            StatusMode::Quiet => None,
+    /// Starts the monitor: the status line, and the end of the run at its length.
+    fn start_monitor(&self) -> std::io::Result<JoinHandle<()>> {
+        let monitor = StatusMonitor {
+            world: self.world.clone(),
+            stop_app: self.stop_app.clone(),
+            ended: self.ended_by_runner.clone(),
+            board: self.board_stats.clone(),
+            maestro: self.maestro_stats.clone(),
+            ground: self.ground_stats.clone(),
+            scenario: self.o.scenario.clone(),
+            app: self.app_status.clone(),
+            run_length: self.o.run_length_s(),
+            channels: self.channels,
+            tty: match self.o.status {
+                StatusMode::Auto => Some(std::io::stderr().is_terminal()),
+                StatusMode::Plain => Some(false),
+                StatusMode::Quiet => None,
+            },
         };
         std::thread::Builder::new()
             .name("sim-status".into())
-            .spawn(move || {
-                let mut last_print = -1.0f64;
-                let mut last_requests = 0u64;
-                let mut last_t = 0.0f64;
-                let mut rate = 0.0f64;
-                while !stop_app.load(Ordering::Relaxed) {
-                    std::thread::sleep(Duration::from_millis(100));
-                    let t = world.now_s();
-                    if run_length.is_some_and(|d| t >= d) {
-                        ended.store(true, Ordering::Relaxed);
-                        stop_app.store(true, Ordering::Relaxed);
-                        break;
-                    }
-                    let Some(tty) = tty else { continue };
-                    let interval = if tty { 0.25 } else { 1.0 };
-                    if t - last_print < interval {
-                        continue;
-                    }
-                    let cycles = app.cycles.load(Ordering::Relaxed);
-                    if t > last_t {
-                        rate = cycles.saturating_sub(last_requests) as f64 / (t - last_t);
-                    }
-                    last_requests = cycles;
-                    last_t = t;
-                    last_print = t;
-                    let line = status_line(
-                        StatusInputs {
-                            t,
-                            run_length,
-                            phase: scenario.phase_at(t),
-                            rate_hz: rate,
-                            channels,
-                        },
-                        &app,
-                        &board,
-                        &maestro,
-                        &ground,
-                        &world,
-                        tty,
-                    );
-                    let mut err = std::io::stderr().lock();
-                    if tty {
-                        // One line that never wraps, or the redraw would leave the rest behind.
-                        let line: String = line.chars().take(terminal_columns() - 1).collect();
-                        let _ = write!(err, "\r\x1b[2K{line}");
-                    } else {
-                        let _ = writeln!(err, "{line}");
-                    }
-                    let _ = err.flush();
-                }
-                if tty == Some(true) {
-                    eprintln!();
-                }
-            })?
-    };
-
-    let safe_us = outputs.safe().pulse_us;
-    let launch = AppLaunch {
-        config,
-        request: RequestPin::new(line),
-        busy: o.faults.loop_busy,
-        app_faults: o.faults.app.clone(),
-        status: app_status.clone(),
-        stop: stop_app.clone(),
-    };
-    let outcome = app(launch);
-    let ran_s = world.now_s();
-    stop_app.store(true, Ordering::Relaxed);
-    let _ = monitor.join();
-    // Let the Maestro thread see the final safe write before the devices stop.
-    std::thread::sleep(Duration::from_millis(50));
-    stop_devices.store(true, Ordering::Relaxed);
-    for t in threads {
-        let _ = t.join();
+            .spawn(move || monitor.run())
     }
-    let _ = std::fs::remove_dir_all(&o.run_dir);
-    let app = outcome?;
-    let interrupted = !ended_by_runner.load(Ordering::Relaxed) && run_length.is_some();
 
-    let log = match &app.log_path {
-        Some(p) => Some(LogSummary::read_run(p)?),
-        None => None,
-    };
-    let (mut false_accepts, mut logged_intact) = (0, 0);
-    if let Some(l) = log.as_ref().filter(|_| !o.bounded_evidence) {
-        let intact = lock(&board_stats.intact);
-        for fp in &l.raw_packets {
-            if intact.contains(fp) {
-                logged_intact += 1;
-            } else {
-                false_accepts += 1;
-            }
+    /// What the application runs against: `config`, the request line, its faults, the
+    /// status it reports to and its stop flag.
+    fn launch(&self, config: Config) -> AppLaunch {
+        AppLaunch {
+            config,
+            request: RequestPin::new(self.line.clone()),
+            busy: self.o.faults.loop_busy,
+            app_faults: self.o.faults.app.clone(),
+            status: self.app_status.clone(),
+            stop: self.stop_app.clone(),
         }
     }
-    let evidence = Evidence {
-        outputs: maestro_stats.history(),
-        truth: lock(&ground_stats.truth).clone(),
-        log: log.clone(),
-        start_wall_ns,
-        safe_us,
-        ran_s,
-        // Cut short by a signal or by a --duration below the scenario's length: checks past
-        // the end are skipped.
-        complete: !interrupted && ran_s + 0.5 >= o.scenario.duration_s,
-        period_s: 1.0 / f64::from(o.loop_rate_hz.max(1)),
-    };
-    let checks: Vec<(String, Option<Result<(), String>>)> = if o.ground_pty {
-        Vec::new()
-    } else {
-        o.scenario
-            .checks
-            .iter()
-            .map(|c| (describe(c), evaluate(c, &evidence)))
-            .collect()
-    };
-    let load = |a: &std::sync::atomic::AtomicU64| a.load(Ordering::Relaxed);
-    let devices = DeviceCounts {
-        requests: load(&board_stats.requests),
-        answers: load(&board_stats.answers),
-        packets_intact: load(&board_stats.packets_intact),
-        packets_damaged: load(&board_stats.packets_damaged),
-        unanswered: load(&board_stats.unanswered),
-        info_frames: load(&board_stats.info_frames),
-        late_answers: load(&board_stats.late_answers),
-        sensor_opens: load(&board_stats.opens),
-        maestro_commands: load(&maestro_stats.commands),
-        maestro_opens: load(&maestro_stats.opens),
-        maestro_commands_since_open: load(&maestro_stats.commands_since_open),
-        ground_frames: load(&ground_stats.frames_sent),
-        final_outputs_us: Some(maestro_stats.targets_of(channels))
-            .filter(|t| !t.contains(&0xFFFF))
-            .map(|t| t.map(|q| q / 4)),
-        displays: load(&ground_stats.displays),
-        display_errors: load(&ground_stats.display_errors),
-    };
-    let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
-    Ok(SimReport {
-        safe_us,
-        passed,
-        checks,
-        app,
-        devices,
-        false_accepts,
-        logged_intact,
-        log,
-        evidence,
-        ran_s,
-        interrupted,
-        revives: app_status.revives.load(Ordering::Relaxed),
-        evidence_bounded: o.bounded_evidence,
-        random_faults: o.random_faults.len(),
-    })
+
+    /// Stops the monitor, then (once the Maestro saw the final safe write) the devices, and
+    /// removes the run directory.
+    fn stop(&self, monitor: JoinHandle<()>, devices: Vec<JoinHandle<()>>) {
+        self.stop_app.store(true, Ordering::Relaxed);
+        let _ = monitor.join();
+        // Let the Maestro thread see the final safe write before the devices stop.
+        std::thread::sleep(Duration::from_millis(50));
+        self.stop_devices.store(true, Ordering::Relaxed);
+        for t in devices {
+            let _ = t.join();
+        }
+        let _ = std::fs::remove_dir_all(&self.o.run_dir);
+    }
+
+    /// Reads the log back, evaluates the scenario's checks against the evidence and reports.
+    fn judge(&self, app: AppOutcome, ran_s: f64) -> anyhow::Result<SimReport> {
+        let o = self.o;
+        let interrupted =
+            !self.ended_by_runner.load(Ordering::Relaxed) && o.run_length_s().is_some();
+        let log = match &app.log_path {
+            Some(p) => Some(LogSummary::read_run(p)?),
+            None => None,
+        };
+        let (false_accepts, logged_intact) = self.match_logged_packets(log.as_ref());
+        let evidence = Evidence {
+            outputs: self.maestro_stats.history(),
+            truth: lock(&self.ground_stats.truth).clone(),
+            log: log.clone(),
+            start_wall_ns: self.start_wall_ns,
+            safe_us: self.safe_us,
+            ran_s,
+            // Cut short by a signal or by a --duration below the scenario's length: checks
+            // past the end are skipped.
+            complete: !interrupted && ran_s + 0.5 >= o.scenario.duration_s,
+            period_s: 1.0 / f64::from(o.loop_rate_hz.max(1)),
+        };
+        let checks: Vec<(String, Option<Result<(), String>>)> = if o.ground_pty {
+            Vec::new()
+        } else {
+            o.scenario
+                .checks
+                .iter()
+                .map(|c| (describe(c), evaluate(c, &evidence)))
+                .collect()
+        };
+        let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
+        Ok(SimReport {
+            safe_us: self.safe_us,
+            passed,
+            checks,
+            app,
+            devices: self.device_counts(),
+            false_accepts,
+            logged_intact,
+            log,
+            evidence,
+            ran_s,
+            interrupted,
+            revives: self.app_status.revives.load(Ordering::Relaxed),
+            evidence_bounded: o.bounded_evidence,
+            random_faults: o.random_faults.len(),
+        })
+    }
+
+    /// The logged raw packets the board did not send intact (false accepts) and those it did;
+    /// (0, 0) with bounded evidence (the board kept no fingerprints).
+    fn match_logged_packets(&self, log: Option<&LogSummary>) -> (u64, u64) {
+        let (mut false_accepts, mut logged_intact) = (0, 0);
+        if let Some(l) = log.filter(|_| !self.o.bounded_evidence) {
+            let intact = lock(&self.board_stats.intact);
+            for fp in &l.raw_packets {
+                if intact.contains(fp) {
+                    logged_intact += 1;
+                } else {
+                    false_accepts += 1;
+                }
+            }
+        }
+        (false_accepts, logged_intact)
+    }
+
+    /// A copy of what the simulated devices counted.
+    fn device_counts(&self) -> DeviceCounts {
+        let load = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        let (board, maestro, ground) = (&self.board_stats, &self.maestro_stats, &self.ground_stats);
+        DeviceCounts {
+            requests: load(&board.requests),
+            answers: load(&board.answers),
+            packets_intact: load(&board.packets_intact),
+            packets_damaged: load(&board.packets_damaged),
+            unanswered: load(&board.unanswered),
+            info_frames: load(&board.info_frames),
+            late_answers: load(&board.late_answers),
+            sensor_opens: load(&board.opens),
+            maestro_commands: load(&maestro.commands),
+            maestro_opens: load(&maestro.opens),
+            maestro_commands_since_open: load(&maestro.commands_since_open),
+            ground_frames: load(&ground.frames_sent),
+            final_outputs_us: Some(maestro.targets_of(self.channels))
+                .filter(|t| !t.contains(&0xFFFF))
+                .map(|t| t.map(|q| q / 4)),
+            displays: load(&ground.displays),
+            display_errors: load(&ground.display_errors),
+        }
+    }
+}
+
+/// The status thread: prints the status line and ends the run at its length.
+struct StatusMonitor {
+    world: Arc<World>,
+    stop_app: Arc<AtomicBool>,
+    /// Set when this thread ended the run.
+    ended: Arc<AtomicBool>,
+    board: Arc<BoardStats>,
+    maestro: Arc<MaestroStats>,
+    ground: Arc<GroundStats>,
+    scenario: Scenario,
+    app: Arc<AppStatus>,
+    /// How long the run lasts, s (None: until stopped).
+    run_length: Option<f64>,
+    channels: [u8; 3],
+    /// Some(true): a live line on a terminal; Some(false): plain lines; None: quiet.
+    tty: Option<bool>,
+}
+
+impl StatusMonitor {
+    /// Watches the run every 100 ms until the application stops, or stops it at its length.
+    fn run(self) {
+        let mut last_print = -1.0f64;
+        let mut last_cycles = 0u64;
+        let mut last_t = 0.0f64;
+        let mut rate = 0.0f64;
+        while !self.stop_app.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(100));
+            let t = self.world.now_s();
+            if self.run_length.is_some_and(|d| t >= d) {
+                self.ended.store(true, Ordering::Relaxed);
+                self.stop_app.store(true, Ordering::Relaxed);
+                break;
+            }
+            let Some(tty) = self.tty else { continue };
+            let interval = if tty { 0.25 } else { 1.0 };
+            if t - last_print < interval {
+                continue;
+            }
+            let cycles = self.app.cycles.load(Ordering::Relaxed);
+            if t > last_t {
+                rate = cycles.saturating_sub(last_cycles) as f64 / (t - last_t);
+            }
+            last_cycles = cycles;
+            last_t = t;
+            last_print = t;
+            self.print(t, rate, tty);
+        }
+        if self.tty == Some(true) {
+            eprintln!();
+        }
+    }
+
+    /// Prints the status at `t` with the loop's `rate_hz`: one line redrawn in place on a
+    /// terminal, a new line otherwise.
+    fn print(&self, t: f64, rate_hz: f64, tty: bool) {
+        let line = status_line(
+            StatusInputs {
+                t,
+                run_length: self.run_length,
+                phase: self.scenario.phase_at(t),
+                rate_hz,
+                channels: self.channels,
+            },
+            &self.app,
+            &self.board,
+            &self.maestro,
+            &self.ground,
+            &self.world,
+            tty,
+        );
+        let mut err = std::io::stderr().lock();
+        if tty {
+            // One line that never wraps, or the redraw would leave the rest behind.
+            let line: String = line.chars().take(terminal_columns() - 1).collect();
+            let _ = write!(err, "\r\x1b[2K{line}");
+        } else {
+            let _ = writeln!(err, "{line}");
+        }
+        let _ = err.flush();
+    }
 }
 
 /// Width of the terminal on stderr (80 when unknown).

@@ -24,8 +24,9 @@ pub const SOAK_REVIVE_EVERY_S: f64 = 1.0;
 /// Length of `--scenario soak` without `--duration`, s.
 pub const SOAK_DEFAULT_S: f64 = 60.0;
 
-/// Manual mapping of percentages to µs (DESIGN 2.4): throttle 1000 + 10 d, steering
-/// 1250 + 590 d / 100, tail 1000 + 10 d, rounded to the nearest µs.
+/// Manual mapping of percentages to µs (docs/wire-formats.md, "Servo controller: Pololu
+/// Maestro"): throttle 1000 + 10 d, steering 1250 + 590 d / 100, tail 1000 + 10 d, rounded to
+/// the nearest µs.
 pub fn manual_us(throttle: u8, steering: u8, tail: u8) -> [u16; 3] {
     let map = |min: u32, span: u32, d: u8| (min + (span * u32::from(d) + 50) / 100) as u16;
     [
@@ -164,100 +165,115 @@ impl Scenario {
     /// About 20 s: revive, manual driving, AUTO tracking a speed and a heading, a comms loss
     /// that trips the failsafe (latched while the link is back), a revive, manual, kill.
     pub fn default_tour() -> Scenario {
-        let manual = manual_us(60, 50, 50);
-        let turn = manual_us(60, 60, 50);
-        let after = manual_us(55, 50, 50);
         Scenario {
             name: "default",
             duration_s: 20.0,
             start_heading_deg: 0.0,
             heartbeat: Command::Heartbeat.encode(),
-            script: vec![
-                send(1.0, Command::Revive),
-                send(1.5, Command::Throttle(pct(60))),
-                send(1.5, Command::Steering(pct(50))),
-                send(1.5, Command::Tail(pct(50))),
-                send(3.0, Command::Steering(pct(60))),
-                send(4.5, Command::Steering(pct(50))),
-                send(6.0, Command::SpeedSetpoint { mm_s: 2_500 }),
-                send(6.0, Command::HeadingSetpoint { deg_e5: 12_000_000 }),
-                ScriptStep {
-                    at_s: 14.0,
-                    action: GroundAction::Silence,
-                },
-                ScriptStep {
-                    at_s: 16.0,
-                    action: GroundAction::Resume,
-                },
-                send(16.5, Command::Throttle(pct(70))),
-                send(17.0, Command::Revive),
-                send(17.3, Command::Throttle(pct(55))),
-                send(19.0, Command::Kill),
-            ],
-            phases: vec![
-                (0.0, "KILLED (start-up)"),
-                (1.0, "revive"),
-                (1.5, "MANUAL driving"),
-                (6.0, "AUTO 2.5 m/s, 120°"),
-                (14.0, "comms loss"),
-                (16.0, "link back, latched"),
-                (17.0, "revive, MANUAL"),
-                (19.0, "kill"),
-            ],
-            checks: vec![
-                Check::SafeThroughout {
-                    from_s: 0.0,
-                    to_s: 0.9,
-                },
-                Check::OutputsReach {
-                    from_s: 1.5,
-                    to_s: 3.0,
-                    targets_us: manual,
-                },
-                Check::OutputsReach {
-                    from_s: 3.0,
-                    to_s: 4.5,
-                    targets_us: turn,
-                },
-                Check::NeverSafe {
-                    from_s: 2.0,
-                    to_s: 14.0,
-                },
-                Check::Tracks {
-                    from_s: 12.0,
-                    to_s: 14.0,
-                    speed_m_s: 2.5,
-                    speed_tol_m_s: 0.4,
-                    heading_deg: 120.0,
-                    heading_tol_deg: 10.0,
-                },
-                Check::CommsFailsafe {
-                    after_s: 14.0,
-                    timeout_s: 1.0,
-                },
-                Check::SafeHeld {
-                    from_s: 14.0,
-                    to_s: 17.0,
-                },
-                Check::OutputsReach {
-                    from_s: 17.3,
-                    to_s: 19.0,
-                    targets_us: after,
-                },
-                Check::SafeHeld {
-                    from_s: 19.0,
-                    to_s: 20.0,
-                },
-                Check::ModesInOrder(vec![
-                    Mode::Manual,
-                    Mode::Auto,
-                    Mode::Failsafe,
-                    Mode::Manual,
-                    Mode::Killed,
-                ]),
-                Check::Failsafes(1),
-            ],
+            script: Scenario::tour_script(),
+            phases: Scenario::tour_phases(),
+            checks: Scenario::tour_checks(),
         }
+    }
+
+    /// The default tour's ground-station script.
+    fn tour_script() -> Vec<ScriptStep> {
+        vec![
+            send(1.0, Command::Revive),
+            send(1.5, Command::Throttle(pct(60))),
+            send(1.5, Command::Steering(pct(50))),
+            send(1.5, Command::Tail(pct(50))),
+            send(3.0, Command::Steering(pct(60))),
+            send(4.5, Command::Steering(pct(50))),
+            send(6.0, Command::SpeedSetpoint { mm_s: 2_500 }),
+            send(6.0, Command::HeadingSetpoint { deg_e5: 12_000_000 }),
+            ScriptStep {
+                at_s: 14.0,
+                action: GroundAction::Silence,
+            },
+            ScriptStep {
+                at_s: 16.0,
+                action: GroundAction::Resume,
+            },
+            send(16.5, Command::Throttle(pct(70))),
+            send(17.0, Command::Revive),
+            send(17.3, Command::Throttle(pct(55))),
+            send(19.0, Command::Kill),
+        ]
+    }
+
+    /// The default tour's phases, for the status line.
+    fn tour_phases() -> Vec<(f64, &'static str)> {
+        vec![
+            (0.0, "KILLED (start-up)"),
+            (1.0, "revive"),
+            (1.5, "MANUAL driving"),
+            (6.0, "AUTO 2.5 m/s, 120°"),
+            (14.0, "comms loss"),
+            (16.0, "link back, latched"),
+            (17.0, "revive, MANUAL"),
+            (19.0, "kill"),
+        ]
+    }
+
+    /// What must hold during the default tour.
+    fn tour_checks() -> Vec<Check> {
+        let manual = manual_us(60, 50, 50);
+        let turn = manual_us(60, 60, 50);
+        let after = manual_us(55, 50, 50);
+        vec![
+            Check::SafeThroughout {
+                from_s: 0.0,
+                to_s: 0.9,
+            },
+            Check::OutputsReach {
+                from_s: 1.5,
+                to_s: 3.0,
+                targets_us: manual,
+            },
+            Check::OutputsReach {
+                from_s: 3.0,
+                to_s: 4.5,
+                targets_us: turn,
+            },
+            Check::NeverSafe {
+                from_s: 2.0,
+                to_s: 14.0,
+            },
+            Check::Tracks {
+                from_s: 12.0,
+                to_s: 14.0,
+                speed_m_s: 2.5,
+                speed_tol_m_s: 0.4,
+                heading_deg: 120.0,
+                heading_tol_deg: 10.0,
+            },
+            Check::CommsFailsafe {
+                after_s: 14.0,
+                timeout_s: 1.0,
+            },
+            Check::SafeHeld {
+                from_s: 14.0,
+                to_s: 17.0,
+            },
+            Check::OutputsReach {
+                from_s: 17.3,
+                to_s: 19.0,
+                targets_us: after,
+            },
+            Check::SafeHeld {
+                from_s: 19.0,
+                to_s: 20.0,
+            },
+            Check::ModesInOrder(vec![
+                Mode::Manual,
+                Mode::Auto,
+                Mode::Failsafe,
+                Mode::Manual,
+                Mode::Killed,
+            ]),
+            Check::Failsafes(1),
+        ]
     }
 
     /// Revive and hold a manual setting for `duration_s`; no failsafe allowed.
@@ -520,74 +536,11 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
             from_s,
             to_s,
             targets_us,
-        } => {
-            let held = e.longest_hold(*targets_us, *from_s, *to_s);
-            let needed = OUTPUTS_HOLD_S.min(to_s - from_s);
-            if held >= needed {
-                Ok(())
-            } else {
-                Err(format!(
-                    "outputs {targets_us:?} µs expected for {needed} s from {from_s} s to {to_s} s; \
-                     held {held:.3} s; saw {:?}",
-                    e.outputs_in(*from_s, *to_s)
-                ))
-            }
-        }
-        Check::SafeThroughout { from_s, to_s } => {
-            let seen = e.outputs_in(*from_s, *to_s);
-            let modes = e.unsafe_modes_in(*from_s, *to_s);
-            match seen.iter().find(|o| **o != e.safe_us) {
-                None if !modes.is_empty() => Err(format!(
-                    "safe outputs but the log shows {modes:?} between {from_s} s and {to_s} s"
-                )),
-                None if !seen.is_empty() => Ok(()),
-                None => Err(format!("no outputs at all by {from_s} s")),
-                Some(o) => Err(format!(
-                    "outputs {o:?} µs between {from_s} s and {to_s} s; expected safe {:?}",
-                    e.safe_us
-                )),
-            }
-        }
-        Check::SafeHeld { from_s, to_s } => {
-            let seen = e.outputs_in(*from_s, *to_s);
-            match seen.iter().position(|o| *o == e.safe_us) {
-                None => Err(format!(
-                    "no safe outputs between {from_s} s and {to_s} s; saw {seen:?}"
-                )),
-                Some(i) => match seen[i..].iter().find(|o| **o != e.safe_us) {
-                    None if !e.unsafe_modes_in(*to_s - e.period_s, *to_s).is_empty() => Err(
-                        format!("safe outputs but the log shows no KILLED or FAILSAFE at {to_s} s"),
-                    ),
-                    None => Ok(()),
-                    Some(o) => Err(format!(
-                        "outputs {o:?} µs after the safe ones before {to_s} s (not latched)"
-                    )),
-                },
-            }
-        }
-        Check::NeverSafe { from_s, to_s } => {
-            let seen = e.outputs_in(*from_s, *to_s);
-            if seen.contains(&e.safe_us) {
-                Err(format!(
-                    "unexpected safe outputs (failsafe or kill) between {from_s} s and {to_s} s"
-                ))
-            } else {
-                Ok(())
-            }
-        }
-        Check::Drives { from_s, to_s } => {
-            let held = e.longest_unsafe(*from_s, *to_s);
-            let needed = OUTPUTS_HOLD_S.min(to_s - from_s);
-            if held >= needed {
-                Ok(())
-            } else {
-                Err(format!(
-                    "no driving between {from_s} s and {to_s} s (outputs other than safe for \
-                     {held:.3} s at most, {needed} s needed); saw {:?}",
-                    e.outputs_in(*from_s, *to_s)
-                ))
-            }
-        }
+        } => e.outputs_reach(*targets_us, *from_s, *to_s),
+        Check::SafeThroughout { from_s, to_s } => e.safe_throughout(*from_s, *to_s),
+        Check::SafeHeld { from_s, to_s } => e.safe_held(*from_s, *to_s),
+        Check::NeverSafe { from_s, to_s } => e.never_safe(*from_s, *to_s),
+        Check::Drives { from_s, to_s } => e.drives(*from_s, *to_s),
         Check::Tracks {
             from_s,
             to_s,
@@ -595,124 +548,228 @@ pub fn evaluate(check: &Check, e: &Evidence) -> Option<Result<(), String>> {
             speed_tol_m_s,
             heading_deg,
             heading_tol_deg,
-        } => {
-            let samples: Vec<&VehicleState> = e
-                .truth
-                .iter()
-                .filter(|s| s.t_s >= *from_s && s.t_s <= *to_s)
-                .collect();
-            if samples.is_empty() {
-                return Some(Err(format!(
-                    "no model samples between {from_s} and {to_s} s"
-                )));
-            }
-            let worst_speed = samples
-                .iter()
-                .map(|s| (s.speed_m_s - speed_m_s).abs())
-                .fold(0.0, f64::max);
-            let worst_heading = samples
-                .iter()
-                .map(|s| ((s.heading_deg - heading_deg + 540.0).rem_euclid(360.0) - 180.0).abs())
-                .fold(0.0, f64::max);
-            if worst_speed <= *speed_tol_m_s && worst_heading <= *heading_tol_deg {
-                Ok(())
-            } else {
-                Err(format!(
-                    "AUTO tracking between {from_s} and {to_s} s: worst speed error {worst_speed:.2} m/s (allowed {speed_tol_m_s}), worst heading error {worst_heading:.1}° (allowed {heading_tol_deg})"
-                ))
-            }
-        }
-        Check::CommsFailsafe { after_s, timeout_s } => {
-            let Some(log) = &e.log else {
-                return Some(Err("no log to check the failsafe timing".into()));
-            };
-            let entry = log.failsafes().into_iter().find(|(t, cause)| {
-                e.sim_s(*t) > *after_s && *cause == Some(FailsafeCause::CommsLoss)
-            });
-            let Some((t_fs, _)) = entry else {
-                return Some(Err(format!(
-                    "no FAILSAFE for comms loss after {after_s} s in the log"
-                )));
-            };
-            // The timeout runs from the newest frame's arrival (a log without arrival times:
-            // the cycle that applied it).
-            let last = log
-                .last_link_before(t_fs)
-                .or_else(|| log.last_command_before(t_fs));
-            let Some(t_cmd) = last else {
-                return Some(Err("no command before the failsafe in the log".into()));
-            };
-            let waited = t_fs.saturating_sub(t_cmd) as f64 * 1e-9;
-            // The loop decides once per cycle: between the timeout and the timeout plus two
-            // periods after the last frame arrived, plus any periods the loop itself counted
-            // as missed in between (a stalled machine).
-            let missed = log.missed_between(t_cmd, t_fs) as f64;
-            let (lo, hi) = (
-                *timeout_s - e.period_s,
-                *timeout_s + (2.0 + missed) * e.period_s,
-            );
-            if waited >= lo && waited <= hi {
-                Ok(())
-            } else {
-                Err(format!(
-                    "FAILSAFE {waited:.4} s after the last command arrived; expected {lo:.4}..{hi:.4} s"
-                ))
-            }
-        }
-        Check::ModesInOrder(modes) => {
-            let Some(log) = &e.log else {
-                return Some(Err("no log to check the modes".into()));
-            };
-            let seq = log.mode_sequence();
-            let mut it = seq.iter();
-            match modes.iter().find(|m| !it.any(|s| s == *m)) {
-                None => Ok(()),
-                Some(m) => Err(format!(
-                    "mode {m} missing from the order {modes:?}; log has {seq:?}"
-                )),
-            }
-        }
+        } => e.tracks(
+            (*from_s, *to_s),
+            (*speed_m_s, *speed_tol_m_s),
+            (*heading_deg, *heading_tol_deg),
+        ),
+        Check::CommsFailsafe { after_s, timeout_s } => e.comms_failsafe(*after_s, *timeout_s),
+        Check::ModesInOrder(modes) => e.modes_in_order(modes),
         Check::FailsafeFor {
             cause,
             from_s,
             to_s,
-        } => {
-            let Some(log) = &e.log else {
-                return Some(Err("no log to check the failsafe".into()));
-            };
-            let all = log.failsafes();
-            let found = all
-                .iter()
-                .any(|(t, c)| *c == Some(*cause) && (*from_s..=*to_s).contains(&e.sim_s(*t)));
-            if found {
-                Ok(())
-            } else {
-                Err(format!(
-                    "no FAILSAFE ({cause:?}) between {from_s} s and {to_s} s; log has {:?}",
-                    all.iter()
-                        .map(|(t, c)| format!("{:.2} s {c:?}", e.sim_s(*t)))
-                        .collect::<Vec<_>>()
-                ))
-            }
-        }
-        Check::Failsafes(n) => {
-            let Some(log) = &e.log else {
-                return Some(Err("no log to count failsafes".into()));
-            };
-            let got = log.failsafes();
-            if got.len() == *n {
-                Ok(())
-            } else {
-                Err(format!(
-                    "{} FAILSAFE entries in the log, expected {n}: {:?}",
-                    got.len(),
-                    got.iter()
-                        .map(|(t, c)| format!("{:.2} s {c:?}", e.sim_s(*t)))
-                        .collect::<Vec<_>>()
-                ))
-            }
-        }
+        } => e.failsafe_for(*cause, *from_s, *to_s),
+        Check::Failsafes(n) => e.failsafe_count(*n),
     })
+}
+
+/// The checks, one method each (see [`Check`] for what each one asks).
+impl Evidence {
+    /// [`Check::OutputsReach`].
+    fn outputs_reach(&self, targets_us: [u16; 3], from_s: f64, to_s: f64) -> Result<(), String> {
+        let held = self.longest_hold(targets_us, from_s, to_s);
+        let needed = OUTPUTS_HOLD_S.min(to_s - from_s);
+        if held >= needed {
+            Ok(())
+        } else {
+            Err(format!(
+                "outputs {targets_us:?} µs expected for {needed} s from {from_s} s to {to_s} s; \
+                 held {held:.3} s; saw {:?}",
+                self.outputs_in(from_s, to_s)
+            ))
+        }
+    }
+
+    /// [`Check::SafeThroughout`].
+    fn safe_throughout(&self, from_s: f64, to_s: f64) -> Result<(), String> {
+        let seen = self.outputs_in(from_s, to_s);
+        let modes = self.unsafe_modes_in(from_s, to_s);
+        match seen.iter().find(|o| **o != self.safe_us) {
+            None if !modes.is_empty() => Err(format!(
+                "safe outputs but the log shows {modes:?} between {from_s} s and {to_s} s"
+            )),
+            None if !seen.is_empty() => Ok(()),
+            None => Err(format!("no outputs at all by {from_s} s")),
+            Some(o) => Err(format!(
+                "outputs {o:?} µs between {from_s} s and {to_s} s; expected safe {:?}",
+                self.safe_us
+            )),
+        }
+    }
+
+    /// [`Check::SafeHeld`].
+    fn safe_held(&self, from_s: f64, to_s: f64) -> Result<(), String> {
+        let seen = self.outputs_in(from_s, to_s);
+        match seen.iter().position(|o| *o == self.safe_us) {
+            None => Err(format!(
+                "no safe outputs between {from_s} s and {to_s} s; saw {seen:?}"
+            )),
+            Some(i) => match seen[i..].iter().find(|o| **o != self.safe_us) {
+                None if !self.unsafe_modes_in(to_s - self.period_s, to_s).is_empty() => Err(
+                    format!("safe outputs but the log shows no KILLED or FAILSAFE at {to_s} s"),
+                ),
+                None => Ok(()),
+                Some(o) => Err(format!(
+                    "outputs {o:?} µs after the safe ones before {to_s} s (not latched)"
+                )),
+            },
+        }
+    }
+
+    /// [`Check::NeverSafe`].
+    fn never_safe(&self, from_s: f64, to_s: f64) -> Result<(), String> {
+        let seen = self.outputs_in(from_s, to_s);
+        if seen.contains(&self.safe_us) {
+            Err(format!(
+                "unexpected safe outputs (failsafe or kill) between {from_s} s and {to_s} s"
+            ))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// [`Check::Drives`].
+    fn drives(&self, from_s: f64, to_s: f64) -> Result<(), String> {
+        let held = self.longest_unsafe(from_s, to_s);
+        let needed = OUTPUTS_HOLD_S.min(to_s - from_s);
+        if held >= needed {
+            Ok(())
+        } else {
+            Err(format!(
+                "no driving between {from_s} s and {to_s} s (outputs other than safe for \
+                 {held:.3} s at most, {needed} s needed); saw {:?}",
+                self.outputs_in(from_s, to_s)
+            ))
+        }
+    }
+
+    /// [`Check::Tracks`]: the model's speed and heading, each as (target, tolerance), held
+    /// through the window `(from_s, to_s)`.
+    fn tracks(
+        &self,
+        (from_s, to_s): (f64, f64),
+        (speed_m_s, speed_tol_m_s): (f64, f64),
+        (heading_deg, heading_tol_deg): (f64, f64),
+    ) -> Result<(), String> {
+        let samples: Vec<&VehicleState> = self
+            .truth
+            .iter()
+            .filter(|s| s.t_s >= from_s && s.t_s <= to_s)
+            .collect();
+        if samples.is_empty() {
+            return Err(format!("no model samples between {from_s} and {to_s} s"));
+        }
+        let worst_speed = samples
+            .iter()
+            .map(|s| (s.speed_m_s - speed_m_s).abs())
+            .fold(0.0, f64::max);
+        let worst_heading = samples
+            .iter()
+            .map(|s| ((s.heading_deg - heading_deg + 540.0).rem_euclid(360.0) - 180.0).abs())
+            .fold(0.0, f64::max);
+        if worst_speed <= speed_tol_m_s && worst_heading <= heading_tol_deg {
+            Ok(())
+        } else {
+            Err(format!(
+                "AUTO tracking between {from_s} and {to_s} s: worst speed error {worst_speed:.2} m/s (allowed {speed_tol_m_s}), worst heading error {worst_heading:.1}° (allowed {heading_tol_deg})"
+            ))
+        }
+    }
+
+    /// [`Check::CommsFailsafe`].
+    fn comms_failsafe(&self, after_s: f64, timeout_s: f64) -> Result<(), String> {
+        let Some(log) = &self.log else {
+            return Err("no log to check the failsafe timing".into());
+        };
+        let entry = log.failsafes().into_iter().find(|(t, cause)| {
+            self.sim_s(*t) > after_s && *cause == Some(FailsafeCause::CommsLoss)
+        });
+        let Some((t_fs, _)) = entry else {
+            return Err(format!(
+                "no FAILSAFE for comms loss after {after_s} s in the log"
+            ));
+        };
+        // The timeout runs from the newest frame's arrival (a log without arrival times:
+        // the cycle that applied it).
+        let last = log
+            .last_link_before(t_fs)
+            .or_else(|| log.last_command_before(t_fs));
+        let Some(t_cmd) = last else {
+            return Err("no command before the failsafe in the log".into());
+        };
+        let waited = t_fs.saturating_sub(t_cmd) as f64 * 1e-9;
+        // The loop decides once per cycle: between the timeout and the timeout plus two
+        // periods after the last frame arrived, plus any periods the loop itself counted
+        // as missed in between (a stalled machine).
+        let missed = log.missed_between(t_cmd, t_fs) as f64;
+        let (lo, hi) = (
+            timeout_s - self.period_s,
+            timeout_s + (2.0 + missed) * self.period_s,
+        );
+        if waited >= lo && waited <= hi {
+            Ok(())
+        } else {
+            Err(format!(
+                "FAILSAFE {waited:.4} s after the last command arrived; expected {lo:.4}..{hi:.4} s"
+            ))
+        }
+    }
+
+    /// [`Check::ModesInOrder`].
+    fn modes_in_order(&self, modes: &[Mode]) -> Result<(), String> {
+        let Some(log) = &self.log else {
+            return Err("no log to check the modes".into());
+        };
+        let seq = log.mode_sequence();
+        let mut it = seq.iter();
+        match modes.iter().find(|m| !it.any(|s| s == *m)) {
+            None => Ok(()),
+            Some(m) => Err(format!(
+                "mode {m} missing from the order {modes:?}; log has {seq:?}"
+            )),
+        }
+    }
+
+    /// [`Check::FailsafeFor`].
+    fn failsafe_for(&self, cause: FailsafeCause, from_s: f64, to_s: f64) -> Result<(), String> {
+        let Some(log) = &self.log else {
+            return Err("no log to check the failsafe".into());
+        };
+        let all = log.failsafes();
+        let found = all
+            .iter()
+            .any(|(t, c)| *c == Some(cause) && (from_s..=to_s).contains(&self.sim_s(*t)));
+        if found {
+            Ok(())
+        } else {
+            Err(format!(
+                "no FAILSAFE ({cause:?}) between {from_s} s and {to_s} s; log has {:?}",
+                all.iter()
+                    .map(|(t, c)| format!("{:.2} s {c:?}", self.sim_s(*t)))
+                    .collect::<Vec<_>>()
+            ))
+        }
+    }
+
+    /// [`Check::Failsafes`].
+    fn failsafe_count(&self, n: usize) -> Result<(), String> {
+        let Some(log) = &self.log else {
+            return Err("no log to count failsafes".into());
+        };
+        let got = log.failsafes();
+        if got.len() == n {
+            Ok(())
+        } else {
+            Err(format!(
+                "{} FAILSAFE entries in the log, expected {n}: {:?}",
+                got.len(),
+                got.iter()
+                    .map(|(t, c)| format!("{:.2} s {c:?}", self.sim_s(*t)))
+                    .collect::<Vec<_>>()
+            ))
+        }
+    }
 }
 
 #[cfg(test)]
@@ -722,7 +779,7 @@ mod tests {
     const SAFE_US: [u16; 3] = [1500, 1560, 1500];
 
     #[test]
-    fn manual_mapping_matches_the_design() {
+    fn manual_mapping_matches_the_documented_formulas() {
         assert_eq!(manual_us(80, 0, 100), [1800, 1250, 2000]);
         assert_eq!(manual_us(50, 50, 50), [1500, 1545, 1500]);
         assert_eq!(manual_us(0, 100, 0), [1000, 1840, 1000]);

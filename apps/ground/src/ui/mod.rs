@@ -96,42 +96,18 @@ impl GroundApp {
     fn new(cli: &Cli, screenshot_result: ScreenshotResult) -> anyhow::Result<GroundApp> {
         // A key given on the command line is checked before anything starts.
         let (mut key, mut link_note) = cli.link_key()?;
-        let (table, table_source) = match &cli.robot_config {
-            Some(path) => (
-                ChannelTable::from_robot_config(path)?,
-                path.display().to_string(),
-            ),
-            None => (ChannelTable::default(), "dima's defaults".to_owned()),
-        };
-        let calibration = match (&cli.sensor_info, cli.sim) {
-            (Some(path), _) => Some(SensorCalibration::from_robot_log(path)?),
-            (None, true) => Some(SensorCalibration::simulated_board()),
-            (None, false) => None,
-        };
-        let (recorder, recording_note) = if cli.no_record {
-            (None, "not recording (--no-record)".to_owned())
-        } else {
-            let r = Recorder::start(&cli.log_dir)?;
-            let note = format!("recording to {}", r.path().display());
-            (Some(r), note)
-        };
-        let sim = if cli.sim {
-            let robot = SimRobot::start(&SimLaunch {
-                log_dir: cli.sim_log_dir.clone(),
-                robot_config: cli.robot_config.clone(),
-                duration_s: cli.sim_duration,
-                key_file: cli.key_file.clone(),
-            })?;
+        let (table, table_source) = channel_table(cli)?;
+        let calibration = sensor_calibration(cli)?;
+        let (recorder, recording_note) = start_recorder(cli)?;
+        let sim = start_sim(cli)?;
+        if let Some(robot) = &sim {
             // The simulated robot requires ground link v2 with this key.
             key = Some(dima_groundlink::key_file::load(robot.key_file())?);
             link_note = format!(
                 "ground link v2, authenticated (key {})",
                 robot.key_file().display()
             );
-            Some(robot)
-        } else {
-            None
-        };
+        }
         let link = LinkHandle::spawn(
             recorder.as_ref().map(Recorder::sender),
             calibration.clone(),
@@ -144,10 +120,7 @@ impl GroundApp {
                 baud: cli.baud,
             });
         }
-        let stop_requested = Arc::new(AtomicBool::new(false));
-        for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-            signal_hook::flag::register(signal, stop_requested.clone())?;
-        }
+        let stop_requested = stop_on_signals()?;
         let started = Instant::now();
         Ok(GroundApp {
             stop_requested,
@@ -278,6 +251,59 @@ impl GroundApp {
             });
         }
     }
+}
+
+/// The channel table (`--robot-config`, else dima's defaults) and where it came from.
+fn channel_table(cli: &Cli) -> anyhow::Result<(ChannelTable, String)> {
+    Ok(match &cli.robot_config {
+        Some(path) => (
+            ChannelTable::from_robot_config(path)?,
+            path.display().to_string(),
+        ),
+        None => (ChannelTable::default(), "dima's defaults".to_owned()),
+    })
+}
+
+/// The sensor calibration: from a robot log (`--sensor-info`), the simulated board's with
+/// `--sim`, else unknown.
+fn sensor_calibration(cli: &Cli) -> anyhow::Result<Option<SensorCalibration>> {
+    Ok(match (&cli.sensor_info, cli.sim) {
+        (Some(path), _) => Some(SensorCalibration::from_robot_log(path)?),
+        (None, true) => Some(SensorCalibration::simulated_board()),
+        (None, false) => None,
+    })
+}
+
+/// Starts recording the session (unless `--no-record`); the recorder and a note for the bar.
+fn start_recorder(cli: &Cli) -> anyhow::Result<(Option<Recorder>, String)> {
+    if cli.no_record {
+        return Ok((None, "not recording (--no-record)".to_owned()));
+    }
+    let r = Recorder::start(&cli.log_dir)?;
+    let note = format!("recording to {}", r.path().display());
+    Ok((Some(r), note))
+}
+
+/// Starts the simulated robot with `--sim`.
+fn start_sim(cli: &Cli) -> anyhow::Result<Option<SimRobot>> {
+    if !cli.sim {
+        return Ok(None);
+    }
+    Ok(Some(SimRobot::start(&SimLaunch {
+        log_dir: cli.sim_log_dir.clone(),
+        robot_config: cli.robot_config.clone(),
+        duration_s: cli.sim_duration,
+        key_file: cli.key_file.clone(),
+    })?))
+}
+
+/// A flag SIGINT and SIGTERM set.
+fn stop_on_signals() -> anyhow::Result<Arc<AtomicBool>> {
+    let stop_requested = Arc::new(AtomicBool::new(false));
+    for signal in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        signal_hook::flag::register(signal, stop_requested.clone())?;
+    }
+    Ok(stop_requested)
 }
 
 impl eframe::App for GroundApp {

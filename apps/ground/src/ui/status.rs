@@ -5,7 +5,7 @@
 use std::time::{Duration, Instant};
 
 use dima_groundlink::station::{CommandStatus, Delivery};
-use dima_groundlink::v2::RobotMode;
+use dima_groundlink::v2::{Health, RobotMode};
 use dima_groundlink::CommandType;
 use eframe::egui::{self, Color32, RichText};
 
@@ -262,6 +262,27 @@ fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
 fn robot_report(ui: &mut egui::Ui, s: &LinkStatus) {
     let now = Instant::now();
     ui.heading("Robot");
+    report_mode(ui, s, now);
+    let Some(r) = &s.robot else {
+        ui.label(
+            RichText::new("no authenticated display frame yet: only Kill can be sent").color(WARN),
+        );
+        if let Some(u) = &s.uplink {
+            last_command(ui, u, now);
+        }
+        return;
+    };
+    report_causes(ui, r);
+    if let Some(u) = &s.uplink {
+        last_command(ui, u, now);
+        uplink_grid(ui, r, u);
+    }
+    report_health(ui, &r.health);
+}
+
+/// The mode while the report is fresh; otherwise the link's health and what the last
+/// authentic report said (not the robot's state now).
+fn report_mode(ui: &mut egui::Ui, s: &LinkStatus, now: Instant) {
     match s.fresh_report(now) {
         Some(r) => mode_badge(ui, r, now),
         None => {
@@ -278,15 +299,10 @@ fn robot_report(ui: &mut egui::Ui, s: &LinkStatus) {
             }
         }
     }
-    let Some(r) = &s.robot else {
-        ui.label(
-            RichText::new("no authenticated display frame yet: only Kill can be sent").color(WARN),
-        );
-        if let Some(u) = &s.uplink {
-            last_command(ui, u, now);
-        }
-        return;
-    };
+}
+
+/// Why the robot is in FAILSAFE, and why its last revive was refused.
+fn report_causes(ui: &mut egui::Ui, r: &RobotReport) {
     if let Some(cause) = r.failsafe_cause {
         ui.label(RichText::new(format!("failsafe cause: {}", cause_name(cause))).color(FAILSAFE));
     }
@@ -295,41 +311,45 @@ fn robot_report(ui: &mut egui::Ui, s: &LinkStatus) {
             RichText::new(format!("last revive refused: {}", refusal_name(refusal))).color(WARN),
         );
     }
-    if let Some(u) = &s.uplink {
-        last_command(ui, u, now);
-        let rows = [
-            [
-                ("session", format!("{:08X}", r.session)),
-                ("ack seq", r.ack_seq.to_string()),
-            ],
-            [
-                ("next seq", u.next_seq.to_string()),
-                ("re-sends", u.stats.resends.to_string()),
-            ],
-            [
-                ("acknowledged", u.stats.acknowledged.to_string()),
-                ("given up", u.stats.unacknowledged.to_string()),
-            ],
-            [
-                ("held back", u.stats.held_back.to_string()),
-                ("old frames", u.stats.old_display_frames.to_string()),
-            ],
-        ];
-        egui::Grid::new("uplink")
-            .num_columns(4)
-            .striped(true)
-            .show(ui, |ui| {
-                for row in rows {
-                    for (k, v) in row {
-                        ui.label(k);
-                        ui.label(RichText::new(v).monospace());
-                    }
-                    ui.end_row();
+}
+
+/// Session, sequence numbers and the station's delivery counters.
+fn uplink_grid(ui: &mut egui::Ui, r: &RobotReport, u: &UplinkView) {
+    let rows = [
+        [
+            ("session", format!("{:08X}", r.session)),
+            ("ack seq", r.ack_seq.to_string()),
+        ],
+        [
+            ("next seq", u.next_seq.to_string()),
+            ("re-sends", u.stats.resends.to_string()),
+        ],
+        [
+            ("acknowledged", u.stats.acknowledged.to_string()),
+            ("given up", u.stats.unacknowledged.to_string()),
+        ],
+        [
+            ("held back", u.stats.held_back.to_string()),
+            ("old frames", u.stats.old_display_frames.to_string()),
+        ],
+    ];
+    egui::Grid::new("uplink")
+        .num_columns(4)
+        .striped(true)
+        .show(ui, |ui| {
+            for row in rows {
+                for (k, v) in row {
+                    ui.label(k);
+                    ui.label(RichText::new(v).monospace());
                 }
-            });
-    }
+                ui.end_row();
+            }
+        });
+}
+
+/// The robot's health counters and the command frames it rejected.
+fn report_health(ui: &mut egui::Ui, h: &Health) {
     ui.label(RichText::new("health").strong());
-    let h = r.health;
     counters(
         ui,
         "health",

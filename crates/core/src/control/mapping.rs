@@ -116,11 +116,12 @@ mod tests {
     }
 
     #[test]
-    fn manual_mapping_matches_the_design_formulas() {
+    fn manual_mapping_matches_the_documented_formulas() {
         let c = ChannelsConfig::default();
         for d in 0..=100u8 {
             let d32 = u32::from(d);
-            // DESIGN 2.4: throttle 1000 + 10 d, steering 1250 + 590 d / 100, tail 1000 + 10 d.
+            // docs/wire-formats.md, "Servo controller: Pololu Maestro": throttle 1000 + 10 d,
+            // steering 1250 + 590 d / 100, tail 1000 + 10 d.
             assert_eq!(OutputMap::manual(&c.throttle, pct(d)), 1000 + 10 * d as u16);
             let steering = 1250.0 + 590.0 * f64::from(d32) / 100.0;
             assert_eq!(

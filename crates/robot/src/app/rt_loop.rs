@@ -98,6 +98,24 @@ pub struct LoopEnds {
     pub stop: Arc<AtomicBool>,
 }
 
+/// What a cycle's acquire phase took in (on the stack: the realtime path never allocates).
+struct Acquired {
+    /// Commands in arrival order; the first `n_commands` are this cycle's.
+    commands: [ReceivedCommand; MAX_COMMANDS_PER_CYCLE],
+    n_commands: usize,
+    sensor: SensorInput,
+    /// Stale packets passed over in this cycle's wait.
+    stale_packets: u32,
+}
+
+/// When the cycle's packet was requested and complete (0: none) and when the step ended, ns.
+#[derive(Clone, Copy)]
+struct Times {
+    t_request_ns: Nanos,
+    t_packet_ns: Nanos,
+    t_compute_ns: Nanos,
+}
+
 /// The realtime loop and all its state.
 pub struct RealtimeLoop<P: OutputPin, S: ServoOutput> {
     params: LoopParams,
@@ -306,10 +324,22 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         }
     }
 
-    /// One cycle after the clock woke the thread.
+    /// One cycle after the clock woke the thread: acquire, decide, actuate, publish.
     pub fn cycle(&mut self, tick: Tick) {
-        let mut ev = 0u16;
         self.metrics.wake_latency.record(tick.latency_ns);
+        let mut ev = self.refresh_devices();
+        self.simulated_work(tick.wake_ns);
+        let input = self.acquire(&mut ev);
+        let (out, times) = self.decide(&tick, &input, &mut ev);
+        let t_write = self.actuate(out.targets, times.t_compute_ns, &mut ev);
+        self.request_ahead(&mut ev);
+        self.publish_cycle(tick, &input, out, times, t_write, ev);
+        self.cycle += 1;
+    }
+
+    /// Takes over a device the supervisor (re)opened; the cycle's device events.
+    fn refresh_devices(&mut self) -> u16 {
+        let mut ev = 0u16;
         if self.sensor.refresh() == LinkEvent::Connected {
             ev |= events::SENSOR_CONNECTED;
             self.state.counters.device_connects += 1;
@@ -320,10 +350,12 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             self.state.counters.device_connects += 1;
             self.last_written = None;
         }
-        self.simulated_work(tick.wake_ns);
+        ev
+    }
 
-        // Acquire: commands in arrival order, with their arrival times (the step judges their
-        // age), then the packet.
+    /// Acquire: commands in arrival order, with their arrival times (the step judges their
+    /// age), then the packet.
+    fn acquire(&mut self, ev: &mut u16) -> Acquired {
         let mut commands = [ReceivedCommand::new(Command::Heartbeat, 0); MAX_COMMANDS_PER_CYCLE];
         let mut n = 0;
         while n < MAX_COMMANDS_PER_CYCLE {
@@ -333,26 +365,35 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             commands[n] = received;
             n += 1;
         }
-        let sensor = self.acquire_sensor(&mut ev);
+        let sensor = self.acquire_sensor(ev);
         let stale_packets = std::mem::take(&mut self.stale_packets);
+        Acquired {
+            commands,
+            n_commands: n,
+            sensor,
+            stale_packets,
+        }
+    }
 
-        // Decide.
+    /// Decide: one step of the core on what was acquired; records the request-to-packet and
+    /// compute times.
+    fn decide(&mut self, tick: &Tick, input: &Acquired, ev: &mut u16) -> (CycleOutputs, Times) {
         let out = self.params.core.step(
             &mut self.state,
             &CycleInputs {
                 missed_periods: tick.missed,
-                commands: &commands[..n],
-                sensor,
-                stale_packets,
+                commands: &input.commands[..input.n_commands],
+                sensor: input.sensor,
+                stale_packets: input.stale_packets,
             },
             tick.wake_ns,
         );
-        ev |= decision_events(&out, self.state.realtime_fault && self.cycle == 0);
+        *ev |= decision_events(&out, self.state.realtime_fault && self.cycle == 0);
         if let Some(p) = out.packet {
             self.last_packet = Some(p);
         }
-        let t_compute = monotonic_ns();
-        let (t_request, t_packet) = match sensor {
+        let t_compute_ns = monotonic_ns();
+        let (t_request_ns, t_packet_ns) = match input.sensor {
             SensorInput::Packet {
                 t_request_ns,
                 t_complete_ns,
@@ -364,39 +405,58 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         if let Some(ns) = out.request_to_packet_ns {
             self.metrics.request_to_packet.record(ns);
         }
-        let compute_from = if t_packet != 0 {
-            t_packet
+        let compute_from = if t_packet_ns != 0 {
+            t_packet_ns
         } else {
             tick.wake_ns
         };
         self.metrics
             .compute
-            .record(t_compute.saturating_sub(compute_from));
+            .record(t_compute_ns.saturating_sub(compute_from));
+        let times = Times {
+            t_request_ns,
+            t_packet_ns,
+            t_compute_ns,
+        };
+        (out, times)
+    }
 
-        // Actuate: at the servo refresh rate, and at once whenever the targets change.
+    /// Actuate: at the servo refresh rate, and at once whenever the targets change; the time
+    /// of the write (0: none).
+    fn actuate(&mut self, targets: ServoTargets, t_compute_ns: Nanos, ev: &mut u16) -> Nanos {
         let due = self.cycle.is_multiple_of(self.params.servo_every)
-            || self.last_written != Some(out.targets);
-        let t_write = if due {
-            self.write_targets(
-                out.targets,
-                t_compute + self.params.write_budget_ns,
-                &mut ev,
-            )
+            || self.last_written != Some(targets);
+        if due {
+            self.write_targets(targets, t_compute_ns + self.params.write_budget_ns, ev)
         } else {
             0
-        };
+        }
+    }
 
+    /// With request-ahead, requests the next cycle's packet now (after passing over stale
+    /// bytes; a sensor that fails there counts as failed).
+    fn request_ahead(&mut self, ev: &mut u16) {
         if self.params.request_ahead && self.sensor.is_connected() {
             if self.drain_stale() {
                 self.pending_request_ns = self.request();
             } else {
-                self.sensor_failed(&mut ev);
+                self.sensor_failed(ev);
             }
         }
+    }
 
-        // Publish.
+    /// Publish: the cycle's record to the logger and the snapshot to telemetry.
+    fn publish_cycle(
+        &mut self,
+        tick: Tick,
+        input: &Acquired,
+        out: CycleOutputs,
+        times: Times,
+        t_write_ns: Nanos,
+        ev: u16,
+    ) {
         self.metrics.counters = self.state.counters;
-        let raw = match sensor {
+        let raw = match input.sensor {
             SensorInput::Packet { raw, .. } => Some(raw),
             _ => None,
         };
@@ -404,22 +464,21 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
         self.publish(CycleRecord {
             cycle: self.cycle,
             tick,
-            t_request_ns: t_request,
-            t_packet_ns: t_packet,
-            t_compute_ns: t_compute,
-            t_write_ns: t_write,
+            t_request_ns: times.t_request_ns,
+            t_packet_ns: times.t_packet_ns,
+            t_compute_ns: times.t_compute_ns,
+            t_write_ns,
             raw,
             info,
             outputs: out,
             setpoints: self.state.safety.setpoints,
-            commands,
-            n_commands: n as u8,
-            stale_passed: stale_packets,
+            commands: input.commands,
+            n_commands: input.n_commands as u8,
+            stale_passed: input.stale_packets,
             counters: self.state.counters,
             link: self.ends.link.load(),
             events: ev,
         });
-        self.cycle += 1;
     }
 
     fn write_targets(&mut self, targets: ServoTargets, deadline_ns: Nanos, ev: &mut u16) -> Nanos {

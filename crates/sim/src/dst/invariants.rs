@@ -571,7 +571,8 @@ fn ms_since_start(t: Nanos) -> u64 {
     t.saturating_sub(super::runner::START_NS) / 1_000_000
 }
 
-/// The manual mapping of the design: `min + (max - min) * percent / 100`, to the nearest µs.
+/// The manual mapping as docs/wire-formats.md ("Servo controller: Pololu Maestro") gives it:
+/// `min + (max - min) * percent / 100`, to the nearest µs.
 fn manual_pulse(c: &ChannelConfig, percent: u8) -> u16 {
     let span = u32::from(c.max_us - c.min_us);
     c.min_us + ((span * u32::from(percent) + 50) / 100) as u16
