@@ -204,6 +204,17 @@ mod app {
     }
 
     impl GnssIn {
+        /// The receive path at boot: an empty reader, no line errors counted, replies for the
+        /// configurator going to `replies`.
+        fn new(rx: gnss::GnssRx, replies: heapless::spsc::Producer<'static, u8>) -> Self {
+            Self {
+                rx,
+                reader: GnssReader::with_capacity(),
+                tap: ReplyTap::new(replies),
+                errors: UartErrors::new(),
+            }
+        }
+
         /// Drains the receiver into the reader (and, while the receiver is being configured,
         /// into the configurator's queue) and updates the GNSS counters; returns the NAV-PVT
         /// frame that completed, if any.
@@ -287,21 +298,14 @@ mod app {
     ])]
     fn init(cx: init::Context) -> (Shared, Local) {
         let mut dp = cx.device;
-        let mut core = cx.core;
-
-        let reset = setup::reset_cause(&dp.RCC);
-        if let Some(cause) = reset.report.boot_fault {
-            BOOT_FAULT.store(cause as u8, Ordering::Relaxed);
-        }
+        let reset = record_reset_cause(&dp.RCC);
         // First, before anything that can wait for ever: the HAL waits for the crystal (and
         // the PLL) with no time-out. The IWDG runs from the LSI, whatever HSE does; a crystal
         // that never starts resets the board after WATCHDOG_MS instead of hanging it.
         setup::boot_step("watchdog");
         let mut watchdog = setup::watchdog(dp.IWDG);
         setup::boot_step("clocks");
-        let mut rcc = dp.RCC.freeze(setup::clock_config());
-        let sysclk_hz = rcc.clocks.sysclk().raw();
-        setup::start_monotonic(&mut core.SCB, core.SYST, sysclk_hz);
+        let (mut rcc, sysclk_hz) = setup::start_clocks(dp.RCC, cx.core);
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
@@ -346,24 +350,10 @@ mod app {
         let info = setup::boot_info(&sensor_report, &reset, crc.unit_ok());
 
         let led = gpiod.pd12.into_push_pull_output();
-        status_led::spawn(info.status.bits()).ok();
-        gnss_setup::spawn().ok();
-        // The rest of the timeout belongs to the first sampling tick, not to `init`.
-        watchdog.feed();
-        setup::announce_ready(rcc.clocks.pclk2().raw(), reset.report.boot_fault);
+        finish_boot(&mut watchdog, &info, &rcc, &reset);
 
         (
-            Shared {
-                latest: LatestPacket::new(),
-                link: link.link,
-                gnss_latest: GnssLatest::NONE,
-                gnss_in: GnssIn {
-                    rx: gnss_rx,
-                    reader: GnssReader::with_capacity(),
-                    tap: ReplyTap::new(reply_producer),
-                    errors: UartErrors::new(),
-                },
-            },
+            shared_at_boot(link.link, gnss_rx, reply_producer),
             Local {
                 request_pin,
                 sampler: Sampler::new(timer, watchdog, crc, sensors, info),
@@ -373,6 +363,48 @@ mod app {
                 host_rx: link.host_rx,
             },
         )
+    }
+
+    /// Reads why the board reset (see [`setup::reset_cause`]) and keeps the previous boot's
+    /// fault in [`BOOT_FAULT`] for a debugger.
+    fn record_reset_cause(rcc: &pac::RCC) -> setup::ResetCause {
+        let reset = setup::reset_cause(rcc);
+        if let Some(cause) = reset.report.boot_fault {
+            BOOT_FAULT.store(cause as u8, Ordering::Relaxed);
+        }
+        reset
+    }
+
+    /// The end of `init`: starts the status LED and GNSS set-up tasks, feeds the watchdog (the
+    /// rest of its timeout belongs to the first sampling tick, not to `init`) and says the
+    /// board is ready.
+    fn finish_boot(
+        watchdog: &mut IndependentWatchdog,
+        info: &InfoFrame,
+        rcc: &stm32f4xx_hal::rcc::Rcc,
+        reset: &setup::ResetCause,
+    ) {
+        status_led::spawn(info.status.bits()).ok();
+        gnss_setup::spawn().ok();
+        watchdog.feed();
+        setup::announce_ready(rcc.clocks.pclk2().raw(), reset.report.boot_fault);
+    }
+
+    /// The shared resources at boot: no packet yet, the link set up and idle, no NAV-PVT
+    /// frame yet, the GNSS receive path ready. Always inlined: the resources are built in
+    /// place, not built on the stack and copied.
+    #[inline(always)]
+    fn shared_at_boot(
+        link: link::Link,
+        gnss_rx: gnss::GnssRx,
+        gnss_replies: heapless::spsc::Producer<'static, u8>,
+    ) -> Shared {
+        Shared {
+            latest: LatestPacket::new(),
+            link,
+            gnss_latest: GnssLatest::NONE,
+            gnss_in: GnssIn::new(gnss_rx, gnss_replies),
+        }
     }
 
     /// A request edge: start the answer and return.

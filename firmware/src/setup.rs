@@ -60,6 +60,16 @@ pub fn clock_config() -> Config {
 /// the GNSS tasks (2), above sampling (1).
 const SYSTICK_PRIORITY: u8 = 2;
 
+/// Freezes the clock tree to [`clock_config`] (the HAL waits for the crystal and the PLL with
+/// no time-out: start the watchdog first), then starts the monotonic clock at the resulting
+/// system clock. Returns the clocks and the system clock in Hz.
+pub fn start_clocks(rcc: pac::RCC, mut core: cortex_m::Peripherals) -> (Rcc, u32) {
+    let rcc = rcc.freeze(clock_config());
+    let sysclk_hz = rcc.clocks.sysclk().raw();
+    start_monotonic(&mut core.SCB, core.SYST, sysclk_hz);
+    (rcc, sysclk_hz)
+}
+
 /// Starts the monotonic clock on SysTick, whose exception priority it sets first: below the
 /// link tasks, so it can never hold off a request edge; above sampling, so a long tick cannot
 /// lose a counter wrap.
