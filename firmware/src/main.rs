@@ -53,8 +53,8 @@ mod app {
     };
     use dima_firmware_logic::{Schedule, ScheduleConfig};
     use dima_sensorboard::{
-        BoardFaults, BoardHealth, InfoFrame, PacketBuilder, SensorStatus, GNSS_FRAME_LEN,
-        INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
+        BoardFaults, BoardHealth, InfoFrame, InfoPieceSetV3, PacketBuilder, SensorStatus,
+        GNSS_FRAME_LEN, INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
     };
     use embedded_hal_bus::util::AtomicCell;
     use stm32f4xx_hal::gpio::{self, Input, Output, PushPull};
@@ -157,6 +157,96 @@ mod app {
                 supervisor: Supervisor::new(SUPERVISOR),
                 gnss_silent: false,
                 overruns: 0,
+            }
+        }
+    }
+
+    impl Sampler {
+        /// Asks the supervisor about this tick: the watchdog is fed only while this tick runs,
+        /// the link is not stuck sending and (reported, not a reset) the receiver talks.
+        fn supervise(&mut self) {
+            let verdict = self.supervisor.on_tick(
+                LinkProgress {
+                    busy: LINK_BUSY.load(Ordering::Relaxed),
+                    completed: LINK_COMPLETED.load(Ordering::Relaxed),
+                },
+                GNSS_BYTES.load(Ordering::Relaxed),
+            );
+            if verdict.feed_watchdog {
+                self.watchdog.feed();
+            }
+            self.gnss_silent = verdict.gnss_silent;
+        }
+
+        /// A new info snapshot is due: none taken yet, or `INFO_SNAPSHOT_MS` since the last.
+        fn snapshot_due(&self, now_ms: u32) -> bool {
+            self.snapshot == 0 || now_ms.wrapping_sub(self.info.uptime_ms) >= INFO_SNAPSHOT_MS
+        }
+
+        /// Takes the next info snapshot at `now_ms` and cuts it into pieces (ten CRCs on the
+        /// CRC unit), for the caller to hand to the link.
+        fn take_snapshot(&mut self, now_ms: u32) -> InfoPieceSetV3 {
+            self.refresh_info(now_ms);
+            // Never 0 again after the first: 0 means "none taken yet".
+            self.snapshot = self.snapshot.checked_add(1).unwrap_or(1);
+            self.info
+                .encode_v3_pieces_with(self.snapshot, &mut self.crc)
+        }
+
+        /// Brings the info frame up to date: the time, the status bits the tasks report, the
+        /// counters and sensor ages.
+        fn refresh_info(&mut self, now_ms: u32) {
+            self.info.uptime_ms = now_ms;
+            self.info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
+            self.info
+                .status
+                .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
+            self.info
+                .status
+                .set(SensorStatus::GNSS_SILENT, self.gnss_silent);
+            self.info.health = self.health();
+            self.info.faults = self.faults();
+        }
+
+        /// The health counters and sensor ages now (the watchdog resets as at boot).
+        fn health(&self) -> BoardHealth {
+            let [accel_errors, gyro_errors, mag_errors, bmp280_errors] = self.sensors.errors();
+            let [accel_age_ms, gyro_age_ms, mag_age_ms, bmp280_age_ms] =
+                self.sensors.ages_ms(self.schedule.config().period_us);
+            BoardHealth {
+                accel_errors,
+                gyro_errors,
+                mag_errors,
+                bmp280_errors,
+                mag_timeout_errors: self.schedule.mag_timeouts(),
+                dma_errors: DMA_ERRORS.load(Ordering::Relaxed),
+                requests_early: REQUESTS_EARLY.load(Ordering::Relaxed),
+                gnss_bytes_dropped: GNSS_BYTES_DROPPED.load(Ordering::Relaxed),
+                gnss_frame_errors: GNSS_FRAME_ERRORS.load(Ordering::Relaxed),
+                watchdog_resets: self.info.health.watchdog_resets,
+                accel_age_ms,
+                gyro_age_ms,
+                mag_age_ms,
+                bmp280_age_ms,
+            }
+        }
+
+        /// The fault counters now (the reset fault as at boot).
+        fn faults(&self) -> BoardFaults {
+            BoardFaults {
+                gnss_overrun_errors: GNSS_OVERRUN_ERRORS.load(Ordering::Relaxed),
+                gnss_framing_errors: GNSS_FRAMING_ERRORS.load(Ordering::Relaxed),
+                gnss_noise_errors: GNSS_NOISE_ERRORS.load(Ordering::Relaxed),
+                sample_overruns: self.overruns,
+                reset_fault: self.info.faults.reset_fault,
+            }
+        }
+
+        /// Counts an overrun when the next period began while this tick ran: that tick starts
+        /// late (and, should it overrun too, one is lost). Counted, not hidden.
+        fn count_overrun(&mut self) {
+            if self.timer.flags().contains(Flag::Update) {
+                self.overruns = self.overruns.wrapping_add(1);
             }
         }
     }
@@ -503,87 +593,45 @@ mod app {
         if PANIC_REQUESTED.load(Ordering::Relaxed) {
             panic!("panic requested by the host");
         }
-        // Fed only while this tick runs, the link is not stuck sending and (reported, not
-        // a reset) the receiver talks.
-        let verdict = sampler.supervisor.on_tick(
-            LinkProgress {
-                busy: LINK_BUSY.load(Ordering::Relaxed),
-                completed: LINK_COMPLETED.load(Ordering::Relaxed),
-            },
-            GNSS_BYTES.load(Ordering::Relaxed),
-        );
-        if verdict.feed_watchdog {
-            sampler.watchdog.feed();
-        }
-        sampler.gnss_silent = verdict.gnss_silent;
+        sampler.supervise();
         let plan = sampler.schedule.next_tick();
         sampler
             .sensors
             .tick(plan, &mut sampler.schedule, &mut sampler.builder);
-
-        let builder = &mut sampler.builder;
-        cx.shared.gnss_latest.lock(|gnss| {
-            if core::mem::take(&mut gnss.fresh) {
-                builder.gnss_frame(&gnss.frame);
-            }
-        });
+        take_nav_pvt(cx.shared.gnss_latest, &mut sampler.builder);
         // The info snapshot first, so one exists whenever a packet does.
         let now_ms = Mono::now().ticks();
-        if sampler.snapshot == 0 || now_ms.wrapping_sub(sampler.info.uptime_ms) >= INFO_SNAPSHOT_MS
-        {
-            let info = &mut sampler.info;
-            info.uptime_ms = now_ms;
-            info.requests_skipped = REQUESTS_SKIPPED.load(Ordering::Relaxed);
-            info.status
-                .set(SensorStatus::GNSS_SEEN, GNSS_SEEN.load(Ordering::Relaxed));
-            info.status
-                .set(SensorStatus::GNSS_SILENT, sampler.gnss_silent);
-            let [accel_errors, gyro_errors, mag_errors, bmp280_errors] = sampler.sensors.errors();
-            let [accel_age_ms, gyro_age_ms, mag_age_ms, bmp280_age_ms] =
-                sampler.sensors.ages_ms(sampler.schedule.config().period_us);
-            info.health = BoardHealth {
-                accel_errors,
-                gyro_errors,
-                mag_errors,
-                bmp280_errors,
-                mag_timeout_errors: sampler.schedule.mag_timeouts(),
-                dma_errors: DMA_ERRORS.load(Ordering::Relaxed),
-                requests_early: REQUESTS_EARLY.load(Ordering::Relaxed),
-                gnss_bytes_dropped: GNSS_BYTES_DROPPED.load(Ordering::Relaxed),
-                gnss_frame_errors: GNSS_FRAME_ERRORS.load(Ordering::Relaxed),
-                watchdog_resets: info.health.watchdog_resets,
-                accel_age_ms,
-                gyro_age_ms,
-                mag_age_ms,
-                bmp280_age_ms,
-            };
-            info.faults = BoardFaults {
-                gnss_overrun_errors: GNSS_OVERRUN_ERRORS.load(Ordering::Relaxed),
-                gnss_framing_errors: GNSS_FRAMING_ERRORS.load(Ordering::Relaxed),
-                gnss_noise_errors: GNSS_NOISE_ERRORS.load(Ordering::Relaxed),
-                sample_overruns: sampler.overruns,
-                reset_fault: info.faults.reset_fault,
-            };
-            // Never 0 again after the first: 0 means "none taken yet".
-            sampler.snapshot = sampler.snapshot.checked_add(1).unwrap_or(1);
-            // Ten CRCs on the CRC unit, outside the lock; only the copy holds off requests.
-            let pieces = info.encode_v3_pieces_with(sampler.snapshot, &mut sampler.crc);
+        if sampler.snapshot_due(now_ms) {
+            let pieces = sampler.take_snapshot(now_ms);
+            // Only the copy holds off requests.
             cx.shared.link.lock(|link| link.publish_pieces(&pieces));
         }
         let packet = sampler.builder.build(&mut sampler.crc);
         cx.shared.latest.lock(|latest| latest.publish(packet));
         #[cfg(feature = "qemu")]
+        slow_tick_if_requested(&sampler.timer);
+        sampler.count_overrun();
+    }
+
+    /// Puts the NAV-PVT frame the GNSS task handed over since the last tick, if any, into the
+    /// next packet.
+    fn take_nav_pvt(mut latest: impl rtic::Mutex<T = GnssLatest>, builder: &mut PacketBuilder) {
+        latest.lock(|gnss| {
+            if core::mem::take(&mut gnss.fresh) {
+                builder.gnss_frame(&gnss.frame);
+            }
+        });
+    }
+
+    /// Under QEMU: when the host asked for it (see [`SLOW_TICK_BYTE`]), runs until the next
+    /// period has begun (20 ms of the board's clock at most).
+    #[cfg(feature = "qemu")]
+    fn slow_tick_if_requested(timer: &CounterHz<TIM2>) {
         if SLOW_TICK_REQUESTED.swap(false, Ordering::Relaxed) {
-            // Until the next period has begun (20 ms of the board's clock at most).
             let start = Mono::now().ticks();
-            while !sampler.timer.flags().contains(Flag::Update)
+            while !timer.flags().contains(Flag::Update)
                 && Mono::now().ticks().wrapping_sub(start) < 20
             {}
-        }
-        // The next period began while this tick ran: it starts late (and, should it overrun
-        // too, one is lost). Counted, not hidden.
-        if sampler.timer.flags().contains(Flag::Update) {
-            sampler.overruns = sampler.overruns.wrapping_add(1);
         }
     }
 
