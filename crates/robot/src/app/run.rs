@@ -20,6 +20,7 @@ use crate::devices::sensor::{open_hardware_sensor, SensorDevice};
 use crate::devices::serial::{LineSettings, SerialPort};
 use crate::devices::servo::{ServoBoard, ServoOutput};
 use crate::devices::{device_link, spawn_supervisors, Opener};
+use crate::live::LiveView;
 use crate::logging::{spawn_logger, LogFaults, LoggerSettings, McapLog};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport};
@@ -180,8 +181,16 @@ where
     )?;
 
     // Logger.
+    let live = match config.foxglove.listen_addr()? {
+        Some(addr) => {
+            let live = LiveView::start(addr)?;
+            tracing::info!("live view: ws://{} (Foxglove WebSocket)", live.local_addr());
+            Some(Arc::new(live))
+        }
+        None => None,
+    };
     let mut log = if config.log.enabled {
-        let log = McapLog::create(&config.log.directory)?;
+        let log = McapLog::create_live(&config.log.directory, live)?;
         tracing::info!("logging to {}", log.path().display());
         Some(log)
     } else {
