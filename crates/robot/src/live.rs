@@ -304,3 +304,147 @@ impl LiveView {
         let _ = (log_time_ns, fix);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_covariance_comes_from_both_accuracies_or_not_at_all() {
+        let mut fix = Location {
+            latitude_deg: -34.0885,
+            longitude_deg: 18.475,
+            altitude_m: 44.0,
+            horizontal_accuracy_m: Some(1.5),
+            vertical_accuracy_m: Some(2.5),
+        };
+        let c = fix.covariance().unwrap();
+        assert_eq!((c[0], c[4], c[8]), (2.25, 2.25, 6.25));
+        assert_eq!(c.iter().filter(|&&v| v != 0.0).count(), 3, "{c:?}");
+        fix.vertical_accuracy_m = None;
+        assert_eq!(fix.covariance(), None);
+    }
+
+    #[cfg(feature = "foxglove")]
+    mod stuck_client {
+        use std::io::{Read, Write};
+        use std::net::TcpStream;
+        use std::os::fd::AsRawFd;
+        use std::time::{Duration, Instant};
+
+        use super::super::*;
+
+        /// One frame from the server (unmasked): opcode and payload.
+        fn read_frame(s: &mut TcpStream) -> (u8, Vec<u8>) {
+            let mut head = [0u8; 2];
+            s.read_exact(&mut head).unwrap();
+            let len = match head[1] & 0x7F {
+                126 => {
+                    let mut b = [0u8; 2];
+                    s.read_exact(&mut b).unwrap();
+                    u64::from(u16::from_be_bytes(b))
+                }
+                127 => {
+                    let mut b = [0u8; 8];
+                    s.read_exact(&mut b).unwrap();
+                    u64::from_be_bytes(b)
+                }
+                n => u64::from(n),
+            };
+            let mut payload = vec![0u8; len as usize];
+            s.read_exact(&mut payload).unwrap();
+            (head[0] & 0x0F, payload)
+        }
+
+        /// A masked text frame from the client (payload under 126 bytes).
+        fn text_frame(text: &str) -> Vec<u8> {
+            let mask = [1u8, 2, 3, 4];
+            let mut f = vec![0x81, 0x80 | text.len() as u8];
+            f.extend_from_slice(&mask);
+            f.extend(text.bytes().enumerate().map(|(i, b)| b ^ mask[i % 4]));
+            f
+        }
+
+        /// A client that subscribes to the channel, reads one message, then never reads
+        /// again (its socket's receive buffer as small as the kernel allows).
+        fn stuck_client(addr: std::net::SocketAddr, live: &LiveView) -> TcpStream {
+            let mut s = TcpStream::connect(addr).unwrap();
+            let small: libc::c_int = 1;
+            // SAFETY: a valid socket and a c_int option of the right size.
+            unsafe {
+                libc::setsockopt(
+                    s.as_raw_fd(),
+                    libc::SOL_SOCKET,
+                    libc::SO_RCVBUF,
+                    (&small as *const libc::c_int).cast(),
+                    std::mem::size_of::<libc::c_int>() as libc::socklen_t,
+                );
+            }
+            write!(
+                s,
+                "GET / HTTP/1.1\r\nHost: {addr}\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n\
+                 Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\
+                 Sec-WebSocket-Protocol: foxglove.sdk.v1\r\n\r\n"
+            )
+            .unwrap();
+            let mut response = Vec::new();
+            while !response.ends_with(b"\r\n\r\n") {
+                let mut b = [0u8; 1];
+                s.read_exact(&mut b).unwrap();
+                response.push(b[0]);
+            }
+            assert!(response.starts_with(b"HTTP/1.1 101"), "{response:?}");
+            let channel_id = loop {
+                let (opcode, payload) = read_frame(&mut s);
+                if opcode != 1 {
+                    continue;
+                }
+                let v: serde_json::Value = serde_json::from_slice(&payload).unwrap();
+                if v["op"] == "advertise" {
+                    break v["channels"][0]["id"].as_u64().unwrap();
+                }
+            };
+            s.write_all(&text_frame(&format!(
+                r#"{{"op":"subscribe","subscriptions":[{{"id":7,"channelId":{channel_id}}}]}}"#
+            )))
+            .unwrap();
+            // Subscribed once a message arrives.
+            s.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+            loop {
+                live.publish(1, 1, b"{}");
+                let mut head = [0u8; 1];
+                if s.read_exact(&mut head).is_ok() && head[0] & 0x0F == 2 {
+                    break;
+                }
+            }
+            s
+        }
+
+        #[test]
+        fn a_client_that_stops_reading_never_holds_up_publishing() {
+            let live =
+                std::sync::Arc::new(LiveView::start("127.0.0.1:0".parse().unwrap()).unwrap());
+            live.add_channel(1, "/test", "", "", b"", "json");
+            let _client = stuck_client(live.local_addr(), &live);
+            // Far more than the socket buffers and the client's outbox hold: were publishing
+            // to wait for the client, it would never finish.
+            let (done_tx, done) = std::sync::mpsc::channel();
+            let publisher = std::sync::Arc::clone(&live);
+            std::thread::spawn(move || {
+                let data = vec![b' '; 16 * 1024];
+                let t0 = Instant::now();
+                let mut slowest = Duration::ZERO;
+                for i in 0..20_000u64 {
+                    let t = Instant::now();
+                    publisher.publish(1, i, &data);
+                    slowest = slowest.max(t.elapsed());
+                }
+                let _ = done_tx.send((t0.elapsed(), slowest));
+            });
+            let (total, slowest) = done
+                .recv_timeout(Duration::from_secs(120))
+                .expect("publishing waits for a client that does not read");
+            eprintln!("20000 publishes of 16 KiB, a client stuck: {total:?}, slowest {slowest:?}");
+        }
+    }
+}
