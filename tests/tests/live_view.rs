@@ -24,9 +24,8 @@ fn python() -> Option<String> {
     if ok {
         return Some(python);
     }
-    let why = format!(
-        "`{python} -c \"import websockets.sync.client\"` failed (pip install websockets)"
-    );
+    let why =
+        format!("`{python} -c \"import websockets.sync.client\"` failed (pip install websockets)");
     assert!(std::env::var_os("CI").is_none(), "{why}");
     eprintln!("skipping the live view test: {why}");
     None
@@ -66,20 +65,32 @@ fn a_foxglove_client_receives_cycles_and_the_gnss_position_live() {
     let sim_err = String::from_utf8_lossy(&sim.stderr);
     assert!(sim.status.success(), "dima sim: {sim_err}");
     let client_err = String::from_utf8_lossy(&client.stderr);
-    assert!(client.status.success(), "client: {client_err}\nsim: {sim_err}");
+    assert!(
+        client.status.success(),
+        "client: {client_err}\nsim: {sim_err}"
+    );
     let seen: serde_json::Value = serde_json::from_slice(&client.stdout)
         .unwrap_or_else(|e| panic!("client output: {e}: {client_err}"));
 
-    assert_eq!(seen["server"].as_str().map(|s| s.starts_with("dima")), Some(true));
+    assert_eq!(
+        seen["server"].as_str().map(|s| s.starts_with("dima")),
+        Some(true)
+    );
     let channels = &seen["channels"];
     assert_eq!(channels["/dima/cycle"]["encoding"], "json");
     assert_eq!(channels["/dima/cycle"]["schemaName"], "dima.Cycle");
     assert_eq!(channels["/dima/state"]["encoding"], "json");
     assert_eq!(channels["/sensor/raw"]["encoding"], "dima-sensor-v1");
-    assert_eq!(channels["/dima/location"]["schemaName"], "foxglove.LocationFix");
+    assert_eq!(
+        channels["/dima/location"]["schemaName"],
+        "foxglove.LocationFix"
+    );
     assert_eq!(channels["/dima/location"]["encoding"], "protobuf");
 
-    assert_eq!(seen["bad_json"], 0, "cycle messages whose JSON did not parse");
+    assert_eq!(
+        seen["bad_json"], 0,
+        "cycle messages whose JSON did not parse"
+    );
     let cycles: Vec<u64> = seen["cycles"]
         .as_array()
         .unwrap()
@@ -97,7 +108,10 @@ fn a_foxglove_client_receives_cycles_and_the_gnss_position_live() {
         .iter()
         .map(|t| t.as_u64().unwrap())
         .collect();
-    assert!(times.windows(2).all(|w| w[0] < w[1]), "log times: {times:?}");
+    assert!(
+        times.windows(2).all(|w| w[0] < w[1]),
+        "log times: {times:?}"
+    );
 
     let locations = seen["locations"].as_array().unwrap();
     assert!(!locations.is_empty(), "no LocationFix");
