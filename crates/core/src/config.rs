@@ -36,6 +36,8 @@ pub struct Config {
     pub estimator: EstimatorConfig,
     /// MCAP log.
     pub log: LogConfig,
+    /// Live view of the log's channels over the Foxglove WebSocket protocol.
+    pub foxglove: FoxgloveConfig,
 }
 
 /// Sensor-board link: UART and request line.
@@ -669,6 +671,35 @@ impl Default for LogConfig {
     }
 }
 
+/// Live view: the logger thread also serves the log's channels, and the GNSS position as
+/// `foxglove.LocationFix` on `/dima/location`, over the Foxglove WebSocket protocol.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct FoxgloveConfig {
+    /// Address the server listens on, `IP:PORT` (e.g. `127.0.0.1:8765`; port 0 picks a free
+    /// one); empty: no live view.
+    pub listen: String,
+}
+
+impl FoxgloveConfig {
+    /// The address to listen on; `None` when the live view is off; an error naming the key
+    /// when the text is not an `IP:PORT` address.
+    pub fn listen_addr(&self) -> Result<Option<std::net::SocketAddr>, ConfigError> {
+        let text = self.listen.trim();
+        if text.is_empty() {
+            return Ok(None);
+        }
+        text.parse().map(Some).map_err(|_| {
+            invalid(
+                "foxglove.listen",
+                format!("\"{}\"", self.listen),
+                "expected IP:PORT, e.g. \"127.0.0.1:8765\" (\"0.0.0.0:8765\" on every \
+                 interface, \"[::1]:8765\" for IPv6), or \"\" for no live view",
+            )
+        })
+    }
+}
+
 /// Shortest `log.flush_interval_ms`, ms.
 pub const MIN_FLUSH_INTERVAL_MS: u32 = 100;
 /// Longest `log.flush_interval_ms`, ms (what a crash may lose).
@@ -867,7 +898,19 @@ impl Config {
         self.validate_channels()?;
         self.validate_control()?;
         self.validate_estimator()?;
-        self.validate_log()
+        self.validate_log()?;
+        self.validate_foxglove()
+    }
+
+    fn validate_foxglove(&self) -> Result<(), ConfigError> {
+        if self.foxglove.listen_addr()?.is_some() && !self.log.enabled {
+            return Err(invalid(
+                "foxglove.listen",
+                format!("\"{}\"", self.foxglove.listen),
+                "the live view serves the log's channels: it needs log.enabled = true",
+            ));
+        }
+        Ok(())
     }
 
     fn validate_log(&self) -> Result<(), ConfigError> {
@@ -1301,6 +1344,32 @@ mod tests {
                 assert!(found, "default-config.toml lacks {key}");
             }
         }
+    }
+
+    #[test]
+    fn the_live_view_is_off_by_default_and_its_address_is_checked() {
+        assert_eq!(Config::default().foxglove.listen_addr().unwrap(), None);
+        let parse = |text: &str| Config::from_toml(text, "test.toml");
+        let on = parse("[foxglove]\nlisten = \"127.0.0.1:8765\"\n").unwrap();
+        assert_eq!(
+            on.foxglove.listen_addr().unwrap(),
+            Some("127.0.0.1:8765".parse().unwrap())
+        );
+        assert_eq!(
+            parse("[foxglove]\nlisten = \"\"\n").unwrap().foxglove,
+            FoxgloveConfig::default()
+        );
+        for bad in ["localhost:8765", "127.0.0.1", "127.0.0.1:99999", ":8765"] {
+            let message = parse(&format!("[foxglove]\nlisten = \"{bad}\"\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(message.contains("foxglove.listen"), "{message}");
+            assert!(message.contains("expected IP:PORT"), "{message}");
+        }
+        let message = parse("[log]\nenabled = false\n[foxglove]\nlisten = \"127.0.0.1:8765\"\n")
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("log.enabled = true"), "{message}");
     }
 
     #[test]

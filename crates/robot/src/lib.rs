@@ -13,7 +13,8 @@
 //! - [`app`]: the realtime loop, the fixed-size records it hands over, and [`app::run()`], which
 //!   starts every thread for a given set of device openers;
 //! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread, which
-//!   writes the typed messages of [`log_messages`].
+//!   writes the typed messages of [`log_messages`], and [`live`], the live view the logger
+//!   thread also serves them on (Foxglove WebSocket protocol, `[foxglove] listen`).
 //!
 //! The simulator (`dima-sim`) and the log tools (`dima-tools`) depend on this crate, never the
 //! reverse: the robot's binary builds without them.
@@ -23,6 +24,7 @@ pub mod app;
 pub mod config;
 pub use dima_core::control;
 pub mod devices;
+pub mod live;
 pub mod log_messages;
 pub mod logging;
 pub mod metrics;

@@ -47,6 +47,7 @@ use dima_core::schema::{self, ChannelSpec};
 use dima_core::Mode;
 
 use crate::app::record::{events, CycleRecord};
+use crate::live::LiveView;
 use crate::log_messages::{cycle_message, info_message, state_message};
 use crate::rt::{monotonic_ns, RtSetupReport};
 
@@ -135,6 +136,8 @@ pub struct McapLog {
     opened: Instant,
     /// Added to CLOCK_MONOTONIC to get wall-clock ns for log times.
     epoch_offset_ns: i128,
+    /// The live view: sent every channel and message written here.
+    live: Option<Arc<LiveView>>,
 }
 
 /// `dima-YYYYMMDDTHHMMSSZ.mcap` for `now`.
@@ -162,19 +165,29 @@ pub fn log_file_name(now: SystemTime) -> String {
 impl McapLog {
     /// Creates `dir` if needed and a new timestamped file in it.
     pub fn create(dir: &Path) -> anyhow::Result<McapLog> {
+        McapLog::create_live(dir, None)
+    }
+
+    /// As [`McapLog::create`], also serving the log's channels and messages on `live`; the
+    /// files the run continues in serve them too.
+    pub fn create_live(dir: &Path, live: Option<Arc<LiveView>>) -> anyhow::Result<McapLog> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("log: cannot create directory {}", dir.display()))?;
         let path = dir.join(log_file_name(SystemTime::now()));
-        McapLog::create_file(&path)
+        McapLog::create_file_with(&path, Arc::new(AtomicBool::new(false)), live)
     }
 
     /// Creates the file at `path`.
     pub fn create_file(path: &Path) -> anyhow::Result<McapLog> {
-        McapLog::create_file_with(path, Arc::new(AtomicBool::new(false)))
+        McapLog::create_file_with(path, Arc::new(AtomicBool::new(false)), None)
     }
 
     /// Creates the file at `path`, its writes failing with ENOSPC while `full` is set.
-    fn create_file_with(path: &Path, full: Arc<AtomicBool>) -> anyhow::Result<McapLog> {
+    fn create_file_with(
+        path: &Path,
+        full: Arc<AtomicBool>,
+        live: Option<Arc<LiveView>>,
+    ) -> anyhow::Result<McapLog> {
         check_disk(&full).with_context(|| format!("log: cannot create {}", path.display()))?;
         let file = LogFile {
             file: File::create(path)
@@ -196,11 +209,28 @@ impl McapLog {
             .context("log: starting the MCAP file")?;
         let none = BTreeMap::new();
         let mut add = |spec: &ChannelSpec| -> anyhow::Result<u16> {
-            let schema_id = match schema::schema_of(spec) {
+            let schema = schema::schema_of(spec);
+            let schema_id = match &schema {
                 Some(text) => writer.add_schema(spec.schema_name, "jsonschema", text.as_bytes())?,
                 None => 0,
             };
-            Ok(writer.add_channel(schema_id, spec.topic, spec.encoding, &none)?)
+            let id = writer.add_channel(schema_id, spec.topic, spec.encoding, &none)?;
+            if let Some(v) = &live {
+                let (name, encoding) = match schema {
+                    Some(_) => (spec.schema_name, "jsonschema"),
+                    None => ("", ""),
+                };
+                let text = schema.unwrap_or_default();
+                v.add_channel(
+                    id,
+                    spec.topic,
+                    name,
+                    encoding,
+                    text.as_bytes(),
+                    spec.encoding,
+                );
+            }
+            Ok(id)
         };
         let raw = add(&schema::SENSOR_RAW)?;
         let cycle = add(&schema::CYCLE)?;
@@ -222,6 +252,7 @@ impl McapLog {
             sequence: 0,
             opened: Instant::now(),
             epoch_offset_ns: wall - i128::from(monotonic_ns()),
+            live,
         };
         // The header, schemas and channels on the disk at once: a file that fails later can
         // be cut back to complete records.
@@ -241,7 +272,7 @@ impl McapLog {
         &self.path
     }
 
-    fn log_time(&self, mono_ns: u64) -> u64 {
+    pub(crate) fn log_time(&self, mono_ns: u64) -> u64 {
         (i128::from(mono_ns) + self.epoch_offset_ns).max(0) as u64
     }
 
@@ -257,6 +288,9 @@ impl McapLog {
             },
             data,
         )?;
+        if let Some(live) = &self.live {
+            live.publish(channel_id, t, data);
+        }
         Ok(())
     }
 
@@ -444,6 +478,8 @@ struct LogState {
     /// duration): one numbering for the run.
     numbered: u32,
     disk_full: Arc<AtomicBool>,
+    /// The live view the run's files serve.
+    live: Option<Arc<LiveView>>,
     header: Vec<(String, Vec<(&'static str, String)>)>,
     /// Split the run into files of at most this duration.
     max_file_duration: Option<Duration>,
@@ -466,6 +502,7 @@ impl LogState {
                 || Arc::new(AtomicBool::new(false)),
                 |l| Arc::clone(&l.disk_full),
             ),
+            live: log.as_ref().and_then(|l| l.live.clone()),
             log,
             failed: None,
             numbered: 0,
@@ -490,8 +527,8 @@ impl LogState {
             );
         };
         let path = resumed_name(first, self.numbered + 1);
-        let next =
-            McapLog::create_file_with(&path, Arc::clone(&self.disk_full)).and_then(|mut l| {
+        let next = McapLog::create_file_with(&path, Arc::clone(&self.disk_full), self.live.clone())
+            .and_then(|mut l| {
                 for (name, pairs) in &self.header {
                     l.metadata(name, pairs)?;
                 }
@@ -750,6 +787,9 @@ pub fn spawn_logger(
                 let mut n = 0;
                 while let Ok(r) = records.pop() {
                     report_events(&r, &mut last_mode);
+                    if let (Some(v), Some(l)) = (&state.live, &state.log) {
+                        v.cycle(&r, l.log_time(r.tick.wake_ns));
+                    }
                     if let Some(observe) = observer.as_mut() {
                         observe(&r);
                     }

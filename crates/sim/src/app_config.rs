@@ -76,6 +76,19 @@ pub fn app_config(
     Ok(config)
 }
 
+/// Serves the run's live view on `listen` (`--foxglove ADDR`, as `[foxglove] listen`);
+/// `None` keeps the configuration's setting. An error names the flag when the address is not
+/// `IP:PORT`.
+pub fn set_live_view(config: &mut Config, listen: Option<&str>) -> anyhow::Result<()> {
+    if let Some(addr) = listen {
+        config.foxglove.listen = addr.to_owned();
+        config
+            .validate()
+            .with_context(|| format!("--foxglove {addr}"))?;
+    }
+    Ok(())
+}
+
 /// With the default configuration, keeps the protections counted in packets or late wake-ups
 /// within the second the configuration allows at slow loop rates (a given file is validated as
 /// it is, and says what does not fit).
@@ -152,6 +165,21 @@ mod tests {
             c.channels.steering.safe.pulse_us(),
             c.channels.steering.neutral_us
         );
+    }
+
+    #[test]
+    fn foxglove_sets_the_live_view_and_checks_the_address() {
+        let mut c = build(250);
+        set_live_view(&mut c, None).unwrap();
+        assert_eq!(c.foxglove.listen_addr().unwrap(), None);
+        set_live_view(&mut c, Some("127.0.0.1:8765")).unwrap();
+        assert_eq!(
+            c.foxglove.listen_addr().unwrap(),
+            Some("127.0.0.1:8765".parse().unwrap())
+        );
+        let message = format!("{:#}", set_live_view(&mut c, Some("8765")).unwrap_err());
+        assert!(message.contains("--foxglove 8765"), "{message}");
+        assert!(message.contains("expected IP:PORT"), "{message}");
     }
 
     #[test]

@@ -66,6 +66,10 @@ pub struct SimArgs {
     /// run directory.
     #[arg(long, value_name = "PATH")]
     pub key_file: Option<PathBuf>,
+    /// Serve the robot's live view over the Foxglove WebSocket protocol on IP:PORT (as
+    /// `[foxglove] listen`), e.g. 127.0.0.1:8765: in Foxglove, open ws://IP:PORT.
+    #[arg(long, value_name = "IP:PORT")]
+    pub foxglove: Option<String>,
 }
 
 impl SimArgs {
@@ -112,6 +116,7 @@ impl SimArgs {
         o.app_config = self.config.clone();
         o.realtime = self.realtime;
         o.key_file = self.key_file.clone();
+        o.foxglove = self.foxglove.clone();
         o.status = if self.quiet {
             StatusMode::Quiet
         } else if self.plain {

@@ -152,6 +152,9 @@ pub struct SimOptions {
     /// flat however long the run (a soak); the check of logged packets against the board's
     /// intact ones is skipped.
     pub bounded_evidence: bool,
+    /// Where the simulated robot serves its live view (`[foxglove] listen`); `None`: the
+    /// configuration's.
+    pub foxglove: Option<String>,
 }
 
 impl SimOptions {
@@ -176,6 +179,7 @@ impl SimOptions {
             require_auth: None,
             random_faults: Vec::new(),
             bounded_evidence: false,
+            foxglove: None,
         }
     }
 
@@ -438,6 +442,7 @@ impl<'a> SimRun<'a> {
             o.realtime,
             &o.log_dir,
         )?;
+        crate::app_config::set_live_view(&mut config, o.foxglove.as_deref())?;
         let key = link_key(o, &mut config)?;
         let outputs = OutputMap::new(&config.channels);
         let run = SimRun {

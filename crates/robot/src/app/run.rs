@@ -21,6 +21,7 @@ use crate::devices::sensor::{open_hardware_sensor, SensorDevice};
 use crate::devices::serial::{LineSettings, SerialPort};
 use crate::devices::servo::{ServoBoard, ServoOutput};
 use crate::devices::{device_link, spawn_supervisors, DeviceLink, Opener};
+use crate::live::LiveView;
 use crate::logging::{spawn_logger, LogFaults, LoggerOutcome, LoggerSettings, McapLog};
 use crate::metrics::LoopMetrics;
 use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport};
@@ -254,6 +255,16 @@ where
     Ok((sensor_link, servo_link, supervisors))
 }
 
+/// Starts the live view (`[foxglove] listen`) when it is configured.
+fn start_live_view(config: &Config) -> anyhow::Result<Option<Arc<LiveView>>> {
+    let Some(addr) = config.foxglove.listen_addr()? else {
+        return Ok(None);
+    };
+    let live = LiveView::start(addr)?;
+    tracing::info!("live view: ws://{} (Foxglove WebSocket)", live.local_addr());
+    Ok(Some(Arc::new(live)))
+}
+
 /// Opens the log (when enabled), writes its header and starts the logger thread, which ends
 /// once `stop` is set.
 fn start_logger(
@@ -264,8 +275,9 @@ fn start_logger(
     faults: LogFaults,
     observer: Option<Observer>,
 ) -> anyhow::Result<JoinHandle<LoggerOutcome>> {
+    let live = start_live_view(config)?;
     let mut log = if config.log.enabled {
-        let log = McapLog::create(&config.log.directory)?;
+        let log = McapLog::create_live(&config.log.directory, live)?;
         tracing::info!("logging to {}", log.path().display());
         Some(log)
     } else {
