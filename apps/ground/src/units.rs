@@ -58,7 +58,7 @@ impl SensorCalibration {
 
     /// The last info frame in a robot's MCAP log (`/sensor/info`, written by `dima`).
     pub fn from_robot_log(path: &Path) -> anyhow::Result<SensorCalibration> {
-        use dima_core::schema::{SensorInfoMessage, SENSOR_INFO};
+        use dima_log::schema::{SensorInfoMessage, SENSOR_INFO};
         let bytes = std::fs::read(path)
             .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
         let mut last: Option<SensorInfoMessage> = None;

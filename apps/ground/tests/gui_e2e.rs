@@ -16,11 +16,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use dima_core::schema::{CycleMessage, StateMessage, CYCLE, STATE};
 use dima_core::{Mode, ReviveRefusal};
 use dima_ground::recording::{
     CommandRecord, DeliveryRecord, DisplayRecord, TOPIC_ACK, TOPIC_COMMAND, TOPIC_DISPLAY,
 };
+use dima_log::schema::{CycleMessage, StateMessage, CYCLE, STATE};
 
 /// The throttle's neutral pulse width in the robot's (default) channel table, µs.
 const THROTTLE_NEUTRAL_US: u16 = 1500;

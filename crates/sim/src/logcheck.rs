@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use dima_core::config::Config;
-use dima_core::schema::{self, CycleMessage, Event, StateMessage};
 use dima_core::{FailsafeCause, Mode};
+use dima_log::schema::{self, CycleMessage, Event, StateMessage};
 
 /// One `/dima/state` message, with its log time.
 #[derive(Debug, Clone, PartialEq)]

@@ -26,7 +26,7 @@ use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport}
 use crate::telemetry::{
     spawn_telemetry, LinkCounters, LinkSecurity, TelemetrySettings, TelemetryStats,
 };
-use dima_core::schema::{self, SummaryRecord};
+use dima_log::schema::{self, SummaryRecord};
 
 /// One opener per device.
 pub struct Devices<P, S> {

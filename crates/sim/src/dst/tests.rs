@@ -4,15 +4,15 @@
 use std::path::PathBuf;
 
 use dima_core::config::Config;
-use dima_core::schema;
 use dima_core::step::CycleOutputs;
 use dima_core::{Command, Core, CoreState, Mode};
+use dima_log::schema;
 
 use super::intent::Intent;
 use super::invariants::{Applied, Checker, CycleView, Invariant};
 use super::runner::START_NS;
 use super::{run_seed, run_traced};
-use dima_tools::logtools::read::LoggedRun;
+use dima_log::LoggedRun;
 use dima_tools::logtools::replay::replay;
 
 /// A fresh directory for one test.
