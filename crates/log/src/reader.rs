@@ -118,12 +118,16 @@ pub fn for_each_message(
 }
 
 /// What a finished file's summary section says.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq)]
 pub struct FileSummary {
     /// Messages in the file.
     pub message_count: u64,
     /// Chunks in the file.
     pub chunk_count: usize,
+    /// The names of the metadata records the summary indexes.
+    pub metadata_names: Vec<String>,
+    /// The names of the attachments the summary indexes.
+    pub attachment_names: Vec<String>,
 }
 
 /// The summary section of the finished MCAP file in `bytes` (`None`: the file has none, as
@@ -138,6 +142,12 @@ pub fn summary(bytes: &[u8]) -> anyhow::Result<Option<FileSummary>> {
     Ok(Some(FileSummary {
         message_count: s.stats.map_or(0, |st| st.message_count),
         chunk_count: s.chunk_indexes.len(),
+        metadata_names: s.metadata_indexes.iter().map(|m| m.name.clone()).collect(),
+        attachment_names: s
+            .attachment_indexes
+            .iter()
+            .map(|a| a.name.clone())
+            .collect(),
     }))
 }
 

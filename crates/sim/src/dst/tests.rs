@@ -26,11 +26,11 @@ fn test_dir(name: &str) -> PathBuf {
 /// The `/dima/cycle` messages of a trace, with their log times.
 fn cycle_messages(path: &std::path::Path) -> Vec<(u64, Vec<u8>)> {
     let bytes = std::fs::read(path).unwrap();
-    mcap::MessageStream::new(&bytes)
+    dima_log::reader::messages(&bytes)
         .unwrap()
-        .map(|m| m.unwrap())
+        .into_iter()
         .filter(|m| m.channel.topic == schema::CYCLE.topic)
-        .map(|m| (m.log_time, m.data.into_owned()))
+        .map(|m| (m.log_time, m.data))
         .collect()
 }
 
