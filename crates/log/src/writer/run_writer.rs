@@ -216,19 +216,16 @@ impl RunWriter {
         ];
         let not_logged = failed.not_logged;
         let (next_path, resumed) = self.open_next(METADATA_LOG_RESUMED, &pairs);
-        match resumed {
-            Ok(l) => {
-                tracing::warn!(
-                    "log: logging resumed in {} ({not_logged} records not logged; {} ends at \
-                     its last complete chunk)",
-                    next_path.display(),
-                    path.display()
-                );
-                self.numbered += 1;
-                self.failed = None;
-                self.log = Some(l);
-            }
-            Err(_) => {}
+        if let Ok(l) = resumed {
+            tracing::warn!(
+                "log: logging resumed in {} ({not_logged} records not logged; {} ends at \
+                 its last complete chunk)",
+                next_path.display(),
+                path.display()
+            );
+            self.numbered += 1;
+            self.failed = None;
+            self.log = Some(l);
         }
     }
 
