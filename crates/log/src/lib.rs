@@ -3,12 +3,12 @@
 //!
 //! - [`schema`]: the channels, metadata names and typed JSON messages, whose JSON schemas are
 //!   generated from the structs;
-//! - [`writer`]: [`McapLog`](writer::McapLog), one MCAP file, and
-//!   [`RunWriter`](writer::RunWriter), a run across files (split by duration, resumed after a
-//!   full disk), with a [`Tap`](writer::Tap) seam for a live view;
+//! - [`writer`]: [`McapLog`], one MCAP file, and
+//!   [`RunWriter`], a run across files (split by duration, resumed after a
+//!   full disk), with a [`Tap`] seam for a live view;
 //! - [`naming`]: `dima-<UTC>.mcap`, `NAME-1.mcap`, ... written and parsed back;
 //! - [`records`]: the bounded walk over a file's records;
-//! - [`reader`]: one file, typed ([`LoggedRun`](reader::LoggedRun)) or as it is
+//! - [`reader`]: one file, typed ([`LoggedRun`]) or as it is
 //!   ([`messages`](reader::messages), [`metadata`](reader::metadata));
 //! - [`run`]: every file of a run, read as one.
 #![deny(missing_docs)]

@@ -1,5 +1,5 @@
 //! The one reader of an MCAP file: [`LoggedRun`] reads a DIMA log into the typed messages of
-//! [`schema`](crate::schema); [`messages`] and [`metadata`] read any MCAP file's messages and
+//! [`crate::schema`]; [`messages`] and [`metadata`] read any MCAP file's messages and
 //! metadata records as they are. All read up to the last complete record: a file cut anywhere
 //! (a crash mid-write, a partial copy) is read as far as it goes, and no length field in a
 //! file can size an allocation (see [`records`](crate::records)).
