@@ -359,8 +359,7 @@ fn small_log(sim_log: &Path) -> Vec<u8> {
         .create(&mut out)
         .expect("MCAP writer");
     let mut channels = BTreeMap::new();
-    for message in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
-        let message = message.expect("a complete sim log");
+    for message in dima_log::reader::messages(&bytes).expect("a complete sim log") {
         let id = *channels
             .entry(message.channel.id)
             .or_insert_with(|| writer.add_channel_from(&message.channel));
@@ -370,16 +369,18 @@ fn small_log(sim_log: &Path) -> Vec<u8> {
                     channel_id: id,
                     sequence: message.sequence,
                     log_time: message.log_time,
-                    publish_time: message.publish_time,
+                    publish_time: message.log_time,
                 },
                 &message.data,
             )
             .expect("write a message");
     }
-    for record in mcap::read::LinearReader::new(&bytes).expect("an MCAP file") {
-        if let Ok(mcap::records::Record::Metadata(metadata)) = record {
-            writer.write_metadata(&metadata).expect("write metadata");
-        }
+    for m in dima_log::reader::metadata(&bytes).0 {
+        let metadata = mcap::records::Metadata {
+            name: m.name,
+            metadata: m.pairs,
+        };
+        writer.write_metadata(&metadata).expect("write metadata");
     }
     writer.finish().expect("finish the MCAP file");
     drop(writer);
@@ -388,20 +389,26 @@ fn small_log(sim_log: &Path) -> Vec<u8> {
 
 /// `add_channel` with the channel's own schema.
 trait AddChannelFrom {
-    fn add_channel_from(&mut self, channel: &mcap::Channel<'_>) -> u16;
+    fn add_channel_from(&mut self, channel: &dima_log::reader::ChannelInfo) -> u16;
 }
 
 impl<W: std::io::Write + std::io::Seek> AddChannelFrom for mcap::Writer<W> {
-    fn add_channel_from(&mut self, channel: &mcap::Channel<'_>) -> u16 {
-        let schema = channel.schema.as_ref().map_or(0, |s| {
-            self.add_schema(&s.name, &s.encoding, &s.data)
-                .expect("write a schema")
-        });
+    fn add_channel_from(&mut self, channel: &dima_log::reader::ChannelInfo) -> u16 {
+        let schema = if channel.schema_name.is_empty() {
+            0
+        } else {
+            self.add_schema(
+                &channel.schema_name,
+                &channel.schema_encoding,
+                &channel.schema,
+            )
+            .expect("write a schema")
+        };
         self.add_channel(
             schema,
             &channel.topic,
             &channel.message_encoding,
-            &channel.metadata,
+            &BTreeMap::new(),
         )
         .expect("write a channel")
     }

@@ -1,4 +1,4 @@
-//! The MCAP reader of `dima log` (`dima_tools::logtools::read::LoggedRun::from_bytes`) on any bytes
+//! The MCAP reader of `dima log` (`dima_log::LoggedRun::from_bytes`) on any bytes
 //! as a log file, followed by what `dima log info` and `dima log export` do with the result.
 //!
 //! Any bytes give a clear error or a result: no panic, no abort on allocation (libFuzzer's
@@ -8,7 +8,7 @@
 
 use dima_tools::logtools::export::{self, Channel, Format};
 use dima_tools::logtools::info;
-use dima_tools::logtools::read::LoggedRun;
+use dima_log::LoggedRun;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

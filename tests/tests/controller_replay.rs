@@ -6,7 +6,7 @@ use std::path::Path;
 
 use dima_core::config::EstimatorConfig;
 use dima_core::Mode;
-use dima_tools::logtools::read::LoggedRun;
+use dima_log::LoggedRun;
 use dima_tools::logtools::replay;
 
 fn recorded() -> LoggedRun {

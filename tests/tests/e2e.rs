@@ -7,13 +7,13 @@
 //! counted as missed, never absolute latencies. The runs are serialised: each one wants the
 //! machine's two cores for its own loop and devices.
 
-use dima_core::schema::Event;
 use dima_core::{FailsafeCause, Mode};
 use dima_e2e::{
     assert_passed, run_app, run_until_the_host_lets_it, simulate, simulate_v1, temp_dir,
     ONE_AT_A_TIME,
 };
 use dima_groundlink::Command;
+use dima_log::schema::Event;
 use dima_sensorboard::{INFO_V1_LEN, PACKET_LEN};
 use dima_sim::devices::{GroundAction, ScriptStep};
 use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
@@ -515,8 +515,8 @@ fn board_health_at_least_once_a_second_without_a_skipped_request() {
     o.status = StatusMode::Quiet;
     let r = run_simulation(&o, run_app).expect("the simulation runs");
     eprintln!("[health]\n{}\napp: {}", r.summary(), r.app.summary);
-    let run = dima_tools::logtools::read::LoggedRun::read(r.app.log_path.as_ref().expect("a log"))
-        .expect("the log reads");
+    let run =
+        dima_log::LoggedRun::read(r.app.log_path.as_ref().expect("a log")).expect("the log reads");
 
     let times: Vec<f64> = run.infos.iter().map(|i| run.seconds(i.t_ns)).collect();
     assert!(

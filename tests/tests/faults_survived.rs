@@ -28,23 +28,20 @@ fn drive(s: &mut Scenario) {
     s.script.push(send(1.0, Command::Tail(pct(50))));
 }
 
-/// Messages of every kind in an MCAP file, read with the `mcap` crate: (topic, JSON or raw
-/// bytes) in order, and the metadata record names.
+/// Messages of every kind in an MCAP file: (topic, JSON or raw bytes) in order, and the
+/// metadata record names.
 fn read_mcap(path: &Path) -> (Vec<(String, Vec<u8>)>, Vec<String>) {
     let bytes = std::fs::read(path).unwrap();
-    let messages = mcap::MessageStream::new(&bytes)
-        .unwrap()
-        .map(|m| {
-            let m = m.unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-            (m.channel.topic.clone(), m.data.into_owned())
-        })
+    let messages = dima_log::reader::messages(&bytes)
+        .unwrap_or_else(|e| panic!("{}: {e:#}", path.display()))
+        .into_iter()
+        .map(|m| (m.channel.topic.clone(), m.data))
         .collect();
-    let mut metadata = Vec::new();
-    for record in mcap::read::LinearReader::new(&bytes).unwrap() {
-        if let mcap::records::Record::Metadata(m) = record.unwrap() {
-            metadata.push(m.name);
-        }
-    }
+    let metadata = dima_log::reader::metadata(&bytes)
+        .0
+        .into_iter()
+        .map(|m| m.name)
+        .collect();
     (messages, metadata)
 }
 
@@ -326,7 +323,7 @@ fn a_wall_clock_jump_trips_no_failsafe() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .filter(|n| n.ends_with(".mcap"))
         .collect();
-    let year_now: u32 = dima_robot::logging::log_file_name(std::time::SystemTime::now())[5..9]
+    let year_now: u32 = dima_log::naming::log_file_name(std::time::SystemTime::now())[5..9]
         .parse()
         .unwrap();
     assert!(
@@ -382,7 +379,7 @@ fn a_run_longer_than_max_file_duration_continues_in_numbered_complete_files() {
         let (messages, metadata) = read_mcap(path);
         // Complete and indexed: the summary section is there.
         let bytes = std::fs::read(path).unwrap();
-        let summary = mcap::Summary::read(&bytes).unwrap();
+        let summary = dima_log::reader::summary(&bytes).unwrap();
         assert!(summary.is_some(), "{}: no summary", path.display());
         assert_eq!(metadata[0], "dima", "{}: {metadata:?}", path.display());
         if k > 0 {

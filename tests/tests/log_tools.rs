@@ -9,11 +9,11 @@ use std::process::Command as Process;
 use dima_core::Mode;
 use dima_e2e::{run_app, ONE_AT_A_TIME};
 use dima_groundlink::Command;
+use dima_log::LoggedRun;
 use dima_sim::runner::{run_simulation, SimOptions, SimReport, StatusMode};
 use dima_sim::scenario::{pct, send, Scenario};
 use dima_tools::logtools::export::{self, Channel, Format};
 use dima_tools::logtools::plot::{self, What};
-use dima_tools::logtools::read::LoggedRun;
 use dima_tools::logtools::replay;
 
 /// A 7 s drive: revive, manual, AUTO at 2 m/s and 90°, kill. Returns the report and the log.

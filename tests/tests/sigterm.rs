@@ -81,29 +81,24 @@ fn sigterm_safe_outputs_exit_0_complete_log() {
         .expect("log path printed")
         .to_owned();
     let bytes = std::fs::read(&path).unwrap();
-    let summary = mcap::Summary::read(&bytes)
+    let summary = dima_log::reader::summary(&bytes)
         .unwrap()
         .expect("summary section");
-    let names: Vec<_> = summary
-        .metadata_indexes
-        .iter()
-        .map(|m| m.name.as_str())
-        .collect();
+    let names: Vec<_> = summary.metadata_names.iter().map(String::as_str).collect();
     for name in ["dima", "rt_setup", "summary"] {
         assert!(names.contains(&name), "{name} missing from {names:?}");
     }
     assert!(summary
-        .attachment_indexes
+        .attachment_names
         .iter()
-        .any(|a| a.name == "wake_latency_histogram.txt"));
+        .any(|a| a == "wake_latency_histogram.txt"));
     let mut last_state = None;
     let mut raw = 0u64;
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
+    for m in dima_log::reader::messages(&bytes).unwrap() {
         match m.channel.topic.as_str() {
             "/dima/state" => last_state = Some(String::from_utf8(m.data.to_vec()).unwrap()),
             "/sensor/raw" => {
-                let packet: &[u8; 132] = m.data.as_ref().try_into().unwrap();
+                let packet: &[u8; 132] = m.data.as_slice().try_into().unwrap();
                 dima_sensorboard::SensorPacket::decode(packet).expect("replays");
                 raw += 1;
             }

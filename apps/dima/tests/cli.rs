@@ -261,3 +261,83 @@ fn keygen_writes_an_owner_only_key_once() {
     assert!(stderr.contains("chmod 600"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The recorded drive of the fixture, written again by the log writer as a run of three files
+/// (split twice); returns the files in order and the number of cycles.
+fn split_run(dir: &std::path::Path) -> (Vec<std::path::PathBuf>, usize) {
+    use dima_log::schema::{self, METADATA_DIMA};
+    use dima_log::writer::{McapLog, RunWriter};
+    let fixture = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../tests/fixtures/auto-pid-before-plugins.mcap"
+    );
+    let recorded = dima_log::LoggedRun::read(std::path::Path::new(fixture)).unwrap();
+    let dima = recorded
+        .metadata
+        .iter()
+        .find(|m| m.name == METADATA_DIMA)
+        .unwrap();
+    let pairs: Vec<(&'static str, String)> = ["version", "config"]
+        .into_iter()
+        .filter_map(|k| Some((k, dima.pairs.get(k)?.clone())))
+        .collect();
+    let first = dir.join(dima_log::naming::log_file_name(std::time::SystemTime::now()));
+    let mut log = McapLog::create_file(&first).unwrap();
+    log.set_time_offset(0);
+    log.metadata(METADATA_DIMA, &pairs).unwrap();
+    let mut run = RunWriter::new(Some(log), vec![(METADATA_DIMA.into(), pairs)], None);
+    let n = recorded.cycles.len();
+    for (i, c) in recorded.cycles.iter().enumerate() {
+        if i == n / 3 || i == 2 * n / 3 {
+            run.split_now(std::time::Instant::now());
+        }
+        let json = serde_json::to_vec(&c.msg).unwrap();
+        run.write_record(|l| l.message_on(&schema::CYCLE, c.t_ns, &json));
+    }
+    run.finish().unwrap().finish().unwrap();
+    (dima_log::naming::run_files(&first).unwrap(), n)
+}
+
+#[test]
+fn log_tools_read_every_file_of_a_run_given_any_of_them() {
+    let dir = std::env::temp_dir().join(format!("dima-cli-run-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (files, cycles) = split_run(&dir);
+    assert_eq!(files.len(), 3, "{files:?}");
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
+        .collect();
+    let run_name = names[0].trim_end_matches(".mcap");
+    for given in [&files[0], &files[2]] {
+        let out = dima()
+            .args(["log", "info", given.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        let text = String::from_utf8_lossy(&out.stdout);
+        let line = format!("files: 3 ({})", names.join(", "));
+        assert!(text.contains(&line), "given {}: {text}", given.display());
+        assert!(
+            text.contains(&format!("| {cycles} cycles |")),
+            "given {}: {text}",
+            given.display()
+        );
+
+        let out = dima()
+            .args(["log", "export", given.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        let csv = String::from_utf8_lossy(&out.stdout);
+        // A header line, then one row per cycle of the whole run.
+        assert_eq!(csv.lines().count(), cycles + 1, "given {}", given.display());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!("read 3 files of run {run_name}")),
+            "{err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -13,9 +13,6 @@
 //! the bytes. The writer runs on its own thread, so a slow disk never delays the link; the
 //! current chunk is closed every second, so a crash loses at most the last second.
 
-use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
 use std::thread::JoinHandle;
@@ -25,6 +22,8 @@ use anyhow::Context;
 use dima_groundlink::station::{Delivery, Settled};
 use dima_groundlink::v2::{self, CommandFrame, FailsafeCause, ReviveRefusal, RobotMode};
 use dima_groundlink::{Command, DisplayFrame};
+use dima_log::schema::ChannelSpec;
+use dima_log::writer::{Channel, McapLog};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -363,96 +362,63 @@ fn hex(bytes: &[u8]) -> String {
     bytes.iter().map(|b| format!("{b:02x}")).collect()
 }
 
-fn json_schema<T: JsonSchema>() -> String {
-    serde_json::to_string_pretty(&schemars::schema_for!(T)).unwrap_or_default()
+/// A JSON channel of the recording.
+const fn json_channel(topic: &'static str, schema_name: &'static str) -> ChannelSpec {
+    ChannelSpec {
+        topic,
+        encoding: "json",
+        schema_name,
+    }
 }
 
-/// The MCAP file being written.
+const COMMAND: ChannelSpec = json_channel(TOPIC_COMMAND, "dima_ground.Command");
+const DISPLAY: ChannelSpec = json_channel(TOPIC_DISPLAY, "dima_ground.Display");
+const LINK: ChannelSpec = json_channel(TOPIC_LINK, "dima_ground.Link");
+const ACK: ChannelSpec = json_channel(TOPIC_ACK, "dima_ground.Delivery");
+const RX_BYTES: ChannelSpec = ChannelSpec {
+    topic: TOPIC_RX_BYTES,
+    encoding: "dima-ground-bytes",
+    schema_name: "",
+};
+
+/// The recording's channels, in the order they are declared.
+fn channels() -> Vec<Channel> {
+    vec![
+        Channel::json::<CommandRecord>(COMMAND),
+        Channel::json::<DisplayRecord>(DISPLAY),
+        Channel::json::<LinkRecord>(LINK),
+        Channel::json::<DeliveryRecord>(ACK),
+        Channel {
+            spec: RX_BYTES,
+            schema: None,
+        },
+    ]
+}
+
+/// The MCAP file being written (log times are the events' own Unix-epoch times).
 struct SessionFile {
-    writer: mcap::Writer<BufWriter<File>>,
-    command: u16,
-    display: u16,
-    rx_bytes: u16,
-    link: u16,
-    ack: u16,
-    sequence: u32,
+    log: McapLog,
 }
 
 impl SessionFile {
     fn create(path: &Path) -> anyhow::Result<SessionFile> {
-        let file = File::create(path)
-            .with_context(|| format!("recording: cannot create {} (writable?)", path.display()))?;
-        let mut writer = mcap::WriteOptions::new()
-            .compression(Some(mcap::Compression::Zstd))
-            .profile("")
-            .create(BufWriter::new(file))
-            .context("recording: starting the MCAP file")?;
-        let none = BTreeMap::new();
-        let mut json = |title: &str, schema: String, topic: &str| -> anyhow::Result<u16> {
-            let id = writer.add_schema(title, "jsonschema", schema.as_bytes())?;
-            Ok(writer.add_channel(id, topic, "json", &none)?)
-        };
-        let command = json(
-            "dima_ground.Command",
-            json_schema::<CommandRecord>(),
-            TOPIC_COMMAND,
-        )?;
-        let display = json(
-            "dima_ground.Display",
-            json_schema::<DisplayRecord>(),
-            TOPIC_DISPLAY,
-        )?;
-        let link = json("dima_ground.Link", json_schema::<LinkRecord>(), TOPIC_LINK)?;
-        let ack = json(
-            "dima_ground.Delivery",
-            json_schema::<DeliveryRecord>(),
-            TOPIC_ACK,
-        )?;
-        let rx_bytes = writer.add_channel(0, TOPIC_RX_BYTES, "dima-ground-bytes", &none)?;
-        Ok(SessionFile {
-            writer,
-            command,
-            display,
-            rx_bytes,
-            link,
-            ack,
-            sequence: 0,
-        })
+        let mut log = McapLog::create_with_channels(path, channels())
+            .with_context(|| format!("recording: cannot start {}", path.display()))?;
+        log.set_time_offset(0);
+        Ok(SessionFile { log })
     }
 
-    fn write(&mut self, channel_id: u16, t_ns: u64, data: &[u8]) -> anyhow::Result<()> {
-        self.sequence = self.sequence.wrapping_add(1);
-        self.writer.write_to_known_channel(
-            &mcap::records::MessageHeader {
-                channel_id,
-                sequence: self.sequence,
-                log_time: t_ns,
-                publish_time: t_ns,
-            },
-            data,
-        )?;
-        Ok(())
+    fn write(&mut self, spec: &ChannelSpec, t_ns: u64, data: &[u8]) -> anyhow::Result<()> {
+        self.log.message_on(spec, t_ns, data)
     }
 
     fn record(&mut self, event: &RecordEvent) -> anyhow::Result<()> {
         match event {
-            RecordEvent::Sent(t, c) => {
-                let json = serde_json::to_vec(c)?;
-                self.write(self.command, *t, &json)
-            }
-            RecordEvent::Delivery(t, d) => {
-                let json = serde_json::to_vec(d)?;
-                self.write(self.ack, *t, &json)
-            }
-            RecordEvent::Received(t, bytes) => self.write(self.rx_bytes, *t, bytes),
-            RecordEvent::Display(t, d) => {
-                let json = serde_json::to_vec(d)?;
-                self.write(self.display, *t, &json)
-            }
-            RecordEvent::Link(t, l) => {
-                let json = serde_json::to_vec(l)?;
-                self.write(self.link, *t, &json)
-            }
+            RecordEvent::Sent(t, c) => self.write(&COMMAND, *t, &serde_json::to_vec(c)?),
+            RecordEvent::Delivery(t, d) => self.write(&ACK, *t, &serde_json::to_vec(d)?),
+            RecordEvent::Received(t, bytes) => self.write(&RX_BYTES, *t, bytes),
+            RecordEvent::Display(t, d) => self.write(&DISPLAY, *t, &serde_json::to_vec(d)?),
+            RecordEvent::Link(t, l) => self.write(&LINK, *t, &serde_json::to_vec(l)?),
         }
     }
 }
@@ -539,13 +505,13 @@ fn write_loop(mut file: SessionFile, events: Receiver<RecordEvent>) -> anyhow::R
             }
             Err(RecvTimeoutError::Timeout) => {
                 if std::mem::take(&mut dirty) {
-                    file.writer.flush()?;
+                    file.log.flush()?;
                 }
             }
             Err(RecvTimeoutError::Disconnected) => break,
         }
     }
-    file.writer.finish()?;
+    file.log.finish()?;
     Ok(written)
 }
 
@@ -631,8 +597,7 @@ mod tests {
 
         let bytes = std::fs::read(&path).unwrap();
         let mut seen = Vec::new();
-        for m in mcap::MessageStream::new(&bytes).unwrap() {
-            let m = m.unwrap();
+        for m in dima_log::reader::messages(&bytes).unwrap() {
             seen.push((m.channel.topic.clone(), m.log_time));
             match m.channel.topic.as_str() {
                 TOPIC_COMMAND => {
@@ -653,7 +618,7 @@ mod tests {
                     assert!((d.lat_deg - 47.3769).abs() < 1e-9);
                     assert_eq!(d.pressure_pa, None);
                 }
-                TOPIC_RX_BYTES => assert_eq!(m.data.as_ref(), frame.encode().as_slice()),
+                TOPIC_RX_BYTES => assert_eq!(m.data, frame.encode().as_slice()),
                 TOPIC_LINK => assert!(String::from_utf8_lossy(&m.data).contains("connected")),
                 TOPIC_ACK => {
                     let d: DeliveryRecord = serde_json::from_slice(&m.data).unwrap();
@@ -664,10 +629,12 @@ mod tests {
                 }
                 other => panic!("unexpected topic {other}"),
             }
-            let schema = m.channel.schema.as_ref();
             if m.channel.message_encoding == "json" {
-                let s = schema.expect("json channels declare a schema");
-                assert_eq!(s.encoding, "jsonschema");
+                assert!(
+                    !m.channel.schema.is_empty(),
+                    "json channels declare a schema"
+                );
+                assert_eq!(m.channel.schema_encoding, "jsonschema");
             }
         }
         assert_eq!(seen.len(), 6, "{seen:?}");

@@ -56,19 +56,15 @@ impl SensorCalibration {
         )
     }
 
-    /// The last info frame in a robot's MCAP log (`/sensor/info`, written by `dima`).
+    /// The last info frame in a robot's MCAP log (`/sensor/info`, written by `dima`), over
+    /// every file of the run `path` belongs to.
     pub fn from_robot_log(path: &Path) -> anyhow::Result<SensorCalibration> {
-        use dima_core::schema::{SensorInfoMessage, SENSOR_INFO};
-        let bytes = std::fs::read(path)
-            .map_err(|e| anyhow::anyhow!("cannot read {}: {e}", path.display()))?;
-        let mut last: Option<SensorInfoMessage> = None;
-        for message in mcap::MessageStream::new(&bytes)? {
-            let message = message?;
-            if message.channel.topic == SENSOR_INFO.topic {
-                last = Some(serde_json::from_slice(&message.data)?);
-            }
+        use dima_log::schema::SENSOR_INFO;
+        let run = dima_log::run::read_run(path)?;
+        if let Some(w) = run.warnings.first() {
+            anyhow::bail!("{w}");
         }
-        let info = last.ok_or_else(|| {
+        let info = run.infos.into_iter().last().map(|i| i.msg).ok_or_else(|| {
             anyhow::anyhow!(
                 "{} has no {} message (a log of `dima run` or `dima sim` once the sensor board answered)",
                 path.display(),

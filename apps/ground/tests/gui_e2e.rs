@@ -16,11 +16,11 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
-use dima_core::schema::{CycleMessage, StateMessage, CYCLE, STATE};
 use dima_core::{Mode, ReviveRefusal};
 use dima_ground::recording::{
     CommandRecord, DeliveryRecord, DisplayRecord, TOPIC_ACK, TOPIC_COMMAND, TOPIC_DISPLAY,
 };
+use dima_log::schema::{CycleMessage, StateMessage, CYCLE, STATE};
 
 /// The throttle's neutral pulse width in the robot's (default) channel table, µs.
 const THROTTLE_NEUTRAL_US: u16 = 1500;
@@ -226,8 +226,7 @@ fn robot_log(path: &Path) -> RobotLog {
     let mut accepted = [0u32; 8];
     let mut link = serde_json::Value::Null;
     let mut refusals = Vec::new();
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
+    for m in dima_log::reader::messages(&bytes).unwrap() {
         if m.channel.topic == STATE.topic {
             let s: StateMessage = serde_json::from_slice(&m.data).unwrap();
             refusals.extend(s.refused);
@@ -357,8 +356,7 @@ fn check_session_recording(path: &Path) {
     let mut modes: Vec<String> = Vec::new();
     let mut max_ack = 0;
     let mut revives_acknowledged = 0;
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
+    for m in dima_log::reader::messages(&bytes).unwrap() {
         match m.channel.topic.as_str() {
             TOPIC_COMMAND => {
                 let c: CommandRecord = serde_json::from_slice(&m.data).unwrap();

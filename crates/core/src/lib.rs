@@ -11,8 +11,8 @@
 //!   the mapping from modes to servo targets;
 //! - [`step`]: [`Core::step`], one cycle as a pure function of state, inputs, time and
 //!   configuration;
-//! - [`counters`], [`schema`]: the counters and the typed log messages, whose JSON schemas are
-//!   generated from the structs.
+//! - [`counters`]: the counters the loop keeps (the typed log messages that carry them, and
+//!   their JSON schemas, are in the `dima-log` crate).
 //!
 //! ```
 //! use dima_core::config::Config;
@@ -42,7 +42,6 @@ pub mod counters;
 pub mod estimate;
 pub mod monitor;
 pub mod safety;
-pub mod schema;
 pub mod step;
 
 pub use dima_groundlink::Command;

@@ -1,10 +1,10 @@
 //! The live view: the log's channels, and the GNSS position as `foxglove.LocationFix` on
 //! [`LOCATION_TOPIC`], served over the Foxglove WebSocket protocol (`[foxglove] listen`).
 //!
-//! The logger thread owns the [`LiveView`] and feeds it what it writes to the log: every
-//! channel as it is registered ([`LiveView::add_channel`], the same topic, schema and
-//! encodings as in the MCAP file) and every message as it is written ([`LiveView::publish`]),
-//! plus each new GNSS fix ([`LiveView::location`]). The realtime thread never sees it.
+//! The logger thread owns the [`LiveView`] and feeds it what it writes to the log, as the log
+//! writer's tap ([`LiveTap`]): every channel as it is declared ([`LiveView::add_channel`], the
+//! same topic, schema and encodings as in the MCAP file) and every message as it is written
+//! ([`LiveView::publish`]), plus each new GNSS fix ([`LiveView::location`]). The realtime thread never sees it.
 //!
 //! The server runs on its own runtime (one worker thread, `dima-live`). Publishing never waits
 //! for a client: a message is only copied into each subscribed client's outbox, a bounded
@@ -302,6 +302,35 @@ impl LiveView {
         self.server.location(log_time_ns, fix);
         #[cfg(not(feature = "foxglove"))]
         let _ = (log_time_ns, fix);
+    }
+}
+
+/// The live view as the log writer's tap (`dima_log::writer::Tap`): every channel the writer
+/// declares and every message it writes, in the logger thread, in every file of the run.
+pub struct LiveTap(pub std::sync::Arc<LiveView>);
+
+impl dima_log::writer::Tap for LiveTap {
+    fn channel(
+        &mut self,
+        id: u16,
+        topic: &str,
+        schema_name: &str,
+        schema_encoding: &str,
+        schema: &[u8],
+        message_encoding: &str,
+    ) {
+        self.0.add_channel(
+            id,
+            topic,
+            schema_name,
+            schema_encoding,
+            schema,
+            message_encoding,
+        );
+    }
+
+    fn message(&mut self, channel_id: u16, log_time_ns: u64, data: &[u8]) {
+        self.0.publish(channel_id, log_time_ns, data);
     }
 }
 

@@ -1,7 +1,7 @@
 //! From the loop's fixed-size [`CycleRecord`] to the typed log messages of
-//! [`dima_core::schema`] (on the logger thread, never on the realtime thread).
+//! [`dima_log::schema`] (on the logger thread, never on the realtime thread).
 
-use dima_core::schema::{
+use dima_log::schema::{
     ActionMessage, CommandMessage, CycleMessage, SensorInfoMessage, SensorMessage,
     SetpointsMessage, StateMessage,
 };

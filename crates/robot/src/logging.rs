@@ -29,25 +29,26 @@
 //! what keeps a long run's memory flat. Every record goes to exactly one file: the old file's
 //! last chunk is flushed before the next file takes the following records.
 //!
-//! For the simulation, [`LogFaults`] stalls the thread (it stops draining the ring) or makes
-//! every write fail with ENOSPC during time windows; the fault sits in the file wrapper
-//! [`LogFile`], so the code above it is the production path.
+//! The writing itself (files, rotation, resume, disk-full handling) is `dima_log`'s
+//! [`RunWriter`]; this module is the thread that drains the ring into it. For the simulation,
+//! [`LogFaults`] stalls the thread (it stops draining the ring) or makes every write fail with
+//! ENOSPC during time windows; the fault sits under the MCAP writer, so the code above it is
+//! the production path.
 
-use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{BufWriter, Seek, SeekFrom, Write};
-use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc;
 use std::sync::Arc;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
-use anyhow::Context;
-use dima_core::schema::{self, ChannelSpec};
 use dima_core::Mode;
+pub use dima_log::naming::log_file_name;
+use dima_log::schema;
+pub use dima_log::writer::{
+    McapLog, RunWriter, CHUNK_BYTES, METADATA_LOG_CONTINUED, METADATA_LOG_RESUMED,
+};
 
 use crate::app::record::{events, CycleRecord};
-use crate::live::LiveView;
+use crate::live::{LiveTap, LiveView};
 use crate::log_messages::{cycle_message, info_message, state_message};
 use crate::rt::{monotonic_ns, RtSetupReport};
 
@@ -76,297 +77,49 @@ pub struct LogFaults {
     pub full: Vec<NsWindow>,
 }
 
-/// The log file under the MCAP writer: the file itself, and an injected full disk for the
-/// simulation (`None` on the robot, so every write goes straight to the file).
-pub struct LogFile {
-    file: File,
-    full: Arc<AtomicBool>,
+/// Writing the robot's records to a log file.
+pub trait CycleLog {
+    /// Writes one cycle: raw packet, info frame, state change, and the decoded cycle (if
+    /// `with_decoded`).
+    ///
+    /// # Errors
+    /// A write failed.
+    fn record(&mut self, r: &CycleRecord, with_decoded: bool) -> anyhow::Result<()>;
+
+    /// The RT setup report as metadata.
+    ///
+    /// # Errors
+    /// The write failed.
+    fn rt_setup(&mut self, report: &RtSetupReport) -> anyhow::Result<()>;
 }
 
-/// An injected full disk: ENOSPC while `full` is set.
-fn check_disk(full: &AtomicBool) -> std::io::Result<()> {
-    if full.load(Ordering::Relaxed) {
-        Err(std::io::Error::from_raw_os_error(libc::ENOSPC))
-    } else {
-        Ok(())
-    }
-}
-
-impl LogFile {
-    fn check(&self) -> std::io::Result<()> {
-        check_disk(&self.full)
-    }
-}
-
-impl Write for LogFile {
-    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
-        self.check()?;
-        self.file.write(buf)
-    }
-
-    fn flush(&mut self) -> std::io::Result<()> {
-        self.check()?;
-        self.file.flush()
-    }
-}
-
-impl Seek for LogFile {
-    fn seek(&mut self, pos: SeekFrom) -> std::io::Result<u64> {
-        self.file.seek(pos)
-    }
-}
-
-/// The MCAP file being written.
-pub struct McapLog {
-    writer: mcap::Writer<BufWriter<LogFile>>,
-    /// Length of the file at the last successful flush: complete records only.
-    flushed_len: u64,
-    /// Cycle records written since the last successful flush: lost if the file has to be cut
-    /// back to `flushed_len`.
-    unflushed_records: u64,
-    /// Set: writes fail as on a full disk (the simulation's `log:full`).
-    disk_full: Arc<AtomicBool>,
-    path: PathBuf,
-    raw: u16,
-    cycle: u16,
-    state: u16,
-    info: u16,
-    sequence: u32,
-    /// When the file was created (for the split by duration).
-    opened: Instant,
-    /// Added to CLOCK_MONOTONIC to get wall-clock ns for log times.
-    epoch_offset_ns: i128,
-    /// The live view: sent every channel and message written here.
-    live: Option<Arc<LiveView>>,
-}
-
-/// `dima-YYYYMMDDTHHMMSSZ.mcap` for `now`.
-pub fn log_file_name(now: SystemTime) -> String {
-    let secs = now.duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
-    let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
-    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "dima-{year:04}{month:02}{day:02}T{:02}{:02}{:02}Z.mcap",
-        rem / 3_600,
-        rem % 3_600 / 60,
-        rem % 60
-    )
-}
-
-impl McapLog {
-    /// Creates `dir` if needed and a new timestamped file in it.
-    pub fn create(dir: &Path) -> anyhow::Result<McapLog> {
-        McapLog::create_live(dir, None)
-    }
-
-    /// As [`McapLog::create`], also serving the log's channels and messages on `live`; the
-    /// files the run continues in serve them too.
-    pub fn create_live(dir: &Path, live: Option<Arc<LiveView>>) -> anyhow::Result<McapLog> {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("log: cannot create directory {}", dir.display()))?;
-        let path = dir.join(log_file_name(SystemTime::now()));
-        McapLog::create_file_with(&path, Arc::new(AtomicBool::new(false)), live)
-    }
-
-    /// Creates the file at `path`.
-    pub fn create_file(path: &Path) -> anyhow::Result<McapLog> {
-        McapLog::create_file_with(path, Arc::new(AtomicBool::new(false)), None)
-    }
-
-    /// Creates the file at `path`, its writes failing with ENOSPC while `full` is set.
-    fn create_file_with(
-        path: &Path,
-        full: Arc<AtomicBool>,
-        live: Option<Arc<LiveView>>,
-    ) -> anyhow::Result<McapLog> {
-        check_disk(&full).with_context(|| format!("log: cannot create {}", path.display()))?;
-        let file = LogFile {
-            file: File::create(path)
-                .with_context(|| format!("log: cannot create {} (writable?)", path.display()))?,
-            full: Arc::clone(&full),
-        };
-        file.check()
-            .with_context(|| format!("log: cannot write {}", path.display()))?;
-        let mut writer = mcap::WriteOptions::new()
-            .compression(Some(mcap::Compression::Zstd))
-            // Compressed on the logger thread itself. `mcap` would otherwise start a zstd
-            // worker per CPU with buffers of about 40 MB, whose pages the process touches
-            // bit by bit over a long run; a few tens of KB a second need no workers, and on
-            // the robot they would compete with the control loop for the cores.
-            .compression_threads(0)
-            .chunk_size(Some(CHUNK_BYTES))
-            .profile("")
-            .create(BufWriter::new(file))
-            .context("log: starting the MCAP file")?;
-        let none = BTreeMap::new();
-        let mut add = |spec: &ChannelSpec| -> anyhow::Result<u16> {
-            let schema = schema::schema_of(spec);
-            let schema_id = match &schema {
-                Some(text) => writer.add_schema(spec.schema_name, "jsonschema", text.as_bytes())?,
-                None => 0,
-            };
-            let id = writer.add_channel(schema_id, spec.topic, spec.encoding, &none)?;
-            if let Some(v) = &live {
-                let (name, encoding) = match schema {
-                    Some(_) => (spec.schema_name, "jsonschema"),
-                    None => ("", ""),
-                };
-                let text = schema.unwrap_or_default();
-                v.add_channel(
-                    id,
-                    spec.topic,
-                    name,
-                    encoding,
-                    text.as_bytes(),
-                    spec.encoding,
-                );
-            }
-            Ok(id)
-        };
-        let raw = add(&schema::SENSOR_RAW)?;
-        let cycle = add(&schema::CYCLE)?;
-        let state = add(&schema::STATE)?;
-        let info = add(&schema::SENSOR_INFO)?;
-        let wall = SystemTime::now()
-            .duration_since(UNIX_EPOCH)
-            .map_or(0, |d| d.as_nanos() as i128);
-        let mut log = McapLog {
-            writer,
-            flushed_len: 0,
-            unflushed_records: 0,
-            disk_full: full,
-            path: path.to_owned(),
-            raw,
-            cycle,
-            state,
-            info,
-            sequence: 0,
-            opened: Instant::now(),
-            epoch_offset_ns: wall - i128::from(monotonic_ns()),
-            live,
-        };
-        // The header, schemas and channels on the disk at once: a file that fails later can
-        // be cut back to complete records.
-        log.flush()?;
-        Ok(log)
-    }
-
-    /// Log times from now on are `mono_ns + offset_ns` instead of the wall clock's reading of
-    /// CLOCK_MONOTONIC: a simulation in virtual time passes a fixed offset, so the file does
-    /// not depend on when it was written.
-    pub fn set_time_offset(&mut self, offset_ns: i128) {
-        self.epoch_offset_ns = offset_ns;
-    }
-
-    /// The file's path.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
-    pub(crate) fn log_time(&self, mono_ns: u64) -> u64 {
-        (i128::from(mono_ns) + self.epoch_offset_ns).max(0) as u64
-    }
-
-    fn message(&mut self, channel_id: u16, mono_ns: u64, data: &[u8]) -> anyhow::Result<()> {
-        self.sequence = self.sequence.wrapping_add(1);
-        let t = self.log_time(mono_ns);
-        self.writer.write_to_known_channel(
-            &mcap::records::MessageHeader {
-                channel_id,
-                sequence: self.sequence,
-                log_time: t,
-                publish_time: t,
-            },
-            data,
-        )?;
-        if let Some(live) = &self.live {
-            live.publish(channel_id, t, data);
+impl CycleLog for McapLog {
+    fn record(&mut self, r: &CycleRecord, with_decoded: bool) -> anyhow::Result<()> {
+        let t = r.tick.wake_ns;
+        if let Some(raw) = &r.raw {
+            self.message_on(&schema::SENSOR_RAW, t, raw.as_ref())?;
+        }
+        if let Some(info) = &r.info {
+            let json = serde_json::to_vec(&info_message(info))?;
+            self.message_on(&schema::SENSOR_INFO, t, &json)?;
+        }
+        if r.events != 0 {
+            self.message_on(&schema::STATE, t, &serde_json::to_vec(&state_message(r))?)?;
+        }
+        if with_decoded {
+            self.message_on(&schema::CYCLE, t, &serde_json::to_vec(&cycle_message(r))?)?;
         }
         Ok(())
     }
 
-    /// A metadata record of string pairs.
-    pub fn metadata(&mut self, name: &str, pairs: &[(&str, String)]) -> anyhow::Result<()> {
-        self.writer.write_metadata(&mcap::records::Metadata {
-            name: name.to_owned(),
-            metadata: pairs
-                .iter()
-                .map(|(k, v)| ((*k).to_owned(), v.clone()))
-                .collect(),
-        })?;
-        Ok(())
-    }
-
-    /// The RT setup report as metadata.
-    pub fn rt_setup(&mut self, report: &RtSetupReport) -> anyhow::Result<()> {
+    fn rt_setup(&mut self, report: &RtSetupReport) -> anyhow::Result<()> {
         self.metadata(
-            "rt_setup",
+            schema::METADATA_RT_SETUP,
             &[
                 ("report", report.to_string()),
                 ("json", serde_json::to_string(report)?),
             ],
         )
-    }
-
-    /// Writes one cycle: raw packet, info frame, state change, and the decoded cycle (if
-    /// `with_decoded`).
-    pub fn record(&mut self, r: &CycleRecord, with_decoded: bool) -> anyhow::Result<()> {
-        let t = r.tick.wake_ns;
-        if let Some(raw) = &r.raw {
-            self.message(self.raw, t, raw.as_ref())?;
-        }
-        if let Some(info) = &r.info {
-            self.message(self.info, t, &serde_json::to_vec(&info_message(info))?)?;
-        }
-        if r.events != 0 {
-            self.message(self.state, t, &serde_json::to_vec(&state_message(r))?)?;
-        }
-        if with_decoded {
-            self.message(self.cycle, t, &serde_json::to_vec(&cycle_message(r))?)?;
-        }
-        self.unflushed_records += 1;
-        Ok(())
-    }
-
-    /// Ends the current chunk and flushes it to the file.
-    pub fn flush(&mut self) -> anyhow::Result<()> {
-        self.writer.flush()?;
-        self.flushed_len = std::fs::metadata(&self.path)?.len();
-        self.unflushed_records = 0;
-        Ok(())
-    }
-
-    /// Adds an attachment (e.g. the latency histogram).
-    pub fn attach(&mut self, name: &str, media_type: &str, data: &[u8]) -> anyhow::Result<()> {
-        let t = self.log_time(monotonic_ns());
-        self.writer.attach(&mcap::Attachment {
-            log_time: t,
-            create_time: t,
-            name: name.to_owned(),
-            media_type: media_type.to_owned(),
-            data: std::borrow::Cow::Borrowed(data),
-        })?;
-        Ok(())
-    }
-
-    /// Writes the summary and index and closes the file; an error when any of it did not
-    /// reach the file.
-    pub fn finish(mut self) -> anyhow::Result<PathBuf> {
-        self.writer.finish()?;
-        self.writer
-            .into_inner()
-            .flush()
-            .with_context(|| format!("log: finishing {}", self.path.display()))?;
-        Ok(self.path)
     }
 }
 
@@ -393,6 +146,9 @@ pub struct LoggerSettings {
     pub max_file_duration: Option<Duration>,
     /// Injected disk faults (the simulation's; none on the robot).
     pub faults: LogFaults,
+    /// The live view (`[foxglove] listen`): served every channel and message the log writes,
+    /// and each new GNSS fix.
+    pub live: Option<Arc<LiveView>>,
 }
 
 impl Default for LoggerSettings {
@@ -403,304 +159,8 @@ impl Default for LoggerSettings {
             header: Vec::new(),
             max_file_duration: Some(Duration::from_secs(600)),
             faults: LogFaults::default(),
+            live: None,
         }
-    }
-}
-
-/// Metadata record at the start of a resumed file: `previous_file`, `error`,
-/// `records_not_logged`.
-pub const METADATA_LOG_RESUMED: &str = "log_resumed";
-
-/// Metadata record at the start of a file that continues the previous one after the split by
-/// duration: `previous_file`.
-pub const METADATA_LOG_CONTINUED: &str = "log_continued";
-
-/// How often a failed log, or a split that could not open the next file, is retried.
-const LOG_RETRY: Duration = Duration::from_secs(1);
-
-/// A chunk is ended once this many uncompressed bytes went into it, even before the next
-/// flush. zstd compresses each chunk as one frame through an input buffer of its 2 MiB window,
-/// and the process's resident memory keeps the largest part of that buffer a chunk ever
-/// filled: a second of 250 Hz records is about 400 KB, but the backlog after a stalled disk
-/// would fill more. Bounded here, a long run's memory stays flat.
-pub const CHUNK_BYTES: u64 = 512 * 1024;
-
-/// The MCAP end of a file cut at `len` bytes (a complete record boundary): Data End and a
-/// Footer without a summary section, then the magic.
-fn end_of_mcap() -> Vec<u8> {
-    let mut v = Vec::with_capacity(9 + 4 + 9 + 20 + 8);
-    v.push(0x0F); // Data End
-    v.extend_from_slice(&4u64.to_le_bytes());
-    v.extend_from_slice(&0u32.to_le_bytes()); // data section CRC not computed
-    v.push(0x02); // Footer
-    v.extend_from_slice(&20u64.to_le_bytes());
-    v.extend_from_slice(&0u64.to_le_bytes()); // no summary section
-    v.extend_from_slice(&0u64.to_le_bytes()); // no summary offsets
-    v.extend_from_slice(&0u32.to_le_bytes()); // summary CRC not computed
-    v.extend_from_slice(b"\x89MCAP0\r\n");
-    v
-}
-
-/// Ends `path` at its last complete chunk (`len` bytes) as a valid MCAP file.
-fn close_failed_file(path: &Path, len: u64, full: &AtomicBool) -> std::io::Result<()> {
-    check_disk(full)?;
-    let mut file = std::fs::OpenOptions::new().write(true).open(path)?;
-    file.set_len(len)?;
-    file.seek(SeekFrom::End(0))?;
-    file.write_all(&end_of_mcap())?;
-    file.sync_data()
-}
-
-/// `dir/NAME-n.mcap` for `dir/NAME.mcap`.
-fn resumed_name(first: &Path, n: u32) -> PathBuf {
-    let stem = first
-        .file_stem()
-        .map_or_else(|| "dima".to_owned(), |s| s.to_string_lossy().into_owned());
-    first.with_file_name(format!("{stem}-{n}.mcap"))
-}
-
-/// A log file that failed, waiting for the disk.
-struct FailedLog {
-    path: PathBuf,
-    flushed_len: u64,
-    error: String,
-    next_try: Instant,
-    not_logged: u64,
-}
-
-/// Logging of one run, across failed, resumed and continued files.
-struct LogState {
-    log: Option<McapLog>,
-    failed: Option<FailedLog>,
-    /// The run's first file (the following files are named after it).
-    first: Option<PathBuf>,
-    /// Files after the first so far, whatever the reason (a disk fault or the split by
-    /// duration): one numbering for the run.
-    numbered: u32,
-    disk_full: Arc<AtomicBool>,
-    /// The live view the run's files serve.
-    live: Option<Arc<LiveView>>,
-    header: Vec<(String, Vec<(&'static str, String)>)>,
-    /// Split the run into files of at most this duration.
-    max_file_duration: Option<Duration>,
-    /// A split that could not open the next file waits until then (the current file goes on).
-    next_split_try: Option<Instant>,
-    /// A file that could not be finished at a split, with its length at its last flush: it is
-    /// ended there as soon as the disk allows.
-    unfinished: Option<(PathBuf, u64)>,
-}
-
-impl LogState {
-    fn new(
-        log: Option<McapLog>,
-        header: Vec<(String, Vec<(&'static str, String)>)>,
-        max_file_duration: Option<Duration>,
-    ) -> LogState {
-        LogState {
-            first: log.as_ref().map(|l| l.path().to_owned()),
-            disk_full: log.as_ref().map_or_else(
-                || Arc::new(AtomicBool::new(false)),
-                |l| Arc::clone(&l.disk_full),
-            ),
-            live: log.as_ref().and_then(|l| l.live.clone()),
-            log,
-            failed: None,
-            numbered: 0,
-            header,
-            max_file_duration: max_file_duration.filter(|d| !d.is_zero()),
-            next_split_try: None,
-            unfinished: None,
-        }
-    }
-
-    /// Opens the run's next file (`NAME-n.mcap`): the header metadata, then `note`, flushed.
-    /// A file that cannot be started is removed again.
-    fn open_next(
-        &self,
-        note: &str,
-        pairs: &[(&str, String)],
-    ) -> (PathBuf, anyhow::Result<McapLog>) {
-        let Some(first) = &self.first else {
-            return (
-                PathBuf::new(),
-                Err(anyhow::anyhow!("log: no file to continue")),
-            );
-        };
-        let path = resumed_name(first, self.numbered + 1);
-        let next = McapLog::create_file_with(&path, Arc::clone(&self.disk_full), self.live.clone())
-            .and_then(|mut l| {
-                for (name, pairs) in &self.header {
-                    l.metadata(name, pairs)?;
-                }
-                l.metadata(note, pairs)?;
-                l.flush()?;
-                Ok(l)
-            });
-        if next.is_err() {
-            let _ = std::fs::remove_file(&path);
-        }
-        (path, next)
-    }
-
-    /// A write failed: logging stops with one message, the file is kept for closing.
-    fn fail(&mut self, error: &anyhow::Error) {
-        let Some(log) = self.log.take() else { return };
-        let path = log.path.clone();
-        let flushed_len = log.flushed_len;
-        // The records since the last flush go with the file's unflushed end.
-        let not_logged = log.unflushed_records;
-        tracing::error!(
-            "log: writing {} failed: {error:#}; logging stops, the robot keeps running \
-             (retrying every {} s in a new file)",
-            path.display(),
-            LOG_RETRY.as_secs()
-        );
-        // Dropping the writer tries to finish the file; on a full disk that fails quietly,
-        // and the file is cut back to `flushed_len` when the disk works again.
-        drop(log);
-        self.failed = Some(FailedLog {
-            path,
-            flushed_len,
-            error: format!("{error:#}"),
-            next_try: Instant::now() + LOG_RETRY,
-            not_logged,
-        });
-    }
-
-    /// While failed: counts a record that could not be logged, and every second tries to
-    /// close the failed file and resume in a new one. Also ends a file a split could not
-    /// finish.
-    fn retry(&mut self, now: Instant) {
-        self.end_unfinished();
-        let Some(failed) = self.failed.as_ref() else {
-            return;
-        };
-        if now < failed.next_try {
-            return;
-        }
-        if let Some(f) = self.failed.as_mut() {
-            f.next_try = now + LOG_RETRY;
-        }
-        let Some(failed) = self.failed.as_ref() else {
-            return;
-        };
-        if close_failed_file(&failed.path, failed.flushed_len, &self.disk_full).is_err() {
-            return;
-        }
-        let (path, resumed) = self.open_next(
-            METADATA_LOG_RESUMED,
-            &[
-                ("previous_file", failed.path.display().to_string()),
-                ("error", failed.error.clone()),
-                ("records_not_logged", failed.not_logged.to_string()),
-            ],
-        );
-        if let Ok(l) = resumed {
-            tracing::warn!(
-                "log: logging resumed in {} ({} records not logged; {} ends at its last \
-                 complete chunk)",
-                path.display(),
-                failed.not_logged,
-                failed.path.display()
-            );
-            self.numbered += 1;
-            self.failed = None;
-            self.log = Some(l);
-        }
-    }
-
-    /// Whether the current file is due to be split at `now`.
-    fn split_due(&self, now: Instant) -> bool {
-        match (&self.log, self.max_file_duration) {
-            (Some(l), Some(max)) => {
-                now.saturating_duration_since(l.opened) >= max
-                    && self.next_split_try.is_none_or(|t| now >= t)
-            }
-            _ => false,
-        }
-    }
-
-    /// When the current file is older than the longest file duration: flushes its last
-    /// chunk, opens the next file with the header and a `log_continued` note, and finishes
-    /// the old file (summary and index). The records go on in exactly one file: all before
-    /// the split in the old one, all after it in the new one. When the next file cannot be
-    /// opened, the current one goes on and the split is tried again a second later.
-    fn split(&mut self, now: Instant) {
-        if !self.split_due(now) {
-            return;
-        }
-        let Some(log) = self.log.as_mut() else { return };
-        if let Err(e) = log.flush() {
-            self.fail(&e);
-            return;
-        }
-        let previous = log.path.clone();
-        let (path, next) = self.open_next(
-            METADATA_LOG_CONTINUED,
-            &[("previous_file", previous.display().to_string())],
-        );
-        let next = match next {
-            Ok(l) => l,
-            Err(e) => {
-                tracing::warn!(
-                    "log: cannot start {} ({e:#}); {} goes on, trying again in {} s",
-                    path.display(),
-                    previous.display(),
-                    LOG_RETRY.as_secs()
-                );
-                self.next_split_try = Some(now + LOG_RETRY);
-                return;
-            }
-        };
-        self.next_split_try = None;
-        self.numbered += 1;
-        let Some(old) = self.log.replace(next) else {
-            return;
-        };
-        let flushed_len = old.flushed_len;
-        match old.finish() {
-            Ok(_) => tracing::info!(
-                "log: {} finished, the run continues in {}",
-                previous.display(),
-                path.display()
-            ),
-            Err(e) => {
-                tracing::warn!(
-                    "log: finishing {} failed ({e:#}); it will end at its last complete chunk, \
-                     the run continues in {}",
-                    previous.display(),
-                    path.display()
-                );
-                self.unfinished = Some((previous, flushed_len));
-                self.end_unfinished();
-            }
-        }
-    }
-
-    /// Ends a file that a split could not finish at its last complete chunk, once the disk
-    /// allows (all its records are in that chunk: it was flushed before the split).
-    fn end_unfinished(&mut self) {
-        if let Some((path, len)) = &self.unfinished {
-            if close_failed_file(path, *len, &self.disk_full).is_ok() {
-                self.unfinished = None;
-            }
-        }
-    }
-
-    /// At the end of the run: a file still failed is closed at its last complete chunk if
-    /// the disk allows.
-    fn finish(mut self) -> Option<McapLog> {
-        self.end_unfinished();
-        if let Some(failed) = self.failed.take() {
-            if close_failed_file(&failed.path, failed.flushed_len, &self.disk_full).is_ok() {
-                tracing::warn!(
-                    "log: {} ends at its last complete chunk; {} records were not logged",
-                    failed.path.display(),
-                    failed.not_logged
-                );
-            }
-        }
-        self.log
     }
 }
 
@@ -739,107 +199,142 @@ fn report_events(r: &CycleRecord, last_mode: &mut Mode) {
 /// the ring is empty, and writes `rt_setup` reports as they arrive.
 pub fn spawn_logger(
     log: Option<McapLog>,
-    mut records: rtrb::Consumer<CycleRecord>,
+    records: rtrb::Consumer<CycleRecord>,
     rt_reports: mpsc::Receiver<RtSetupReport>,
     settings: LoggerSettings,
     stop: Arc<AtomicBool>,
-    mut observer: Option<crate::app::run::Observer>,
+    observer: Option<crate::app::run::Observer>,
 ) -> std::io::Result<std::thread::JoinHandle<LoggerOutcome>> {
+    let mut run = RunWriter::new(log, settings.header, settings.max_file_duration);
+    if let Some(live) = &settings.live {
+        run.set_tap(Box::new(LiveTap(Arc::clone(live))));
+    }
+    let worker = Logger {
+        run,
+        live: settings.live,
+        records,
+        rt_reports,
+        faults: settings.faults,
+        flush_interval: settings.flush_interval,
+        decoded_every: settings.decoded_every.max(1),
+        stop,
+        observer,
+        last_mode: Mode::Killed,
+        stalled: false,
+        written: 0,
+    };
     std::thread::Builder::new()
         .name("dima-logger".into())
-        .spawn(move || {
-            let mut state = LogState::new(log, settings.header, settings.max_file_duration);
-            let faults = settings.faults;
-            let started_ns = monotonic_ns();
-            let mut written = 0u64;
-            let mut last_flush = Instant::now();
-            let mut last_mode = Mode::Killed;
-            let decoded_every = settings.decoded_every.max(1);
-            let mut stalled = false;
-            loop {
-                let stopping = stop.load(Ordering::Acquire);
-                let t_ns = monotonic_ns().saturating_sub(started_ns);
-                state.disk_full.store(
-                    faults.full.iter().any(|w| w.contains(t_ns)),
-                    Ordering::Relaxed,
-                );
-                if faults.stalls.iter().any(|w| w.contains(t_ns)) && !stopping {
-                    if !stalled {
-                        tracing::warn!("log: the logger stalls (simulated slow disk)");
-                        stalled = true;
-                    }
-                    std::thread::sleep(Duration::from_millis(10));
-                    continue;
-                }
-                if stalled {
-                    tracing::warn!("log: the logger drains again");
-                    stalled = false;
-                }
-                if let Ok(report) = rt_reports.try_recv() {
-                    if let Some(l) = state.log.as_mut() {
-                        if let Err(e) = l.rt_setup(&report) {
-                            state.fail(&e);
-                        }
-                    }
-                }
-                state.retry(Instant::now());
-                state.split(Instant::now());
-                let mut n = 0;
-                while let Ok(r) = records.pop() {
-                    report_events(&r, &mut last_mode);
-                    if let (Some(v), Some(l)) = (&state.live, &state.log) {
-                        v.cycle(&r, l.log_time(r.tick.wake_ns));
-                    }
-                    if let Some(observe) = observer.as_mut() {
-                        observe(&r);
-                    }
-                    if let Some(l) = state.log.as_mut() {
-                        let decoded = r.cycle % decoded_every == 0 || r.events != 0;
-                        if let Err(e) = l.record(&r, decoded) {
-                            state.fail(&e);
-                        }
-                    }
-                    if let Some(f) = state.failed.as_mut() {
-                        f.not_logged += 1;
-                    }
-                    written += 1;
-                    n += 1;
-                }
-                if last_flush.elapsed() >= settings.flush_interval {
-                    if let Some(l) = state.log.as_mut() {
-                        if let Err(e) = l.flush() {
-                            state.fail(&e);
-                        }
-                    }
-                    last_flush = Instant::now();
-                }
-                if stopping && n == 0 && records.is_empty() {
-                    break;
-                }
-                if n == 0 {
-                    std::thread::sleep(Duration::from_millis(10));
-                }
+        .spawn(move || worker.run())
+}
+
+/// The logger thread's state: the run being written and the ring it drains.
+struct Logger {
+    run: RunWriter,
+    /// The live view, for the GNSS fixes (the log's messages reach it through the tap).
+    live: Option<Arc<LiveView>>,
+    records: rtrb::Consumer<CycleRecord>,
+    rt_reports: mpsc::Receiver<RtSetupReport>,
+    faults: LogFaults,
+    flush_interval: Duration,
+    decoded_every: u64,
+    stop: Arc<AtomicBool>,
+    observer: Option<crate::app::run::Observer>,
+    last_mode: Mode,
+    /// The simulated stall is on.
+    stalled: bool,
+    /// Records taken from the ring.
+    written: u64,
+}
+
+impl Logger {
+    /// Drains the ring until stopped and the ring is empty.
+    fn run(mut self) -> LoggerOutcome {
+        let started_ns = monotonic_ns();
+        let mut last_flush = Instant::now();
+        loop {
+            let stopping = self.stop.load(Ordering::Acquire);
+            let t_ns = monotonic_ns().saturating_sub(started_ns);
+            if self.stalls(t_ns, stopping) {
+                std::thread::sleep(Duration::from_millis(10));
+                continue;
             }
-            LoggerOutcome {
-                log: state.finish(),
-                records: written,
+            self.write_rt_report();
+            self.run.retry(Instant::now());
+            self.run.split(Instant::now());
+            let n = self.drain();
+            if last_flush.elapsed() >= self.flush_interval {
+                self.run.flush();
+                last_flush = Instant::now();
             }
-        })
+            if stopping && n == 0 && self.records.is_empty() {
+                break;
+            }
+            if n == 0 {
+                std::thread::sleep(Duration::from_millis(10));
+            }
+        }
+        LoggerOutcome {
+            records: self.written,
+            log: self.run.finish(),
+        }
+    }
+
+    /// Applies the injected faults at `t_ns` from the start: the full disk, and whether the
+    /// thread stalls now (never while stopping).
+    fn stalls(&mut self, t_ns: u64, stopping: bool) -> bool {
+        let full = self.faults.full.iter().any(|w| w.contains(t_ns));
+        self.run.set_disk_full(full);
+        let stall = self.faults.stalls.iter().any(|w| w.contains(t_ns)) && !stopping;
+        if stall && !self.stalled {
+            tracing::warn!("log: the logger stalls (simulated slow disk)");
+        } else if !stall && self.stalled {
+            tracing::warn!("log: the logger drains again");
+        }
+        self.stalled = stall;
+        stall
+    }
+
+    /// Writes a realtime setup report that arrived.
+    fn write_rt_report(&mut self) {
+        if let Ok(report) = self.rt_reports.try_recv() {
+            self.run.write(|l| l.rt_setup(&report));
+        }
+    }
+
+    /// Sends the record's new GNSS fix to the live view, at the log time the log gives it.
+    fn serve_location(&mut self, r: &CycleRecord) {
+        if let (Some(live), Some(log)) = (&self.live, self.run.log_mut()) {
+            live.cycle(r, log.log_time(r.tick.wake_ns));
+        }
+    }
+
+    /// Writes every record in the ring; returns how many.
+    fn drain(&mut self) -> u64 {
+        let mut n = 0;
+        while let Ok(r) = self.records.pop() {
+            report_events(&r, &mut self.last_mode);
+            self.serve_location(&r);
+            if let Some(observe) = self.observer.as_mut() {
+                observe(&r);
+            }
+            let decoded = r.cycle % self.decoded_every == 0 || r.events != 0;
+            self.run.write_record(|l| l.record(&r, decoded));
+            self.written += 1;
+            n += 1;
+        }
+        n
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BTreeMap;
+    use std::path::{Path, PathBuf};
 
-    #[test]
-    fn file_names_are_utc_timestamps() {
-        let t = UNIX_EPOCH + Duration::from_secs(1_795_000_000);
-        // `date -u -d @1795000000`: 2026-11-18 11:06:40 UTC.
-        assert_eq!(log_file_name(t), "dima-20261118T110640Z.mcap");
-        assert_eq!(log_file_name(UNIX_EPOCH), "dima-19700101T000000Z.mcap");
-        let leap = UNIX_EPOCH + Duration::from_secs(951_825_600); // 2000-02-29 12:00:00
-        assert_eq!(log_file_name(leap), "dima-20000229T120000Z.mcap");
-    }
+    use dima_log::naming::numbered_name;
+    use dima_log::reader;
 
     use dima_core::config::Config;
     use dima_core::step::{CycleInputs, SensorInput};
@@ -933,6 +428,7 @@ mod tests {
                 header,
                 max_file_duration: max_file,
                 faults,
+                live: None,
             },
             Arc::clone(&stop),
             None,
@@ -954,8 +450,8 @@ mod tests {
         assert_eq!(outcome.records, n);
         let last = outcome.log.unwrap().finish().unwrap();
         let mut files = vec![first.clone()];
-        while resumed_name(&first, files.len() as u32).is_file() {
-            files.push(resumed_name(&first, files.len() as u32));
+        while numbered_name(&first, files.len() as u32).is_file() {
+            files.push(numbered_name(&first, files.len() as u32));
         }
         assert_eq!(
             files.last(),
@@ -972,31 +468,35 @@ mod tests {
     /// and its number of chunks.
     fn read_file(path: &Path) -> (Vec<u64>, MetadataRecords, usize) {
         let bytes = std::fs::read(path).unwrap();
-        let summary = mcap::Summary::read(&bytes)
+        let summary = reader::summary(&bytes)
             .unwrap()
             .unwrap_or_else(|| panic!("{}: no summary", path.display()));
-        let mut cycles = Vec::new();
-        for m in mcap::MessageStream::new(&bytes).unwrap() {
-            let m = m.unwrap();
-            if m.channel.topic == "/dima/cycle" {
-                let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
-                cycles.push(v["cycle"].as_u64().unwrap());
-            }
-        }
-        let stats = summary.stats.expect("statistics");
+        let cycles = cycle_numbers(&bytes);
         assert_eq!(
-            stats.message_count,
+            summary.message_count,
             cycles.len() as u64,
             "{}",
             path.display()
         );
-        let mut metadata = Vec::new();
-        for record in mcap::read::LinearReader::new(&bytes).unwrap() {
-            if let mcap::records::Record::Metadata(m) = record.unwrap() {
-                metadata.push((m.name, m.metadata));
-            }
-        }
-        (cycles, metadata, summary.chunk_indexes.len())
+        let metadata = reader::metadata(&bytes)
+            .0
+            .into_iter()
+            .map(|m| (m.name, m.pairs))
+            .collect();
+        (cycles, metadata, summary.chunk_count)
+    }
+
+    /// The `/dima/cycle` numbers of a file, in order.
+    fn cycle_numbers(bytes: &[u8]) -> Vec<u64> {
+        reader::messages(bytes)
+            .unwrap()
+            .into_iter()
+            .filter(|m| m.channel.topic == "/dima/cycle")
+            .map(|m| {
+                let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+                v["cycle"].as_u64().unwrap()
+            })
+            .collect()
     }
 
     #[test]
@@ -1052,18 +552,10 @@ mod tests {
         let mut not_logged = None;
         for path in &files {
             let bytes = std::fs::read(path).unwrap();
-            for m in mcap::MessageStream::new(&bytes).unwrap() {
-                let m = m.unwrap();
-                if m.channel.topic == "/dima/cycle" {
-                    let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
-                    logged.push(v["cycle"].as_u64().unwrap());
-                }
-            }
-            for record in mcap::read::LinearReader::new(&bytes).unwrap() {
-                if let mcap::records::Record::Metadata(m) = record.unwrap() {
-                    if m.name == METADATA_LOG_RESUMED {
-                        not_logged = m.metadata["records_not_logged"].parse::<u64>().ok();
-                    }
+            logged.extend(cycle_numbers(&bytes));
+            for m in reader::metadata(&bytes).0 {
+                if m.name == METADATA_LOG_RESUMED {
+                    not_logged = m.pairs["records_not_logged"].parse::<u64>().ok();
                 }
             }
         }

@@ -4,7 +4,7 @@
 
 use std::fmt::Write as _;
 
-use dima_core::schema::{DurationStats, SummaryRecord};
+use dima_log::schema::{DurationStats, SummaryRecord};
 use serde::Serialize;
 
 /// Histogram of durations in 1 µs buckets up to a fixed bound; longer ones are overflows.

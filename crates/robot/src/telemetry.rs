@@ -20,10 +20,10 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use dima_core::config::XbeeConfig;
-use dima_core::schema::GroundLinkCounters;
 use dima_core::{FailsafeCause, Mode, ReviveRefusal};
 use dima_groundlink::v2::{self, CommandGate, LinkKey};
 use dima_groundlink::{key_file, Command, CommandDecoder, CommandStats, DisplayFrame};
+use dima_log::schema::GroundLinkCounters;
 use dima_sensorboard::SensorPacket;
 use embedded_hal_nb::serial::{Read, Write};
 use xbee_driver::{Transparent, XBee};

@@ -171,13 +171,12 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
     let mut raw = 0u64;
     let mut states = Vec::new();
     let mut cycles = Vec::new();
-    for message in mcap::MessageStream::new(&bytes).unwrap() {
-        let message = message.unwrap();
+    for message in dima_log::reader::messages(&bytes).unwrap() {
         match message.channel.topic.as_str() {
             "/sensor/raw" => {
                 assert_eq!(message.data.len(), 132);
                 let p = dima_sensorboard::SensorPacket::decode(
-                    message.data.as_ref().try_into().unwrap(),
+                    message.data.as_slice().try_into().unwrap(),
                 )
                 .expect("raw packets replay through the decoder");
                 assert_eq!(p.accel[1], -512);
@@ -188,7 +187,7 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
                 states.push(v["mode"].as_str().unwrap().to_owned());
             }
             "/dima/cycle" => {
-                let v: dima_core::schema::CycleMessage =
+                let v: dima_log::schema::CycleMessage =
                     serde_json::from_slice(&message.data).unwrap();
                 cycles.push(v);
             }
@@ -210,16 +209,11 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
             "{mode} missing from {states:?}"
         );
     }
-    let summary_section = mcap::Summary::read(&bytes).unwrap().expect("summary");
-    assert!(summary_section
-        .attachment_indexes
+    let (metadata, attachments) = dima_log::reader::metadata(&bytes);
+    assert!(attachments
         .iter()
-        .any(|a| a.name == "wake_latency_histogram.txt"));
-    let names: Vec<_> = summary_section
-        .metadata_indexes
-        .iter()
-        .map(|m| m.name.clone())
-        .collect();
+        .any(|a| a == "wake_latency_histogram.txt"));
+    let names: Vec<_> = metadata.iter().map(|m| m.name.clone()).collect();
     for name in ["dima", "rt_setup", "summary"] {
         assert!(
             names.iter().any(|n| n == name),
@@ -236,7 +230,7 @@ fn manual_failsafe_latch_kill_shutdown_and_log() {
 /// than `comms_timeout_ns` after the last command frame's logged arrival: not sooner, and no
 /// later than two periods past the timeout plus the periods the log says were missed since.
 fn assert_comms_loss_on_time(
-    cycles: &[dima_core::schema::CycleMessage],
+    cycles: &[dima_log::schema::CycleMessage],
     comms_timeout_ns: u64,
     period_ns: u64,
 ) {

@@ -14,7 +14,7 @@ use dima_core::step::{CycleInputs, SensorInput};
 use dima_core::{Command, Core, CoreState, ReceivedCommand};
 use dima_robot::app::rt_loop::MAX_COMMANDS_PER_CYCLE;
 use dima_robot::app::CycleRecord;
-use dima_robot::logging::McapLog;
+use dima_robot::logging::{CycleLog, McapLog};
 use dima_robot::rt::{monotonic_ns, Tick};
 
 struct PeakAllocator;

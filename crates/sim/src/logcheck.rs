@@ -2,12 +2,13 @@
 //! a run can be judged on what the application itself recorded (in its own clock).
 
 use std::collections::BTreeSet;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::Context;
 use dima_core::config::Config;
-use dima_core::schema::{self, CycleMessage, Event, StateMessage};
 use dima_core::{FailsafeCause, Mode};
+use dima_log::schema::{CycleMessage, Event};
+use dima_log::LoggedRun;
 
 /// One `/dima/state` message, with its log time.
 #[derive(Debug, Clone, PartialEq)]
@@ -69,73 +70,48 @@ impl LogSummary {
         Ok(out)
     }
 
-    /// Reads every file of the run whose last file is `last`, in order: a run split by
+    /// Reads every file of the run `last` belongs to, in order: a run split by
     /// `[log] max_file_duration_s` or resumed after a disk fault goes on in `NAME-1.mcap`,
-    /// `NAME-2.mcap`, ... A missing file of the run is an error.
+    /// `NAME-2.mcap`, ... (see [`dima_log::naming`]). A missing file of the run is an error.
     pub fn read_run(last: &Path) -> anyhow::Result<LogSummary> {
         let mut out = LogSummary::default();
-        for path in run_files(last) {
+        for path in dima_log::naming::run_files(last)? {
             out.read_file(&path)?;
         }
         Ok(out)
     }
 
-    /// Adds one file's messages, metadata and attachments to what was read before.
+    /// Adds one file's messages, metadata and attachments to what was read before. A message
+    /// that does not match its schema, or a damaged record, is an error.
     fn read_file(&mut self, path: &Path) -> anyhow::Result<()> {
-        let bytes =
-            std::fs::read(path).with_context(|| format!("reading the log {}", path.display()))?;
-        let out = self;
-        let stream = mcap::MessageStream::new(&bytes)
-            .with_context(|| format!("{}: not an MCAP file", path.display()))?;
-        for message in stream {
-            let m = message.with_context(|| format!("{}: damaged message", path.display()))?;
-            let topic = m.channel.topic.as_str();
-            if topic == schema::SENSOR_RAW.topic {
-                out.raw_packets.push(crate::devices::fingerprint(&m.data));
-            } else if topic == schema::STATE.topic {
-                let v: StateMessage = serde_json::from_slice(&m.data)
-                    .with_context(|| format!("{topic} message at {}", m.log_time))?;
-                out.states.push(StateChange {
-                    t_ns: m.log_time,
-                    mode: v.mode,
-                    cause: v.cause,
-                    events: v.events,
-                });
-            } else if topic == schema::CYCLE.topic {
-                let v: CycleMessage = serde_json::from_slice(&m.data)
-                    .with_context(|| format!("{topic} message at {}", m.log_time))?;
-                out.cycles.push(CycleEntry {
-                    t_ns: m.log_time,
-                    mode: v.mode,
-                    packet_ok: v.packet_ok,
-                    commands: v.counters.commands,
-                    missed: u64::from(v.missed_periods),
-                    targets_us: v.targets_us,
-                    link_ns: v
-                        .commands
-                        .iter()
-                        .map(|c| c.arrival_ns.unwrap_or(v.wake_ns).min(v.wake_ns))
-                        .max()
-                        .map(|arrival| m.log_time.saturating_sub(v.wake_ns - arrival)),
-                });
-            }
+        let run =
+            LoggedRun::read(path).with_context(|| format!("reading the log {}", path.display()))?;
+        if let Some(w) = run.warnings.first() {
+            anyhow::bail!("{}: {w}", path.display());
         }
-        for record in mcap::read::LinearReader::new(&bytes)? {
-            if let mcap::records::Record::Metadata(m) = record? {
-                if m.name == schema::METADATA_DIMA {
-                    if let (None, Some(text)) = (&out.config, m.metadata.get("config")) {
-                        out.config = Some(Config::from_toml(text, "the log's config")?);
-                    }
-                }
-            }
-        }
-        if let Some(summary) = mcap::Summary::read(&bytes)? {
-            out.metadata
-                .extend(summary.metadata_indexes.iter().map(|m| m.name.clone()));
-            out.attachments
-                .extend(summary.attachment_indexes.iter().map(|a| a.name.clone()));
-        }
+        self.add(run);
         Ok(())
+    }
+
+    /// Adds what one file holds.
+    fn add(&mut self, run: LoggedRun) {
+        self.raw_packets
+            .extend(run.raw.values().map(|p| crate::devices::fingerprint(p)));
+        self.states
+            .extend(run.states.into_iter().map(|s| StateChange {
+                t_ns: s.t_ns,
+                mode: s.msg.mode,
+                cause: s.msg.cause,
+                events: s.msg.events,
+            }));
+        self.cycles
+            .extend(run.cycles.iter().map(|c| cycle_entry(c.t_ns, &c.msg)));
+        self.metadata
+            .extend(run.metadata.into_iter().map(|m| m.name));
+        self.attachments.extend(run.attachments);
+        if self.config.is_none() {
+            self.config = run.config;
+        }
     }
 
     /// The mode in force at `t_ns` by the cycle records (`None` before the first).
@@ -204,23 +180,21 @@ impl LogSummary {
     }
 }
 
-/// The files of the run whose last file is `last`, first to last: `NAME.mcap`, then
-/// `NAME-1.mcap` up to `last` when `last` is `NAME-N.mcap` (the application's log names end in
-/// a UTC time stamp, never in `-N`), else `last` alone.
-pub fn run_files(last: &Path) -> Vec<PathBuf> {
-    let stem = last
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let numbered = stem
-        .rsplit_once('-')
-        .filter(|(_, n)| !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()))
-        .and_then(|(base, n)| Some((base.to_owned(), n.parse::<u32>().ok()?)));
-    match numbered {
-        Some((base, n)) => std::iter::once(last.with_file_name(format!("{base}.mcap")))
-            .chain((1..=n).map(|i| last.with_file_name(format!("{base}-{i}.mcap"))))
-            .collect(),
-        None => vec![last.to_path_buf()],
+/// The fields the checks use of a `/dima/cycle` message logged at `t_ns`.
+fn cycle_entry(t_ns: u64, v: &CycleMessage) -> CycleEntry {
+    CycleEntry {
+        t_ns,
+        mode: v.mode,
+        packet_ok: v.packet_ok,
+        commands: v.counters.commands,
+        missed: u64::from(v.missed_periods),
+        targets_us: v.targets_us,
+        link_ns: v
+            .commands
+            .iter()
+            .map(|c| c.arrival_ns.unwrap_or(v.wake_ns).min(v.wake_ns))
+            .max()
+            .map(|arrival| t_ns.saturating_sub(v.wake_ns - arrival)),
     }
 }
 
@@ -321,21 +295,7 @@ mod tests {
     }
 
     #[test]
-    fn a_numbered_last_file_names_every_file_of_its_run() {
-        let dir = Path::new("/logs");
-        assert_eq!(
-            run_files(&dir.join("dima-20261126T170000Z.mcap")),
-            [dir.join("dima-20261126T170000Z.mcap")]
-        );
-        assert_eq!(
-            run_files(&dir.join("dima-20261126T170000Z-2.mcap")),
-            [
-                dir.join("dima-20261126T170000Z.mcap"),
-                dir.join("dima-20261126T170000Z-1.mcap"),
-                dir.join("dima-20261126T170000Z-2.mcap"),
-            ]
-        );
-        // A missing file of the run is an error, not a shorter run.
+    fn a_missing_file_of_the_run_is_an_error() {
         let e = LogSummary::read_run(Path::new("/nonexistent/dima-20261126T170000Z-1.mcap"))
             .unwrap_err();
         assert!(

@@ -3,9 +3,9 @@
 
 use dima_core::counters::Counters;
 use dima_core::safety::Setpoints;
-use dima_core::schema::{Event, GroundLinkCounters};
 use dima_core::step::CycleOutputs;
 use dima_core::{FailsafeCause, Mode, Nanos, ReceivedCommand, ReviveRefusal};
+use dima_log::schema::{Event, GroundLinkCounters};
 use dima_sensorboard::{InfoFrame, RawPacket, SensorPacket};
 
 use super::rt_loop::MAX_COMMANDS_PER_CYCLE;
@@ -33,7 +33,7 @@ pub mod events {
     /// The required realtime setup failed (first record of the run).
     pub const REALTIME_SETUP_FAILED: u16 = 1 << 8;
 
-    use dima_core::schema::Event;
+    use dima_log::schema::Event;
 
     /// Each bit with the log's event name for it.
     pub const ALL: [(u16, Event); 9] = [

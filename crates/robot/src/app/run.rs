@@ -28,7 +28,7 @@ use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport}
 use crate::telemetry::{
     spawn_telemetry, LinkCounters, LinkSecurity, TelemetrySettings, TelemetryStats,
 };
-use dima_core::schema::{self, SummaryRecord};
+use dima_log::schema::{self, SummaryRecord};
 
 /// One opener per device.
 pub struct Devices<P, S> {
@@ -277,7 +277,7 @@ fn start_logger(
 ) -> anyhow::Result<JoinHandle<LoggerOutcome>> {
     let live = start_live_view(config)?;
     let mut log = if config.log.enabled {
-        let log = McapLog::create_live(&config.log.directory, live)?;
+        let log = McapLog::create(&config.log.directory)?;
         tracing::info!("logging to {}", log.path().display());
         Some(log)
     } else {
@@ -308,6 +308,7 @@ fn start_logger(
                 s => Some(Duration::from_secs(u64::from(s))),
             },
             faults,
+            live,
         },
         Arc::clone(stop),
         observer,

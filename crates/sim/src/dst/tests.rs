@@ -4,15 +4,15 @@
 use std::path::PathBuf;
 
 use dima_core::config::Config;
-use dima_core::schema;
 use dima_core::step::CycleOutputs;
 use dima_core::{Command, Core, CoreState, Mode};
+use dima_log::schema;
 
 use super::intent::Intent;
 use super::invariants::{Applied, Checker, CycleView, Invariant};
 use super::runner::START_NS;
 use super::{run_seed, run_traced};
-use dima_tools::logtools::read::LoggedRun;
+use dima_log::LoggedRun;
 use dima_tools::logtools::replay::replay;
 
 /// A fresh directory for one test.
@@ -26,11 +26,11 @@ fn test_dir(name: &str) -> PathBuf {
 /// The `/dima/cycle` messages of a trace, with their log times.
 fn cycle_messages(path: &std::path::Path) -> Vec<(u64, Vec<u8>)> {
     let bytes = std::fs::read(path).unwrap();
-    mcap::MessageStream::new(&bytes)
+    dima_log::reader::messages(&bytes)
         .unwrap()
-        .map(|m| m.unwrap())
+        .into_iter()
         .filter(|m| m.channel.topic == schema::CYCLE.topic)
-        .map(|m| (m.log_time, m.data.into_owned()))
+        .map(|m| (m.log_time, m.data))
         .collect()
 }
 

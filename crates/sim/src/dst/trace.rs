@@ -3,11 +3,11 @@
 
 use std::path::Path;
 
-use dima_core::schema;
 use dima_core::Nanos;
+use dima_log::schema;
 
 use super::runner::Simulation;
-use dima_robot::logging::McapLog;
+use dima_robot::logging::{CycleLog, McapLog};
 
 /// Log time of virtual time 0: 2026-01-01T00:00:00Z, ns (a fixed instant: the file does not
 /// depend on when it was written).

@@ -8,7 +8,7 @@ use std::io::Write;
 use bosch_bmp280::compensation::{pressure_pa_f32, temperature_celsius_f32};
 use bosch_bmp280::Calibration;
 use bosch_bmx055::mag::{compensate_x_f32, compensate_y_f32, compensate_z_f32, MagTrim};
-use dima_core::schema::{CycleMessage, SensorInfoMessage};
+use dima_log::schema::{CycleMessage, SensorInfoMessage};
 use dima_sensorboard::units;
 use serde_json::{json, Value};
 

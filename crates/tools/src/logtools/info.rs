@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use dima_core::schema::Event;
+use dima_log::schema::Event;
 
 use super::read::LoggedRun;
 
@@ -28,9 +28,34 @@ fn percentiles_line(name: &str, mut values: Vec<f64>) -> String {
     )
 }
 
-/// The report, as printed.
+/// The report, as printed: one named step after another.
 pub fn report(run: &LoggedRun) -> String {
     let mut out = String::new();
+    let steps: [fn(&mut String, &LoggedRun); 8] = [
+        files,
+        overview,
+        mode_changes,
+        counters,
+        board_health,
+        ground_link,
+        timings,
+        setup_and_configuration,
+    ];
+    for step in steps {
+        step(&mut out, run);
+    }
+    out
+}
+
+/// `files: N (first, ...)`: the files of the run read (nothing for a run read from bytes).
+fn files(out: &mut String, run: &LoggedRun) {
+    if !run.files.is_empty() {
+        let _ = writeln!(out, "files: {}", dima_log::run::files_line(run));
+    }
+}
+
+/// Duration, cycles, loop rate and version.
+fn overview(out: &mut String, run: &LoggedRun) {
     let cycles = run.cycles.len();
     let duration = run.cycles.last().map_or(0.0, |c| run.seconds(c.t_ns));
     let rate = if duration > 0.0 {
@@ -46,6 +71,10 @@ pub fn report(run: &LoggedRun) -> String {
             .map(|v| format!(" | dima {v}"))
             .unwrap_or_default()
     );
+}
+
+/// Mode changes and refused revives, in time.
+fn mode_changes(out: &mut String, run: &LoggedRun) {
     let _ = writeln!(out, "\nmode changes:");
     for s in run
         .states
@@ -72,6 +101,10 @@ pub fn report(run: &LoggedRun) -> String {
                 .unwrap_or(dima_core::ReviveRefusal::SensorLoss)
         );
     }
+}
+
+/// Packet and link counts, from the summary or else the last cycle.
+fn counters(out: &mut String, run: &LoggedRun) {
     let counters = run
         .summary
         .as_ref()
@@ -108,6 +141,10 @@ pub fn report(run: &LoggedRun) -> String {
             c.log_dropped
         );
     }
+}
+
+/// The sensor board's last info frame.
+fn board_health(out: &mut String, run: &LoggedRun) {
     if let Some(info) = run.infos.last().filter(|i| i.msg.version < 2) {
         let _ = writeln!(
             out,
@@ -150,9 +187,17 @@ pub fn report(run: &LoggedRun) -> String {
             h.last_good_read_age_ms[3]
         );
     }
+}
+
+/// The ground link's counts at exit.
+fn ground_link(out: &mut String, run: &LoggedRun) {
     if let Some(ground) = &run.ground_link {
         let _ = writeln!(out, "{ground}");
     }
+}
+
+/// Wake-up latency and request-to-packet percentiles.
+fn timings(out: &mut String, run: &LoggedRun) {
     let _ = writeln!(out, "\ntimings:");
     let _ = writeln!(
         out,
@@ -173,6 +218,10 @@ pub fn report(run: &LoggedRun) -> String {
                 .collect()
         )
     );
+}
+
+/// The realtime setup and the configuration that ran.
+fn setup_and_configuration(out: &mut String, run: &LoggedRun) {
     if let Some(rt) = &run.rt_setup {
         let _ = writeln!(out, "\n{}", rt.trim_end());
     }
@@ -180,14 +229,13 @@ pub fn report(run: &LoggedRun) -> String {
         let text = toml::to_string(config).unwrap_or_default();
         let _ = writeln!(out, "\nconfiguration:\n{}", text.trim_end());
     }
-    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::percentile;
     use crate::logtools::read::{LoggedRun, Timed};
-    use dima_core::schema::{BoardHealthMessage, SensorInfoMessage};
+    use dima_log::schema::{BoardHealthMessage, SensorInfoMessage};
 
     fn with_info(version: u8, health: BoardHealthMessage) -> LoggedRun {
         LoggedRun {

@@ -4,8 +4,8 @@
 
 use std::io::Write;
 
-use dima_core::schema::{CommandMessage, SensorInfoMessage};
 use dima_groundlink::{CommandDecoder, DisplayDecoder, DisplayFrame};
+use dima_log::schema::{CommandMessage, SensorInfoMessage};
 use dima_sensorboard::{Frame, SensorPacket, StreamDecoder};
 use serde_json::{json, Value};
 

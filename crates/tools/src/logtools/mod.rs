@@ -6,9 +6,10 @@ pub mod info;
 pub mod inspect;
 pub mod parquet;
 pub mod plot;
-pub mod read;
-pub mod records;
 pub mod replay;
+
+/// The log reader, from `dima-log`.
+pub use dima_log::reader as read;
 
 use std::io::{Read, Write};
 use std::path::PathBuf;
@@ -33,14 +34,14 @@ pub enum LogCommand {
     /// Duration, loop rate, mode changes, packet and link counts, timing percentiles, the
     /// realtime setup and the configuration of a run.
     Info {
-        /// The MCAP log.
+        /// The MCAP log (any file of a run: the run's files are read in order).
         file: PathBuf,
     },
     /// Every cycle (or GNSS fix, or state change) as CSV, JSON lines or Parquet, in physical
     /// units.
     #[command(after_long_help = FLEET_HELP)]
     Export {
-        /// The MCAP log.
+        /// The MCAP log (any file of a run: the run's files are read in order).
         file: PathBuf,
         /// Output format.
         #[arg(long, value_enum, default_value = "csv")]
@@ -64,7 +65,7 @@ pub enum LogCommand {
     },
     /// A PNG plot with a real time axis, units and mode changes marked.
     Plot {
-        /// The MCAP log.
+        /// The MCAP log (any file of a run: the run's files are read in order).
         file: PathBuf,
         /// Output PNG.
         #[arg(short, long, value_name = "OUT.png")]
@@ -83,7 +84,7 @@ pub enum LogCommand {
     /// first difference (exit 1); with another configuration, the outputs beside the recorded
     /// ones in a new MCAP file.
     Replay {
-        /// The MCAP log.
+        /// The MCAP log (any file of a run: the run's files are read in order).
         file: PathBuf,
         /// Replay with this configuration instead of the recorded one (e.g. new gains).
         #[arg(long, value_name = "CONFIG")]
@@ -118,9 +119,24 @@ pub struct InspectArgs {
     pub file: Option<PathBuf>,
 }
 
+/// Reads every file of the run `file` belongs to, in order (see [`dima_log::run`]), and
+/// prints the warnings.
 fn open_log(file: &std::path::Path) -> anyhow::Result<LoggedRun> {
-    let run = LoggedRun::read(file)?;
+    let run = dima_log::run::read_run(file)?;
     run.warn(file);
+    Ok(run)
+}
+
+/// [`open_log`], saying on stderr how many files it read.
+fn open_run(file: &std::path::Path) -> anyhow::Result<LoggedRun> {
+    let run = open_log(file)?;
+    let first = run.files.first().map_or(file, |f| f.as_path());
+    let name = first.file_stem().unwrap_or_default().to_string_lossy();
+    let n = run.files.len();
+    eprintln!(
+        "read {n} file{} of run {name}",
+        if n == 1 { "" } else { "s" }
+    );
     Ok(run)
 }
 
@@ -139,17 +155,16 @@ pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
             from,
             to,
         } => {
+            let run = open_run(&file)?;
             if format == export::Format::Parquet {
                 let path = output.context(
                     "--format parquet writes a binary file: give it with -o FILE.parquet",
                 )?;
-                let run = open_log(&file)?;
                 let id = run_id.unwrap_or_else(|| parquet::run_id(&file));
                 parquet::export_file(&run, channel, (from, to), &id, &path)?;
                 eprintln!("wrote {} (run {id})", path.display());
                 return Ok(ExitCode::SUCCESS);
             }
-            let run = open_log(&file)?;
             let rows = export::rows(&run, channel, from, to);
             match output {
                 Some(path) => {
@@ -169,7 +184,7 @@ pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
             width,
             height,
         } => {
-            let run = open_log(&file)?;
+            let run = open_run(&file)?;
             plot::plot(&run, what, &output, (width.max(320), height.max(200)))?;
             eprintln!("wrote {}", output.display());
         }
@@ -187,7 +202,7 @@ fn replay_command(
     config: Option<&std::path::Path>,
     output: Option<&std::path::Path>,
 ) -> anyhow::Result<ExitCode> {
-    let run = open_log(file)?;
+    let run = open_run(file)?;
     let config = match config {
         Some(path) => dima_robot::config::load(path)?,
         None => run

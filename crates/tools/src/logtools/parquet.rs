@@ -179,25 +179,14 @@ pub fn message_type(channel: Channel) -> String {
     text + "}\n"
 }
 
-/// The run's id from its log file: the file name without `.mcap` and without the `-N` that
-/// the logger adds to the later files of a split run (`dima-20261127T120000Z-2.mcap` and
-/// `dima-20261127T120000Z.mcap` are both run `dima-20261127T120000Z`). The log's metadata
-/// holds no run id of its own.
+/// The run's id from its log file: the stem of the run's first file (`dima_log::naming`), so
+/// every file of a split run (`dima-20261127T120000Z.mcap`, `dima-20261127T120000Z-2.mcap`)
+/// is run `dima-20261127T120000Z`. The log's metadata holds no run id of its own.
 pub fn run_id(path: &Path) -> String {
-    let stem = path
+    let first = dima_log::naming::run_place(path).first;
+    first
         .file_stem()
-        .map_or_else(String::new, |s| s.to_string_lossy().into_owned());
-    match stem.rsplit_once('-') {
-        Some((first, n))
-            if !first.is_empty()
-                && !n.is_empty()
-                && !n.starts_with('0')
-                && n.bytes().all(|b| b.is_ascii_digit()) =>
-        {
-            first.to_owned()
-        }
-        _ => stem,
-    }
+        .map_or_else(String::new, |s| s.to_string_lossy().into_owned())
 }
 
 /// The cells of one column, checked against its type: the values present, and for a nullable

@@ -8,8 +8,8 @@ use std::path::Path;
 use std::sync::Once;
 
 use anyhow::Context;
-use dima_core::schema::Event;
 use dima_core::Mode;
+use dima_log::schema::Event;
 use dima_sensorboard::units;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
@@ -133,7 +133,7 @@ fn time_chart(
 
 fn cycle_series(
     run: &LoggedRun,
-    f: impl Fn(&dima_core::schema::CycleMessage) -> Option<f64>,
+    f: impl Fn(&dima_log::schema::CycleMessage) -> Option<f64>,
 ) -> Vec<(f64, f64)> {
     run.cycles
         .iter()

@@ -4,17 +4,16 @@
 //! With the recorded configuration the modes and servo targets must come out identical; with
 //! another one (new gains) the replayed outputs are written beside the recorded ones.
 
-use std::collections::{BTreeMap, BTreeSet};
-use std::fs::File;
-use std::io::BufWriter;
+use std::collections::BTreeSet;
 use std::path::Path;
 
 use anyhow::Context;
 use dima_core::config::Config;
 use dima_core::monitor::PacketVerdict;
-use dima_core::schema::{self, ActionMessage, CycleMessage, Event, ReplayMessage};
 use dima_core::step::{CycleInputs, SensorInput};
 use dima_core::{Core, CoreState, Mode, ReceivedCommand};
+use dima_log::schema::{self, ActionMessage, CycleMessage, Event, ReplayMessage};
+use dima_log::writer::{Channel, McapLog};
 use dima_sensorboard::RawPacket;
 
 use super::read::LoggedRun;
@@ -233,37 +232,18 @@ pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
 /// Writes the recorded cycles (`/dima/cycle`) and the replayed ones (`/replay/cycle`) to a new
 /// MCAP file at `path`, on the recorded time axis.
 pub fn write_mcap(run: &LoggedRun, replay: &Replay, path: &Path) -> anyhow::Result<()> {
-    let file = File::create(path).with_context(|| format!("cannot create {}", path.display()))?;
-    let mut w = mcap::WriteOptions::new()
-        .compression(Some(mcap::Compression::Zstd))
-        .profile("")
-        .create(BufWriter::new(file))?;
-    let none = BTreeMap::new();
-    let mut add = |spec: &schema::ChannelSpec| -> anyhow::Result<u16> {
-        let text = schema::schema_of(spec).unwrap_or_default();
-        let id = w.add_schema(spec.schema_name, "jsonschema", text.as_bytes())?;
-        Ok(w.add_channel(id, spec.topic, spec.encoding, &none)?)
-    };
-    let recorded = add(&schema::CYCLE)?;
-    let replayed = add(&schema::REPLAY)?;
-    let mut sequence = 0u32;
-    let mut message = |w: &mut mcap::Writer<BufWriter<File>>, channel_id, t, data: &[u8]| {
-        sequence = sequence.wrapping_add(1);
-        w.write_to_known_channel(
-            &mcap::records::MessageHeader {
-                channel_id,
-                sequence,
-                log_time: t,
-                publish_time: t,
-            },
-            data,
-        )
-    };
+    let channels = [&schema::CYCLE, &schema::REPLAY].map(|spec| Channel {
+        spec: *spec,
+        schema: schema::schema_of(spec),
+    });
+    let mut w = McapLog::create_with_channels(path, channels.to_vec())?;
+    // The times given are log times already.
+    w.set_time_offset(0);
     for c in &run.cycles {
-        message(&mut w, recorded, c.t_ns, &serde_json::to_vec(&c.msg)?)?;
+        w.message_on(&schema::CYCLE, c.t_ns, &serde_json::to_vec(&c.msg)?)?;
     }
     for r in &replay.cycles {
-        message(&mut w, replayed, r.t_ns, &serde_json::to_vec(&r.message)?)?;
+        w.message_on(&schema::REPLAY, r.t_ns, &serde_json::to_vec(&r.message)?)?;
     }
     w.finish()?;
     Ok(())

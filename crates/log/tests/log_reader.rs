@@ -6,7 +6,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use dima_tools::logtools::read::LoggedRun;
+use dima_log::LoggedRun;
 
 /// Records the largest single allocation a thread asks for while it is measuring.
 struct LargestAllocation;

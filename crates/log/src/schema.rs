@@ -9,10 +9,10 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::counters::Counters;
-use crate::estimate::StateEstimate;
-use crate::monitor::PacketVerdict;
-use crate::safety::{FailsafeCause, Mode, ReceivedCommand, ReviveRefusal};
+use dima_core::counters::Counters;
+use dima_core::estimate::StateEstimate;
+use dima_core::monitor::PacketVerdict;
+use dima_core::safety::{FailsafeCause, Mode, ReceivedCommand, ReviveRefusal};
 
 /// One MCAP channel of the log.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

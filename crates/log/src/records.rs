@@ -1,4 +1,5 @@
-//! The records of an MCAP file held in memory, read with bounded allocations.
+//! The records of an MCAP file held in memory, read with bounded allocations: the one walk
+//! over a file's records that every reader in [`reader`](crate::reader) builds on.
 //!
 //! Two length fields could otherwise size an allocation from a damaged file: a record's own
 //! length (a chunk's records are decompressed into a buffer of that size), and the u32 length
@@ -18,7 +19,8 @@ pub const MAX_RECORD_LEN: usize = 64 << 20;
 /// Which records [`for_each_record`] reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scope {
-    /// Channels and messages: the chunks are decompressed and the records inside them read.
+    /// Schemas, channels and messages: the chunks are decompressed and the records inside
+    /// them read.
     InsideChunks,
     /// Metadata and attachments: the chunks are skipped whole, without decompressing them.
     TopLevel,
@@ -27,7 +29,7 @@ pub enum Scope {
 impl Scope {
     fn reads(self, opcode: u8) -> bool {
         match self {
-            Scope::InsideChunks => matches!(opcode, op::CHANNEL | op::MESSAGE),
+            Scope::InsideChunks => matches!(opcode, op::SCHEMA | op::CHANNEL | op::MESSAGE),
             Scope::TopLevel => matches!(opcode, op::METADATA | op::ATTACHMENT),
         }
     }
@@ -149,6 +151,8 @@ fn chunk_records_fit(chunk: &[u8]) -> bool {
 fn length_prefixes_fit(opcode: u8, body: &[u8]) -> bool {
     let mut body = Body(body);
     match opcode {
+        // id; name, encoding, data.
+        op::SCHEMA => body.skip(2) && body.string() && body.string() && body.string(),
         // id, schema id; topic, message encoding, metadata.
         op::CHANNEL => body.skip(4) && body.string() && body.string() && body.string_map(),
         // name, metadata.
