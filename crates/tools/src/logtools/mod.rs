@@ -49,8 +49,8 @@ pub enum LogCommand {
         /// Output file (default: stdout; required for Parquet).
         #[arg(short, long, value_name = "OUT")]
         output: Option<PathBuf>,
-        /// The run's id in the Parquet `run` column (default: the log's file name without
-        /// `.mcap` and without the `-N` of a split run's later files).
+        /// The run's id in the Parquet `run` column (default: the name of the run's first file
+        /// without `.mcap`).
         #[arg(long, value_name = "ID")]
         run: Option<String>,
         /// Rows of this channel.
@@ -102,7 +102,7 @@ Every row holds the run's id in its first column, `run`; the other columns
 are the CSV's, with one type each (INT64, DOUBLE, BOOLEAN or UTF8 strings;
 nullable where the CSV may leave a cell empty), the same in every file.
 
-  for f in logs/*.mcap; do
+  for f in logs/dima-*Z.mcap; do   # each run's first file; the rest is read with it
     dima log export \"$f\" --format parquet -o \"parquet/$(basename \"$f\" .mcap).parquet\"
   done
   duckdb -c \"SELECT run, count(*) AS cycles, max(cycle) FROM 'parquet/*.parquet' GROUP BY run\"
