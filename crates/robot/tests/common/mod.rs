@@ -3,6 +3,8 @@
 //! station. The application side opens the pty slaves with its production serial code.
 #![allow(dead_code)]
 
+pub mod counting_alloc;
+
 use std::os::fd::{AsFd, OwnedFd};
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, AtomicU16, AtomicU64, Ordering};
