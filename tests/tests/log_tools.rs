@@ -135,7 +135,7 @@ fn export_replay_cut_files_plots_and_the_python_reader() {
     assert_ne!(d.recorded.1[0], d.replayed.1[0], "{d:?}");
     assert!(d.t_s >= 2.0, "{d:?}");
     let replay_file = dir.join("replay.mcap");
-    replay::write_mcap(&run, &other, &replay_file).unwrap();
+    replay::write_mcap(&run, &other, &tuned, &replay_file).unwrap();
     let back = LoggedRun::read(&replay_file).unwrap();
     assert_eq!(back.cycles.len(), run.cycles.len());
 

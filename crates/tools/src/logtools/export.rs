@@ -3,12 +3,14 @@
 //! in its column name. The CSV opens in a spreadsheet and in PlotJuggler (first column `t_s`);
 //! the same rows go to Parquet through [`parquet`](super::parquet).
 
+use std::collections::BTreeMap;
 use std::io::Write;
 
 use bosch_bmp280::compensation::{pressure_pa_f32, temperature_celsius_f32};
 use bosch_bmp280::Calibration;
 use bosch_bmx055::mag::{compensate_x_f32, compensate_y_f32, compensate_z_f32, MagTrim};
-use dima_log::schema::{CycleMessage, SensorInfoMessage};
+use dima_core::estimate::StateEstimate;
+use dima_log::schema::{CycleMessage, ReplayMessage, SensorInfoMessage};
 use dima_sensorboard::units;
 use serde_json::{json, Value};
 
@@ -34,6 +36,9 @@ pub enum Channel {
     Gnss,
     /// One row per mode change or event.
     State,
+    /// One row per replayed cycle of a comparison file written by `dima log replay --config
+    /// NEW -o FILE` (`/replay/cycle`), beside the recorded outputs, setpoints and GNSS.
+    Replay,
 }
 
 /// Calibration from the sensor board's info frame, for physical units.
@@ -73,11 +78,16 @@ fn num(v: f32) -> Value {
 }
 
 /// The cells of one cycle row, in column order.
+///
+/// The GNSS columns (`gnss_*`) hold the NAV-PVT the cycle's packet carried (empty without
+/// one); the estimate columns (`est_*`) hold `estimate`, the state estimate the controllers
+/// read in this cycle (empty when unknown or not valid).
 pub fn cycle_row(
     t_s: f64,
     t_ns: u64,
     c: &CycleMessage,
     cal: &Calibrations,
+    estimate: Option<&StateEstimate>,
 ) -> Vec<(&'static str, Value)> {
     let s = c.sensor.as_ref();
     let axis = |i: usize, f: fn(i16) -> f32| opt(s.map(|s| num(f(s.accel[i]))));
@@ -127,10 +137,111 @@ pub fn cycle_row(
         ("target_throttle_us", json!(c.targets_us[0])),
         ("target_steering_us", json!(c.targets_us[1])),
         ("target_tail_us", json!(c.targets_us[2])),
+        (
+            "gnss_speed_m_s",
+            opt(s.and_then(|s| s.g_speed_mm_s).map(|v| f64::from(v) / 1e3)),
+        ),
+        ("gnss_heading_deg", opt(s.and_then(|s| s.head_mot_deg))),
+        ("gnss_lat_deg", opt(s.and_then(|s| s.lat_deg))),
+        ("gnss_lon_deg", opt(s.and_then(|s| s.lon_deg))),
+        ("est_speed_m_s", opt(est_speed_m_s(estimate))),
+        ("est_heading_deg", opt(est_heading_deg(estimate))),
     ]
 }
 
-/// Rows of `channel` between `from_s` and `to_s` (seconds since the first cycle).
+/// The estimated ground speed, m/s, when valid.
+fn est_speed_m_s(estimate: Option<&StateEstimate>) -> Option<Value> {
+    estimate
+        .and_then(|e| e.speed_mm_s)
+        .map(|m| num(m.value / 1e3))
+}
+
+/// The estimated heading, degrees from north, when valid.
+fn est_heading_deg(estimate: Option<&StateEstimate>) -> Option<Value> {
+    estimate.and_then(|e| e.heading_deg).map(|m| num(m.value))
+}
+
+/// The state estimate of every cycle of `run`, by cycle number: recomputed by replaying the
+/// recorded inputs through the control step with the recorded configuration (the robot does
+/// not log its estimate; the replay computes the same one, bit for bit). Empty when the run
+/// cannot be replayed as recorded (no configuration, not every cycle logged, or a replay that
+/// does not reproduce the recorded outputs).
+pub fn recorded_estimates(run: &LoggedRun) -> BTreeMap<u64, StateEstimate> {
+    let Some(config) = &run.config else {
+        return BTreeMap::new();
+    };
+    match super::replay::replay(run, config) {
+        Ok(r) if r.first_difference.is_none() => r
+            .cycles
+            .iter()
+            .map(|c| (c.message.cycle, c.message.estimate))
+            .collect(),
+        _ => BTreeMap::new(),
+    }
+}
+
+/// The cells of one row of `--channel replay`: the replayed cycle `r`, and from the recorded
+/// cycle `c` of the same number (when there is one) the recorded outputs, the setpoints and
+/// the GNSS values, so a new controller is judged against its setpoints in one table.
+pub fn replay_row(
+    t_s: f64,
+    t_ns: u64,
+    r: &ReplayMessage,
+    c: Option<&CycleMessage>,
+) -> Vec<(&'static str, Value)> {
+    let sp = c.map(|c| c.setpoints);
+    let s = c.and_then(|c| c.sensor.as_ref());
+    let e = Some(&r.estimate);
+    vec![
+        ("t_s", json!((t_s * 1e6).round() / 1e6)),
+        ("log_time_ns", json!(t_ns)),
+        ("cycle", json!(r.cycle)),
+        ("mode", json!(r.mode.name())),
+        ("cause", opt(r.cause.map(|c| format!("{c:?}")))),
+        ("recorded_mode", json!(r.recorded_mode.name())),
+        ("speed_setpoint_mm_s", opt(sp.and_then(|s| s.speed_mm_s))),
+        ("heading_setpoint_deg", opt(sp.and_then(|s| s.heading_deg))),
+        (
+            "gnss_speed_m_s",
+            opt(s.and_then(|s| s.g_speed_mm_s).map(|v| f64::from(v) / 1e3)),
+        ),
+        ("gnss_heading_deg", opt(s.and_then(|s| s.head_mot_deg))),
+        ("est_speed_m_s", opt(est_speed_m_s(e))),
+        ("est_heading_deg", opt(est_heading_deg(e))),
+        (
+            "est_yaw_rate_dps",
+            opt(r.estimate.yaw_rate_dps.map(|m| num(m.value))),
+        ),
+        ("action_throttle", num(r.action.throttle)),
+        ("action_steering", num(r.action.steering)),
+        ("action_tail", num(r.action.tail)),
+        (
+            "recorded_action_throttle",
+            opt(c.map(|c| num(c.action.throttle))),
+        ),
+        (
+            "recorded_action_steering",
+            opt(c.map(|c| num(c.action.steering))),
+        ),
+        ("recorded_action_tail", opt(c.map(|c| num(c.action.tail)))),
+        ("target_throttle_us", json!(r.targets_us[0])),
+        ("target_steering_us", json!(r.targets_us[1])),
+        ("target_tail_us", json!(r.targets_us[2])),
+        (
+            "recorded_target_throttle_us",
+            json!(r.recorded_targets_us[0]),
+        ),
+        (
+            "recorded_target_steering_us",
+            json!(r.recorded_targets_us[1]),
+        ),
+        ("recorded_target_tail_us", json!(r.recorded_targets_us[2])),
+    ]
+}
+
+/// Rows of `channel` between `from_s` and `to_s` (seconds since the first cycle). The rows of
+/// [`Channel::Replay`] are read from the files the run was read from (none for a run read from
+/// bytes).
 pub fn rows(
     run: &LoggedRun,
     channel: Channel,
@@ -140,12 +251,30 @@ pub fn rows(
     let cal = Calibrations::from_info(run.infos.first().map(|i| &i.msg));
     let within = |t_ns: u64| (from_s..=to_s).contains(&run.seconds(t_ns));
     match channel {
-        Channel::Cycle => run
-            .cycles
-            .iter()
-            .filter(|c| within(c.t_ns))
-            .map(|c| cycle_row(run.seconds(c.t_ns), c.t_ns, &c.msg, &cal))
-            .collect(),
+        Channel::Cycle => {
+            let estimates = recorded_estimates(run);
+            run.cycles
+                .iter()
+                .filter(|c| within(c.t_ns))
+                .map(|c| {
+                    let estimate = estimates.get(&c.msg.cycle);
+                    cycle_row(run.seconds(c.t_ns), c.t_ns, &c.msg, &cal, estimate)
+                })
+                .collect()
+        }
+        Channel::Replay => {
+            let replayed = super::replay::read_replayed(run).unwrap_or_default();
+            let recorded: BTreeMap<u64, &CycleMessage> =
+                run.cycles.iter().map(|c| (c.msg.cycle, &c.msg)).collect();
+            replayed
+                .iter()
+                .filter(|r| within(r.t_ns))
+                .map(|r| {
+                    let c = recorded.get(&r.msg.cycle).copied();
+                    replay_row(run.seconds(r.t_ns), r.t_ns, &r.msg, c)
+                })
+                .collect()
+        }
         Channel::Gnss => {
             let mut last_itow = None;
             let mut out = Vec::new();
@@ -268,5 +397,116 @@ mod tests {
         assert_eq!(text.lines().count(), 1);
         let value: Value = serde_json::from_str(&text).unwrap();
         assert_eq!(value, json!({"t_s": 0.5, "name": "a,b", "none": null}));
+    }
+
+    /// The columns of the cycle export before the GNSS and estimate columns, in order.
+    const FIRST_COLUMNS: [&str; 34] = [
+        "t_s",
+        "log_time_ns",
+        "cycle",
+        "mode",
+        "cause",
+        "packet",
+        "missed_periods",
+        "wake_latency_us",
+        "request_to_packet_us",
+        "compute_us",
+        "servo_write_us",
+        "accel_x_m_s2",
+        "accel_y_m_s2",
+        "accel_z_m_s2",
+        "gyro_x_dps",
+        "gyro_y_dps",
+        "gyro_z_dps",
+        "mag_x_ut",
+        "mag_y_ut",
+        "mag_z_ut",
+        "pressure_pa",
+        "temperature_c",
+        "gnss_age_ms",
+        "throttle_pct",
+        "steering_pct",
+        "tail_pct",
+        "speed_setpoint_mm_s",
+        "heading_setpoint_deg",
+        "action_throttle",
+        "action_steering",
+        "action_tail",
+        "target_throttle_us",
+        "target_steering_us",
+        "target_tail_us",
+    ];
+
+    #[test]
+    fn a_cycle_row_holds_gnss_and_the_estimate_beside_the_setpoint() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/fixtures/auto-pid-before-plugins.mcap"
+        );
+        let run = LoggedRun::read(std::path::Path::new(path)).unwrap();
+        let rows = rows(&run, Channel::Cycle, 0.0, f64::INFINITY);
+        assert_eq!(rows.len(), run.cycles.len());
+        let names: Vec<&str> = rows[0].iter().map(|(k, _)| *k).collect();
+        assert_eq!(
+            names[..FIRST_COLUMNS.len()],
+            FIRST_COLUMNS,
+            "kept, in order"
+        );
+        assert_eq!(
+            names[FIRST_COLUMNS.len()..],
+            [
+                "gnss_speed_m_s",
+                "gnss_heading_deg",
+                "gnss_lat_deg",
+                "gnss_lon_deg",
+                "est_speed_m_s",
+                "est_heading_deg"
+            ],
+            "appended"
+        );
+        let cell = |row: &Vec<(&'static str, Value)>, name: &str| {
+            row.iter().find(|(k, _)| *k == name).unwrap().1.clone()
+        };
+        // In AUTO with a speed setpoint, one row holds the setpoint, GNSS and the estimate.
+        let auto = rows
+            .iter()
+            .zip(&run.cycles)
+            .filter(|(_, c)| c.msg.mode == dima_core::Mode::Auto)
+            .find(|(_, c)| {
+                c.msg.setpoints.speed_mm_s.is_some()
+                    && c.msg
+                        .sensor
+                        .as_ref()
+                        .is_some_and(|s| s.g_speed_mm_s.is_some())
+            })
+            .expect("an AUTO cycle with a setpoint and GNSS");
+        let (row, c) = auto;
+        let s = c.msg.sensor.as_ref().unwrap();
+        assert_eq!(
+            cell(row, "gnss_speed_m_s"),
+            json!(f64::from(s.g_speed_mm_s.unwrap()) / 1e3)
+        );
+        assert_eq!(cell(row, "gnss_heading_deg"), json!(s.head_mot_deg));
+        assert_eq!(cell(row, "gnss_lat_deg"), json!(s.lat_deg));
+        assert_eq!(cell(row, "gnss_lon_deg"), json!(s.lon_deg));
+        let est = cell(row, "est_speed_m_s")
+            .as_f64()
+            .expect("an estimate in AUTO");
+        assert!((0.0..10.0).contains(&est), "{est}");
+        assert!(cell(row, "est_heading_deg").is_number(), "{row:?}");
+        // The estimate is the one the replay computes for that cycle.
+        let replayed = crate::logtools::replay::replay(&run, run.config.as_ref().unwrap()).unwrap();
+        let e = replayed.cycles[usize::try_from(c.msg.cycle).unwrap()]
+            .message
+            .estimate;
+        assert_eq!(
+            est,
+            num(e.speed_mm_s.unwrap().value / 1e3).as_f64().unwrap()
+        );
+        // A log without its configuration cannot be replayed: the estimate stays empty.
+        let mut bare = run.clone();
+        bare.config = None;
+        let rows = super::rows(&bare, Channel::Cycle, 0.0, 0.1);
+        assert!(rows.iter().all(|r| cell(r, "est_speed_m_s").is_null()));
     }
 }

@@ -1,11 +1,13 @@
 //! Tools around a run: `dima log info|export|plot|replay` on MCAP logs and `dima inspect` on
 //! raw captures of each link.
 
+pub mod config_diff;
 pub mod export;
 pub mod info;
 pub mod inspect;
 pub mod parquet;
 pub mod plot;
+pub mod plot_math;
 pub mod replay;
 
 /// The log reader, from `dima-log`.
@@ -53,7 +55,8 @@ pub enum LogCommand {
         /// without `.mcap`).
         #[arg(long, value_name = "ID")]
         run: Option<String>,
-        /// Rows of this channel.
+        /// Rows of this channel (`replay`: the replayed cycles of a file written by
+        /// `dima log replay --config NEW -o FILE`).
         #[arg(long, value_enum, default_value = "cycle", value_name = "NAME")]
         channel: export::Channel,
         /// From this many seconds after the first cycle.
@@ -73,12 +76,25 @@ pub enum LogCommand {
         /// What to plot.
         #[arg(long, value_enum, default_value = "outputs")]
         what: plot::What,
+        /// The recorded cycles, or the replayed ones of a file written by
+        /// `dima log replay --config NEW -o FILE` beside the recorded ones (`outputs`, `gnss`).
+        #[arg(long, value_enum, default_value = "cycle", value_name = "NAME")]
+        channel: plot::Source,
         /// Width in pixels.
         #[arg(long, default_value_t = 1280)]
         width: u32,
         /// Height in pixels.
         #[arg(long, default_value_t = 720)]
         height: u32,
+    },
+    /// The configuration the run recorded (TOML, as the robot ran it): the starting point for
+    /// `dima log replay --config`, so that a new file differs only in what you change.
+    Config {
+        /// The MCAP log (any file of a run: the first file's configuration is printed).
+        file: PathBuf,
+        /// The configuration a comparison file (from `dima log replay -o`) was replayed with.
+        #[arg(long)]
+        replayed: bool,
     },
     /// Feed the recorded inputs through the control step: identical outputs (exit 0) or the
     /// first difference (exit 1); with another configuration, the outputs beside the recorded
@@ -140,11 +156,40 @@ fn open_run(file: &std::path::Path) -> anyhow::Result<LoggedRun> {
     Ok(run)
 }
 
-/// Runs `dima log ...`.
+/// Writes `bytes` to stdout and flushes it.
+fn write_stdout(bytes: &[u8]) -> std::io::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(bytes)?;
+    out.flush()
+}
+
+/// Whether `error` is, or was caused by, a write to a closed pipe (`dima log export | head`).
+pub fn is_broken_pipe(error: &anyhow::Error) -> bool {
+    error.chain().any(|cause| {
+        cause
+            .downcast_ref::<std::io::Error>()
+            .is_some_and(|e| e.kind() == std::io::ErrorKind::BrokenPipe)
+    })
+}
+
+/// `result`, except that a closed stdout ends the tool quietly and successfully: the reader
+/// (`head`, `grep -m1`, a pager quit early) took all it wanted.
+fn quiet_on_closed_pipe(result: anyhow::Result<ExitCode>) -> anyhow::Result<ExitCode> {
+    match result {
+        Err(e) if is_broken_pipe(&e) => Ok(ExitCode::SUCCESS),
+        other => other,
+    }
+}
+
+/// Runs `dima log ...`. A closed stdout ends it with success and nothing on stderr.
 pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
+    quiet_on_closed_pipe(run_log(args))
+}
+
+fn run_log(args: LogArgs) -> anyhow::Result<ExitCode> {
     match args.command {
         LogCommand::Info { file } => {
-            print!("{}", info::report(&open_log(&file)?));
+            write_stdout(info::report(&open_log(&file)?).as_bytes())?;
         }
         LogCommand::Export {
             file,
@@ -161,11 +206,19 @@ pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
                     "--format parquet writes a binary file: give it with -o FILE.parquet",
                 )?;
                 let id = run_id.unwrap_or_else(|| parquet::run_id(&file));
+                if channel == export::Channel::Replay
+                    && export::rows(&run, channel, from, to).is_empty()
+                {
+                    anyhow::bail!(no_replay(&file));
+                }
                 parquet::export_file(&run, channel, (from, to), &id, &path)?;
                 eprintln!("wrote {} (run {id})", path.display());
                 return Ok(ExitCode::SUCCESS);
             }
             let rows = export::rows(&run, channel, from, to);
+            if channel == export::Channel::Replay && rows.is_empty() {
+                anyhow::bail!(no_replay(&file));
+            }
             match output {
                 Some(path) => {
                     let f = std::fs::File::create(&path)
@@ -181,12 +234,41 @@ pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
             file,
             output,
             what,
+            channel,
             width,
             height,
         } => {
             let run = open_run(&file)?;
-            plot::plot(&run, what, &output, (width.max(320), height.max(200)))?;
+            let size = (width.max(320), height.max(200));
+            match channel {
+                plot::Source::Cycle => plot::plot(&run, what, &output, size)?,
+                plot::Source::Replay => {
+                    let replayed = replay::read_replayed(&run)?;
+                    if replayed.is_empty() {
+                        anyhow::bail!(no_replay(&file));
+                    }
+                    plot::plot_replay(&run, &replayed, what, &output, size)?;
+                }
+            }
             eprintln!("wrote {}", output.display());
+        }
+        LogCommand::Config { file, replayed } => {
+            let run = open_log(&file)?;
+            let text = replay::recorded_config_text(&run, replayed).with_context(|| {
+                if replayed {
+                    format!(
+                        "{} holds no replayed configuration: only a file written by `dima log \
+                         replay --config NEW -o FILE` does",
+                        file.display()
+                    )
+                } else {
+                    format!(
+                        "{} holds no configuration (metadata record `dima`)",
+                        file.display()
+                    )
+                }
+            })?;
+            write_stdout(text.as_bytes())?;
         }
         LogCommand::Replay {
             file,
@@ -195,6 +277,16 @@ pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
         } => return replay_command(&file, config.as_deref(), output.as_deref()),
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The error of `--channel replay` on a file without replayed cycles.
+fn no_replay(file: &std::path::Path) -> String {
+    format!(
+        "{} has no replayed cycles (/replay/cycle): write a comparison file with `dima log \
+         replay {} --config NEW.toml -o compare.mcap` and give that",
+        file.display(),
+        file.display()
+    )
 }
 
 fn replay_command(
@@ -212,37 +304,74 @@ fn replay_command(
     };
     let result = replay::replay(&run, &config)?;
     if let Some(path) = output {
-        replay::write_mcap(&run, &result, path)?;
+        replay::write_mcap(&run, &result, &config, path)?;
         eprintln!("wrote {}", path.display());
     }
-    match &result.first_difference {
+    let (text, code) = replay_report(&run, &config, &result, file);
+    write_stdout(text.as_bytes())?;
+    Ok(code)
+}
+
+/// What `dima log replay` prints, and its exit code: the configuration values that differ
+/// from the recorded ones (those the control step reads first), then whether the outputs are
+/// identical or the first cycle where they differ, output by output.
+pub fn replay_report(
+    run: &LoggedRun,
+    config: &dima_core::config::Config,
+    result: &replay::Replay,
+    file: &std::path::Path,
+) -> (String, ExitCode) {
+    use std::fmt::Write as _;
+    let mut text = String::new();
+    if let Some(recorded) = &run.config {
+        // What the user changed, before what it changed: a configuration written from the
+        // defaults differs from a recorded one in more than the gain being tuned.
+        text += &config_diff::report(&config_diff::differences(recorded, config));
+    }
+    let code = match &result.first_difference {
         None => {
-            println!(
+            let _ = writeln!(
+                text,
                 "identical: {} cycles replayed, modes and servo targets as recorded",
                 result.cycles.len()
             );
-            Ok(ExitCode::SUCCESS)
+            ExitCode::SUCCESS
         }
         Some(d) => {
-            println!(
-                "differs: {} of {} cycles; first at cycle {} ({:.3} s): recorded {} {:?} µs, \
-                 replayed {} {:?} µs",
+            let _ = writeln!(
+                text,
+                "differs: {} of {} cycles; first at cycle {} ({:.3} s): {} (recorded {} {:?} µs, \
+                 replayed {} {:?} µs)",
                 result.differing,
                 result.cycles.len(),
                 d.cycle,
                 d.t_s,
+                replay::describe(d),
                 d.recorded.0,
                 d.recorded.1,
                 d.replayed.0,
                 d.replayed.1
             );
-            Ok(ExitCode::from(1))
+            if run.config.is_some() {
+                let _ = writeln!(
+                    text,
+                    "(to change only what you mean to, start from the recorded configuration: \
+                     dima log config {} > new.toml)",
+                    file.display()
+                );
+            }
+            ExitCode::from(1)
         }
-    }
+    };
+    (text, code)
 }
 
-/// Runs `dima inspect ...`.
+/// Runs `dima inspect ...`. A closed stdout ends it with success and nothing on stderr.
 pub fn inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
+    quiet_on_closed_pipe(run_inspect(args))
+}
+
+fn run_inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
     let bytes = match &args.file {
         Some(path) => {
             std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?

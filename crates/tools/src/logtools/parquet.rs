@@ -15,7 +15,7 @@
 //! | counts, numbers, µs targets, percentages (`cycle`, `log_time_ns`, `missed_periods`, `throttle_pct`, `target_*_us`, `itow_ms`, `satellites`, ...) | INT64 |
 //! | physical values and times (`t_s`, `*_us` timings, `accel_*`, `pressure_pa`, `action_*`, ...) | DOUBLE |
 //! | `fix_ok` | BOOLEAN |
-//! | `run`, `mode`, `cause`, `packet`, `refused`, `events` | BYTE_ARRAY, logical type String (UTF8) |
+//! | `run`, `mode`, `recorded_mode`, `cause`, `packet`, `refused`, `events` | BYTE_ARRAY, logical type String (UTF8) |
 //!
 //! A column is OPTIONAL (nullable) exactly where the CSV may leave the cell empty, REQUIRED
 //! elsewhere. The file is compressed with zstd.
@@ -130,6 +130,41 @@ const CYCLE: &[Column] = &[
     required("target_throttle_us", Int64),
     required("target_steering_us", Int64),
     required("target_tail_us", Int64),
+    nullable("gnss_speed_m_s", Double),
+    nullable("gnss_heading_deg", Double),
+    nullable("gnss_lat_deg", Double),
+    nullable("gnss_lon_deg", Double),
+    nullable("est_speed_m_s", Double),
+    nullable("est_heading_deg", Double),
+];
+
+/// The columns of `--channel replay`, after `run`, in the order of [`export::replay_row`].
+const REPLAY: &[Column] = &[
+    required("t_s", Double),
+    required("log_time_ns", Int64),
+    required("cycle", Int64),
+    required("mode", Utf8),
+    nullable("cause", Utf8),
+    required("recorded_mode", Utf8),
+    nullable("speed_setpoint_mm_s", Int64),
+    nullable("heading_setpoint_deg", Double),
+    nullable("gnss_speed_m_s", Double),
+    nullable("gnss_heading_deg", Double),
+    nullable("est_speed_m_s", Double),
+    nullable("est_heading_deg", Double),
+    nullable("est_yaw_rate_dps", Double),
+    required("action_throttle", Double),
+    required("action_steering", Double),
+    required("action_tail", Double),
+    nullable("recorded_action_throttle", Double),
+    nullable("recorded_action_steering", Double),
+    nullable("recorded_action_tail", Double),
+    required("target_throttle_us", Int64),
+    required("target_steering_us", Int64),
+    required("target_tail_us", Int64),
+    required("recorded_target_throttle_us", Int64),
+    required("recorded_target_steering_us", Int64),
+    required("recorded_target_tail_us", Int64),
 ];
 
 /// The columns of `--channel gnss`, after `run`.
@@ -160,6 +195,7 @@ pub fn columns(channel: Channel) -> &'static [Column] {
         Channel::Cycle => CYCLE,
         Channel::Gnss => GNSS,
         Channel::State => STATE,
+        Channel::Replay => REPLAY,
     }
 }
 

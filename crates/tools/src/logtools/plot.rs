@@ -14,7 +14,13 @@ use dima_sensorboard::units;
 use plotters::coord::types::RangedCoordf64;
 use plotters::prelude::*;
 
-use super::read::LoggedRun;
+use dima_log::schema::ReplayMessage;
+
+use super::plot_math::{
+    angle_lines, heading_lines, latency_histogram, split_at_gaps, track_extent,
+    HEADING_MIN_SPEED_M_S, LATENCY_MAX_BUCKETS, MAX_GAP_S, TRACK_MIN_SPAN_M,
+};
+use super::read::{LoggedRun, Timed};
 
 /// What to plot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -29,6 +35,17 @@ pub enum What {
     Latency,
     /// The GNSS track in local metres (east, north).
     Track,
+}
+
+/// Which cycles a plot draws.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Source {
+    /// The recorded cycles (`/dima/cycle`).
+    Cycle,
+    /// The replayed cycles of a comparison file (`/replay/cycle`) beside the recorded ones:
+    /// `outputs` draws both servo targets, `gnss` the replayed estimate beside GNSS and the
+    /// setpoints.
+    Replay,
 }
 
 const FONT: &str = "sans-serif";
@@ -68,7 +85,8 @@ fn span(values: impl Iterator<Item = f64>) -> Range<f64> {
     (lo - pad)..(hi + pad)
 }
 
-type Series = (&'static str, RGBColor, Vec<(f64, f64)>);
+/// A named series drawn as lines (broken where data is missing).
+type Series = (&'static str, RGBColor, Vec<Vec<(f64, f64)>>);
 
 /// A time chart of `series` with the mode changes as vertical lines.
 fn time_chart(
@@ -83,7 +101,11 @@ fn time_chart(
         .last()
         .map_or(1.0, |c| run.seconds(c.t_ns))
         .max(0.1);
-    let y = span(series.iter().flat_map(|s| s.2.iter().map(|p| p.1)));
+    let y = span(
+        series
+            .iter()
+            .flat_map(|s| s.2.iter().flatten().map(|p| p.1)),
+    );
     let mut chart: ChartContext<BitMapBackend, Cartesian2d<RangedCoordf64, RangedCoordf64>> =
         ChartBuilder::on(area)
             .caption(title, (FONT, 22))
@@ -97,12 +119,25 @@ fn time_chart(
         .y_desc(y_desc)
         .label_style((FONT, 15))
         .draw()?;
-    for (name, color, points) in series {
+    for (name, color, lines) in series {
         let c = *color;
+        let style = c.stroke_width(2);
+        // One path per line (a gap in the data is a gap in the plot); a lone point is a dot.
         chart
-            .draw_series(LineSeries::new(points.iter().copied(), c.stroke_width(2)))?
+            .draw_series(
+                lines
+                    .iter()
+                    .filter(|l| l.len() > 1)
+                    .map(move |line| PathElement::new(line.clone(), style)),
+            )?
             .label(*name)
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+        chart.draw_series(
+            lines
+                .iter()
+                .filter(|l| l.len() == 1)
+                .map(move |l| Circle::new(l[0], 2, c.filled())),
+        )?;
     }
     for s in run
         .states
@@ -131,14 +166,48 @@ fn time_chart(
     Ok(())
 }
 
+/// `(time, value)` of every cycle, `None` where the cycle has no value.
+fn cycle_samples(
+    run: &LoggedRun,
+    f: impl Fn(&dima_log::schema::CycleMessage) -> Option<f64>,
+) -> Vec<(f64, Option<f64>)> {
+    run.cycles
+        .iter()
+        .map(|c| (run.seconds(c.t_ns), f(&c.msg)))
+        .collect()
+}
+
+/// A value of every cycle as lines, broken where cycles have no value or are missing.
 fn cycle_series(
     run: &LoggedRun,
     f: impl Fn(&dima_log::schema::CycleMessage) -> Option<f64>,
-) -> Vec<(f64, f64)> {
-    run.cycles
-        .iter()
-        .filter_map(|c| f(&c.msg).map(|v| (run.seconds(c.t_ns), v)))
-        .collect()
+) -> Vec<Vec<(f64, f64)>> {
+    split_at_gaps(&cycle_samples(run, f), MAX_GAP_S)
+}
+
+/// `(time, heading of motion, ground speed)` of every new GNSS fix with a valid position
+/// (the packets of the cycles between fixes repeat the last one).
+fn gnss_fixes(run: &LoggedRun) -> Vec<(f64, Option<f64>, Option<f64>)> {
+    let mut last_itow = None;
+    let mut out = Vec::new();
+    for c in &run.cycles {
+        let Some(s) = &c.msg.sensor else { continue };
+        if s.itow_ms.is_none() || s.itow_ms == last_itow {
+            continue;
+        }
+        last_itow = s.itow_ms;
+        let t = run.seconds(c.t_ns);
+        if !s.gnss_fix_ok {
+            out.push((t, None, None));
+            continue;
+        }
+        out.push((
+            t,
+            s.head_mot_deg,
+            s.g_speed_mm_s.map(|v| f64::from(v) / 1e3),
+        ));
+    }
+    out
 }
 
 fn imu(
@@ -178,32 +247,56 @@ fn gnss(
     run: &LoggedRun,
     root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
 ) -> anyhow::Result<()> {
+    gnss_with_estimate(run, None, root)
+}
+
+/// GNSS ground speed and heading of motion with their setpoints; with `replayed`, the
+/// replayed estimate beside them. The heading is unwrapped, drawn only above
+/// [`HEADING_MIN_SPEED_M_S`], and every line breaks where data is missing.
+fn gnss_with_estimate(
+    run: &LoggedRun,
+    replayed: Option<&[Timed<ReplayMessage>]>,
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+) -> anyhow::Result<()> {
     let (top, bottom) = root.split_vertically(root.dim_in_pixel().1 / 2);
-    let speed = cycle_series(run, |c| {
-        c.sensor
-            .as_ref()
-            .and_then(|s| s.g_speed_mm_s)
-            .map(|v| f64::from(v) / 1e3)
-    });
+    let fixes = gnss_fixes(run);
+    let speed_samples: Vec<(f64, Option<f64>)> = fixes.iter().map(|f| (f.0, f.2)).collect();
+    let speed = split_at_gaps(&speed_samples, MAX_GAP_S);
     let setpoint = cycle_series(run, |c| c.setpoints.speed_mm_s.map(|v| f64::from(v) / 1e3));
-    time_chart(
-        &top,
-        run,
-        "GNSS ground speed",
-        "speed (m/s)",
-        &[("ground speed", BLUE, speed), ("setpoint", RED, setpoint)],
-    )?;
-    let heading = cycle_series(run, |c| c.sensor.as_ref().and_then(|s| s.head_mot_deg));
-    let setpoint = cycle_series(run, |c| c.setpoints.heading_deg);
+    let estimate = |f: fn(&ReplayMessage) -> Option<f64>| {
+        replayed.map(|r| {
+            let samples: Vec<(f64, Option<f64>)> =
+                r.iter().map(|m| (run.seconds(m.t_ns), f(&m.msg))).collect();
+            samples
+        })
+    };
+    let mut speeds = vec![
+        ("GNSS ground speed", BLUE, speed),
+        ("setpoint", RED, setpoint),
+    ];
+    if let Some(samples) = estimate(|m| m.estimate.speed_mm_s.map(|s| f64::from(s.value) / 1e3)) {
+        speeds.push((
+            "replayed estimate",
+            GREEN,
+            split_at_gaps(&samples, MAX_GAP_S),
+        ));
+    }
+    time_chart(&top, run, "ground speed", "speed (m/s)", &speeds)?;
+    let heading = heading_lines(&fixes, HEADING_MIN_SPEED_M_S, MAX_GAP_S);
+    let setpoint = angle_lines(&cycle_samples(run, |c| c.setpoints.heading_deg), MAX_GAP_S);
+    let mut headings = vec![
+        ("GNSS heading of motion", BLUE, heading),
+        ("setpoint", RED, setpoint),
+    ];
+    if let Some(samples) = estimate(|m| m.estimate.heading_deg.map(|h| f64::from(h.value))) {
+        headings.push(("replayed estimate", GREEN, angle_lines(&samples, MAX_GAP_S)));
+    }
     time_chart(
         &bottom,
         run,
-        "GNSS heading of motion",
-        "heading (° from north)",
-        &[
-            ("heading of motion", BLUE, heading),
-            ("setpoint", RED, setpoint),
-        ],
+        &format!("heading of motion (drawn above {HEADING_MIN_SPEED_M_S} m/s)"),
+        "heading, unwrapped (° from north)",
+        &headings,
     )
 }
 
@@ -229,51 +322,42 @@ fn latency(
     run: &LoggedRun,
     root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
 ) -> anyhow::Result<()> {
-    let values: Vec<u32> = run
-        .cycles
-        .iter()
-        .map(|c| c.msg.wake_latency_us.max(0.0) as u32)
-        .collect();
-    let mut sorted = values.clone();
-    sorted.sort_unstable();
-    // Up to the 99.9th percentile, so one host stall does not flatten the distribution.
-    let top = sorted
-        .get((sorted.len() as f64 * 0.999) as usize)
-        .copied()
-        .unwrap_or(10)
-        .max(10);
-    let mut buckets = vec![0u32; top as usize + 1];
-    let mut beyond = 0;
-    for v in values {
-        match buckets.get_mut(v as usize) {
-            Some(b) => *b += 1,
-            None => beyond += 1,
-        }
-    }
-    let max_count = buckets.iter().copied().max().unwrap_or(1).max(1);
+    let values: Vec<f64> = run.cycles.iter().map(|c| c.msg.wake_latency_us).collect();
+    let h = latency_histogram(&values, LATENCY_MAX_BUCKETS);
+    let max_count = h.counts.iter().copied().max().unwrap_or(1).max(1);
+    let w = h.width_us;
     let mut chart = ChartBuilder::on(root)
         .caption(
             format!(
-                "wake-up latency ({} samples, {beyond} beyond {top} µs)",
-                sorted.len()
+                "wake-up latency ({} samples; up to the 99.9th percentile, {} beyond {} µs)",
+                values.len(),
+                h.beyond,
+                h.top_us
             ),
             (FONT, 22),
         )
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(70)
-        .build_cartesian_2d(0u32..top + 1, 0u32..max_count + max_count / 10 + 1)?;
+        .build_cartesian_2d(0u32..h.top_us, (1u64..max_count * 2).log_scale())?;
     chart
         .configure_mesh()
-        .x_desc("latency (µs, 1 µs buckets)")
-        .y_desc("cycles")
+        .x_desc(format!("latency (µs, {w} µs buckets)"))
+        .y_desc("cycles (log scale)")
         .label_style((FONT, 15))
         .draw()?;
     chart
-        .draw_series(buckets.iter().enumerate().map(|(us, &n)| {
-            Rectangle::new([(us as u32, 0), (us as u32 + 1, n)], BLUE.mix(0.7).filled())
-        }))?
-        .label("cycles per 1 µs bucket")
+        .draw_series(
+            h.counts
+                .iter()
+                .enumerate()
+                .filter(|(_, &n)| n > 0)
+                .map(|(i, &n)| {
+                    let x0 = i as u32 * w;
+                    Rectangle::new([(x0, 1), (x0 + w, n.max(1))], BLUE.mix(0.7).filled())
+                }),
+        )?
+        .label(format!("cycles per {w} µs bucket"))
         .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 20, y + 5)], BLUE.mix(0.7).filled()));
     chart
         .configure_series_labels()
@@ -309,19 +393,18 @@ fn track(
         .map(|f| (local(f.0, f.1), f.2))
         .map(|((e, n), m)| (e, n, m))
         .collect();
-    // Same scale on both axes.
-    let (x, y) = (
-        span(points.iter().map(|p| p.0)),
-        span(points.iter().map(|p| p.1)),
-    );
-    let half = ((x.end - x.start).max(y.end - y.start)) / 2.0;
-    let (cx, cy) = ((x.start + x.end) / 2.0, (y.start + y.end) / 2.0);
+    // Same scale on both axes, at least TRACK_MIN_SPAN_M: standing noise stays small.
+    let en: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
+    let (x, y) = track_extent(&en, TRACK_MIN_SPAN_M);
     let mut chart = ChartBuilder::on(root)
-        .caption("GNSS track (coloured by mode)", (FONT, 22))
+        .caption(
+            format!("GNSS track (coloured by mode; at least {TRACK_MIN_SPAN_M} m across)"),
+            (FONT, 22),
+        )
         .margin(12)
         .x_label_area_size(44)
         .y_label_area_size(70)
-        .build_cartesian_2d(cx - half..cx + half, cy - half..cy + half)?;
+        .build_cartesian_2d(x, y)?;
     chart
         .configure_mesh()
         .x_desc("east of the first fix (m)")
@@ -439,6 +522,77 @@ pub fn histograms(
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()?;
+    root.present()
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
+
+/// The replayed servo targets (thick) over the recorded ones (thin, lighter) of each channel.
+fn replay_outputs(
+    run: &LoggedRun,
+    replayed: &[Timed<ReplayMessage>],
+    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
+) -> anyhow::Result<()> {
+    let series = |i: usize, recorded: bool| -> Vec<Vec<(f64, f64)>> {
+        let samples: Vec<(f64, Option<f64>)> = replayed
+            .iter()
+            .map(|r| {
+                let t = if recorded {
+                    r.msg.recorded_targets_us[i]
+                } else {
+                    r.msg.targets_us[i]
+                };
+                (run.seconds(r.t_ns), Some(f64::from(t)))
+            })
+            .collect();
+        split_at_gaps(&samples, MAX_GAP_S)
+    };
+    time_chart(
+        root,
+        run,
+        "servo targets: replayed (new configuration) and recorded",
+        "pulse width (µs)",
+        &[
+            (
+                "throttle recorded",
+                RGBColor(240, 160, 160),
+                series(0, true),
+            ),
+            (
+                "steering recorded",
+                RGBColor(150, 170, 240),
+                series(1, true),
+            ),
+            ("tail recorded", RGBColor(150, 210, 150), series(2, true)),
+            ("throttle replayed", RED, series(0, false)),
+            ("steering replayed", BLUE, series(1, false)),
+            ("tail replayed", GREEN, series(2, false)),
+        ],
+    )
+}
+
+/// Draws `what` of the comparison file `run` with its replayed cycles `replayed` (see
+/// [`Source::Replay`]) into a PNG of `size` pixels at `path`.
+///
+/// # Errors
+/// `what` is not `outputs` or `gnss`, or the file cannot be written.
+pub fn plot_replay(
+    run: &LoggedRun,
+    replayed: &[Timed<ReplayMessage>],
+    what: What,
+    path: &Path,
+    size: (u32, u32),
+) -> anyhow::Result<()> {
+    if !matches!(what, What::Outputs | What::Gnss) {
+        anyhow::bail!("--channel replay plots --what outputs or --what gnss");
+    }
+    fonts();
+    let root = BitMapBackend::new(path, size).into_drawing_area();
+    root.fill(&WHITE)?;
+    match what {
+        What::Gnss => gnss_with_estimate(run, Some(replayed), &root)?,
+        _ => replay_outputs(run, replayed, &root)?,
+    }
     root.present()
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(())

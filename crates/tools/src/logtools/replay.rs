@@ -16,7 +16,7 @@ use dima_log::schema::{self, ActionMessage, CycleMessage, Event, ReplayMessage};
 use dima_log::writer::{Channel, McapLog};
 use dima_sensorboard::RawPacket;
 
-use super::read::LoggedRun;
+use super::read::{LoggedRun, Timed};
 
 /// One replayed cycle.
 #[derive(Debug, Clone, PartialEq)]
@@ -229,24 +229,126 @@ pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
     Ok(out)
 }
 
-/// Writes the recorded cycles (`/dima/cycle`) and the replayed ones (`/replay/cycle`) to a new
-/// MCAP file at `path`, on the recorded time axis.
-pub fn write_mcap(run: &LoggedRun, replay: &Replay, path: &Path) -> anyhow::Result<()> {
-    let channels = [&schema::CYCLE, &schema::REPLAY].map(|spec| Channel {
+/// Name of the metadata record that holds the configuration a comparison file was replayed
+/// with (key `config`, TOML), beside the recorded one in [`schema::METADATA_DIMA`].
+pub const METADATA_REPLAY: &str = "replay";
+
+/// Writes a comparison file at `path`: the recorded log (cycles on `/dima/cycle`, states,
+/// sensor info frames, raw packets and the recorded `dima` metadata with its configuration)
+/// and the replayed cycles on `/replay/cycle`, on the recorded time axis, with the
+/// configuration of the replay in the metadata record [`METADATA_REPLAY`]. `dima log info`,
+/// `export`, `plot` and `config` read it as a log; `--channel replay` reads the replayed
+/// cycles.
+pub fn write_mcap(
+    run: &LoggedRun,
+    replay: &Replay,
+    config: &Config,
+    path: &Path,
+) -> anyhow::Result<()> {
+    let specs = [
+        &schema::SENSOR_RAW,
+        &schema::CYCLE,
+        &schema::STATE,
+        &schema::SENSOR_INFO,
+        &schema::REPLAY,
+    ];
+    let channels = specs.map(|spec| Channel {
         spec: *spec,
         schema: schema::schema_of(spec),
     });
     let mut w = McapLog::create_with_channels(path, channels.to_vec())?;
     // The times given are log times already.
     w.set_time_offset(0);
+    if let Some(m) = run
+        .metadata
+        .iter()
+        .find(|m| m.name == schema::METADATA_DIMA)
+    {
+        let pairs: Vec<(&str, String)> = m
+            .pairs
+            .iter()
+            .map(|(k, v)| (k.as_str(), v.clone()))
+            .collect();
+        w.metadata(schema::METADATA_DIMA, &pairs)?;
+    }
+    w.metadata(METADATA_REPLAY, &[("config", toml::to_string(config)?)])?;
+    for (t_ns, packet) in &run.raw {
+        w.message_on(&schema::SENSOR_RAW, *t_ns, packet)?;
+    }
     for c in &run.cycles {
         w.message_on(&schema::CYCLE, c.t_ns, &serde_json::to_vec(&c.msg)?)?;
+    }
+    for s in &run.states {
+        w.message_on(&schema::STATE, s.t_ns, &serde_json::to_vec(&s.msg)?)?;
+    }
+    for i in &run.infos {
+        w.message_on(&schema::SENSOR_INFO, i.t_ns, &serde_json::to_vec(&i.msg)?)?;
     }
     for r in &replay.cycles {
         w.message_on(&schema::REPLAY, r.t_ns, &serde_json::to_vec(&r.message)?)?;
     }
     w.finish()?;
     Ok(())
+}
+
+/// The replayed cycles (`/replay/cycle`) of the files `run` was read from, in order: what a
+/// comparison file from [`write_mcap`] holds beside the recorded cycles. Empty for a robot's
+/// own log (and for a run read from bytes, which has no files).
+///
+/// # Errors
+/// A file cannot be read again, or a replayed cycle does not parse.
+pub fn read_replayed(run: &LoggedRun) -> anyhow::Result<Vec<Timed<ReplayMessage>>> {
+    let mut out = Vec::new();
+    for file in &run.files {
+        let bytes =
+            std::fs::read(file).with_context(|| format!("cannot read {}", file.display()))?;
+        // A cut file is read as far as it goes, as the rest of the run was.
+        let _ = dima_log::reader::for_each_message(&bytes, |m| {
+            if m.channel.topic == schema::REPLAY.topic {
+                let msg = serde_json::from_slice(&m.data).with_context(|| {
+                    format!("{}: {} at {}", file.display(), m.channel.topic, m.log_time)
+                })?;
+                out.push(Timed {
+                    t_ns: m.log_time,
+                    msg,
+                });
+            }
+            Ok(())
+        });
+    }
+    Ok(out)
+}
+
+/// The configuration text a log recorded: the `config` of its `dima` metadata record (what
+/// the robot ran), or with `replayed` the configuration a comparison file was replayed with.
+pub fn recorded_config_text(run: &LoggedRun, replayed: bool) -> Option<&str> {
+    let name = if replayed {
+        METADATA_REPLAY
+    } else {
+        schema::METADATA_DIMA
+    };
+    run.metadata
+        .iter()
+        .filter(|m| m.name == name)
+        .find_map(|m| m.pairs.get("config"))
+        .map(String::as_str)
+}
+
+/// `steering 1560 -> 1545 µs, mode AUTO -> FAILSAFE`: what differs in `d`, output by output.
+pub fn describe(d: &Difference) -> String {
+    let mut parts = Vec::new();
+    if d.recorded.0 != d.replayed.0 {
+        parts.push(format!("mode {} -> {}", d.recorded.0, d.replayed.0));
+    }
+    for (i, name) in ["throttle", "steering", "tail"].iter().enumerate() {
+        if d.recorded.1[i] != d.replayed.1[i] {
+            parts.push(format!(
+                "{name} {} -> {} µs",
+                d.recorded.1[i], d.replayed.1[i]
+            ));
+        }
+    }
+    parts.join(", ")
 }
 
 #[cfg(test)]
@@ -300,5 +402,111 @@ mod tests {
             .expect("a stale revive does not revive");
         assert_eq!(first.cycle, cycles[i].cycle);
         assert_eq!(first.replayed.0, Mode::Killed);
+    }
+
+    /// The recorded configuration of `run` with the speed controller's gain `kp`.
+    fn with_throttle_kp(run: &LoggedRun, kp: f64) -> Config {
+        let mut v = toml::Value::try_from(run.config.as_ref().unwrap()).unwrap();
+        v["control"]["throttle"]["kp"] = toml::Value::Float(kp);
+        Config::from_toml(&toml::to_string(&v).unwrap(), "test").unwrap()
+    }
+
+    fn temp_path(name: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!(
+            "dima-replay-unit-{}-{name}-{:?}.mcap",
+            std::process::id(),
+            std::thread::current().id()
+        ))
+    }
+
+    #[test]
+    fn a_comparison_file_holds_the_replayed_cycles_and_both_configurations() {
+        let run = old_log();
+        let tuned = with_throttle_kp(&run, 0.9);
+        let result = replay(&run, &tuned).unwrap();
+        assert!(
+            result.differing > 0,
+            "a new gain changes the outputs in AUTO"
+        );
+        let path = temp_path("compare");
+        write_mcap(&run, &result, &tuned, &path).unwrap();
+        let compare = dima_log::run::read_run(&path).unwrap();
+        let replayed = read_replayed(&compare).unwrap();
+
+        // The replayed cycles, as replayed; the recorded log beside them.
+        assert_eq!(replayed.len(), result.cycles.len());
+        assert_eq!(replayed[1500].msg, result.cycles[1500].message);
+        assert_eq!(compare.cycles.len(), run.cycles.len());
+        assert_eq!(compare.states.len(), run.states.len());
+        assert_eq!(compare.raw.len(), run.raw.len());
+        // Both configurations: the recorded one as the robot wrote it, and the replayed one.
+        assert_eq!(
+            recorded_config_text(&compare, false),
+            recorded_config_text(&run, false)
+        );
+        let replayed_config =
+            Config::from_toml(recorded_config_text(&compare, true).unwrap(), "replay").unwrap();
+        assert_eq!(replayed_config, tuned);
+        assert_eq!(recorded_config_text(&run, true), None);
+
+        // `--channel replay` exports them beside the recorded outputs and setpoints.
+        use crate::logtools::export::{rows, Channel};
+        let rows = rows(&compare, Channel::Replay, 0.0, f64::INFINITY);
+        assert_eq!(rows.len(), result.cycles.len());
+        let cell = |row: &Vec<(&'static str, serde_json::Value)>, name: &str| {
+            row.iter().find(|(k, _)| *k == name).unwrap().1.clone()
+        };
+        let d = result.first_difference.as_ref().unwrap();
+        let row = &rows[usize::try_from(d.cycle).unwrap()];
+        assert_eq!(cell(row, "cycle"), serde_json::json!(d.cycle));
+        assert_eq!(
+            cell(row, "target_throttle_us"),
+            serde_json::json!(d.replayed.1[0])
+        );
+        assert_eq!(
+            cell(row, "recorded_target_throttle_us"),
+            serde_json::json!(d.recorded.1[0])
+        );
+        assert!(cell(row, "speed_setpoint_mm_s").is_i64(), "{row:?}");
+        std::fs::remove_file(&path).unwrap();
+        // A robot's own log has no replayed cycles.
+        assert!(
+            crate::logtools::export::rows(&run, Channel::Replay, 0.0, f64::INFINITY).is_empty()
+        );
+    }
+
+    #[test]
+    fn replay_names_the_changed_configuration_before_the_outputs() {
+        let run = old_log();
+        let recorded = run.config.clone().unwrap();
+        // A configuration written from the defaults with the gain changed: the steering's safe
+        // position (and more) differ too, and the report says so first.
+        let mut from_defaults = with_throttle_kp(&run, 0.9);
+        from_defaults.channels = Config::default().channels;
+        from_defaults.sensor.port = "/dev/ttyTHS1".into();
+        let result = replay(&run, &from_defaults).unwrap();
+        let path = Path::new("drive.mcap");
+        let (text, code) = crate::logtools::replay_report(&run, &from_defaults, &result, path);
+        assert_eq!(code, std::process::ExitCode::from(1));
+        let lines: Vec<&str> = text.lines().collect();
+        assert!(
+            lines[0].starts_with("configuration: ") && lines[0].contains("differ"),
+            "{text}"
+        );
+        let kp = text.find("control.throttle.kp").expect("the gain is named");
+        let outputs = text.find("differs:").unwrap();
+        assert!(kp < outputs, "{text}");
+        if recorded.channels != Config::default().channels {
+            assert!(text.find("channels.").unwrap() < outputs, "{text}");
+        }
+        assert!(text.contains("sensor.port"), "{text}");
+        assert!(text.contains("dima log config drive.mcap"), "{text}");
+
+        // With the recorded configuration nothing differs and nothing is listed.
+        let same = replay(&run, &recorded).unwrap();
+        let (text, code) = crate::logtools::replay_report(&run, &recorded, &same, path);
+        assert_eq!(code, std::process::ExitCode::SUCCESS);
+        assert!(text.contains("every value the control step reads is as recorded"));
+        assert!(text.contains("identical"), "{text}");
     }
 }
