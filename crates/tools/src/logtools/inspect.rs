@@ -1,10 +1,15 @@
-//! `dima inspect sensor|command|display [FILE]`: decodes a raw byte capture of one link (a
-//! logic analyser export, `cat /dev/ttyTHS1 > file`) into JSON lines with the project's own
-//! resynchronising decoders; counts of errors and skipped bytes go to stderr.
+//! `dima inspect sensor|command|display [FILE] [--key-file KEY]`: decodes a raw byte capture of
+//! one link (a logic analyser export, `cat /dev/ttyTHS1 > file`) into JSON lines with the
+//! project's own resynchronising decoders; counts of errors and skipped bytes go to stderr.
+//!
+//! The ground link's frames are version 1 (10-byte commands, 68-byte display frames) without
+//! a key, and version 2 (28-byte commands, 126-byte display frames, authenticated: the
+//! default link) with `--key-file`: each tag is verified, and a frame whose tag does not
+//! match (forged, corrupt, another key) is a line `{"error": "bad tag"}`.
 
 use std::io::Write;
 
-use dima_groundlink::{CommandDecoder, DisplayDecoder, DisplayFrame};
+use dima_groundlink::{v2, CommandDecoder, DisplayDecoder, DisplayFrame};
 use dima_log::schema::{CommandMessage, SensorInfoMessage};
 use dima_sensorboard::{Frame, SensorPacket, StreamDecoder};
 use serde_json::{json, Value};
@@ -14,9 +19,9 @@ use serde_json::{json, Value};
 pub enum Link {
     /// Sensor board -> host: 132-byte packets and info frames.
     Sensor,
-    /// Ground station -> robot: 10-byte command frames.
+    /// Ground station -> robot: command frames (v1: 10 bytes; v2 with --key-file: 28 bytes).
     Command,
-    /// Robot -> ground station: 68-byte display frames.
+    /// Robot -> ground station: display frames (v1: 68 bytes; v2 with --key-file: 126 bytes).
     Display,
 }
 
@@ -120,6 +125,122 @@ pub fn inspect(link: Link, bytes: &[u8], out: &mut impl Write) -> std::io::Resul
     Ok(stats)
 }
 
+/// Counts of a version 2 capture, for stderr.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct AuthenticatedStats {
+    /// Authentic, valid frames decoded.
+    pub frames: u64,
+    /// Candidate frames whose tag did not match the key (forged, corrupt, another key).
+    pub bad_tag: u64,
+    /// Authentic frames with invalid content, and start tokens with a wrong length byte.
+    pub malformed: u64,
+    /// Bytes skipped while resynchronising.
+    pub skipped_bytes: u64,
+}
+
+fn error_json(error: &v2::FrameError) -> Value {
+    match error {
+        v2::FrameError::BadTag => json!({ "error": "bad tag" }),
+        other => json!({ "error": other.to_string() }),
+    }
+}
+
+fn v2_display_json(f: &v2::DisplayFrame) -> Value {
+    json!({
+        "version": 2,
+        "mode": format!("{:?}", f.mode),
+        "failsafe_cause": f.failsafe_cause.map(|c| format!("{c:?}")),
+        "revive_refusal": f.revive_refusal.map(|r| format!("{r:?}")),
+        "session": f.session,
+        "seq": f.seq,
+        "ack_seq": f.ack_seq,
+        "health": {
+            "missed_periods": f.health.missed_periods,
+            "sensor_bad": f.health.sensor_bad,
+            "sensor_missing": f.health.sensor_missing,
+            "commands": f.health.commands,
+            "bad_tag": f.health.bad_tag,
+            "replayed": f.health.replayed,
+            "stale_session": f.health.stale_session,
+            "malformed": f.health.malformed,
+            "v1_ignored": f.health.v1_ignored,
+        },
+        "sensors": display_json(&f.sensors),
+    })
+}
+
+/// Decodes the version 2 (authenticated) frames of `link` in `bytes` under `key`, one JSON
+/// line per frame into `out`, and one `{"error": ...}` line per rejected candidate (`"bad
+/// tag"`: the tag does not match). The sensor link has no version 2: `InvalidInput`.
+pub fn inspect_authenticated(
+    link: Link,
+    bytes: &[u8],
+    key: &v2::LinkKey,
+    out: &mut impl Write,
+) -> std::io::Result<AuthenticatedStats> {
+    let stats = match link {
+        Link::Sensor => {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "the sensor link has no key: --key-file is for the command and display links",
+            ))
+        }
+        Link::Command => {
+            let mut d = v2::CommandDecoder::new(key.clone());
+            for result in d.feed(bytes) {
+                let line = match result {
+                    Ok(f) => {
+                        let m = CommandMessage::from(f.command);
+                        json!({
+                            "version": 2,
+                            "command": format!("{:?}", f.command),
+                            "type": m.kind,
+                            "data": m.data,
+                            "session": f.session,
+                            "seq": f.seq,
+                            "request": f.request,
+                        })
+                    }
+                    Err(e) => error_json(&e),
+                };
+                writeln!(out, "{line}")?;
+            }
+            d.stats()
+        }
+        Link::Display => {
+            let mut d = v2::DisplayDecoder::new(key.clone());
+            for result in d.feed(bytes) {
+                let line = match result {
+                    Ok(f) => v2_display_json(&f),
+                    Err(e) => error_json(&e),
+                };
+                writeln!(out, "{line}")?;
+            }
+            d.stats()
+        }
+    };
+    Ok(AuthenticatedStats {
+        frames: u64::from(stats.frames),
+        bad_tag: u64::from(stats.bad_tag),
+        malformed: u64::from(stats.malformed),
+        skipped_bytes: u64::from(stats.skipped_bytes),
+    })
+}
+
+/// Version 2 start tokens (with their length byte) of `link` in `bytes`: a hint that a capture
+/// decoded without a key holds authenticated frames.
+pub fn v2_candidates(link: Link, bytes: &[u8]) -> usize {
+    let (start, len) = match link {
+        Link::Sensor => return 0,
+        Link::Command => (v2::COMMAND_START, v2::COMMAND_FRAME_LEN),
+        Link::Display => (v2::DISPLAY_START, v2::DISPLAY_FRAME_LEN),
+    };
+    bytes
+        .windows(3)
+        .filter(|w| w[..2] == start && usize::from(w[2]) == len)
+        .count()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -172,5 +293,71 @@ mod tests {
         assert_eq!((lines, stats.frames), (50, 50), "{stats:?}");
         let (lines, stats) = count_lines(Link::Display, &display);
         assert_eq!(lines, 50, "{stats:?}");
+    }
+
+    #[test]
+    fn authenticated_frames_are_decoded_and_verified_with_the_key() {
+        let key = v2::LinkKey::parse_hex("000102030405060708090a0b0c0d0e0f").unwrap();
+        let throttle = Command::Throttle(Percent::new(60).unwrap());
+        let mut command = noise(5, 1);
+        command.extend(v2::CommandFrame::new(Command::Revive, 0x1234, 1).encode(&key));
+        command.extend(v2::CommandFrame::repeat(throttle, 0x1234, 2, 2).encode(&key));
+        let mut tampered = v2::CommandFrame::repeat(throttle, 0x1234, 3, 3).encode(&key);
+        tampered[7] = 100; // throttle 100 %, tag unchanged
+        command.extend(tampered);
+        command.extend(v2::CommandFrame::new(Command::Kill, 0x1234, 4).encode(&key));
+
+        // Without a key: nothing (the v1 decoder finds no frame), and a hint.
+        let (_, v1) = count_lines(Link::Command, &command);
+        assert_eq!(v1.frames, 0);
+        assert_eq!(v2_candidates(Link::Command, &command), 4);
+
+        let mut out = Vec::new();
+        let stats = inspect_authenticated(Link::Command, &command, &key, &mut out).unwrap();
+        assert_eq!((stats.frames, stats.bad_tag), (3, 1), "{stats:?}");
+        let lines: Vec<Value> = String::from_utf8(out)
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(lines.len(), 4);
+        assert_eq!(lines[0]["command"], "Revive");
+        assert_eq!(lines[1]["data"], 60);
+        assert_eq!(lines[1]["seq"], 2);
+        assert_eq!(lines[1]["session"], 0x1234);
+        assert_eq!(lines[2], json!({ "error": "bad tag" }));
+        assert_eq!(lines[3]["command"], "Kill");
+
+        // Under another key every frame is a bad tag.
+        let other = v2::LinkKey::from_bytes([7; 16]);
+        let stats = inspect_authenticated(Link::Command, &command, &other, &mut Vec::new());
+        assert_eq!(stats.unwrap().frames, 0);
+
+        // Display frames: decoded with their mode, sequence and sensor values.
+        let frame = v2::DisplayFrame {
+            mode: v2::RobotMode::Auto,
+            session: 0x1234,
+            seq: 9,
+            ack_seq: 4,
+            sensors: DisplayFrame {
+                g_speed_mm_s: 2_500,
+                ..DisplayFrame::default()
+            },
+            ..v2::DisplayFrame::default()
+        };
+        let mut display = frame.encode(&key).to_vec();
+        let mut bad = frame.encode(&key);
+        bad[20] ^= 1;
+        display.extend(bad);
+        let mut out = Vec::new();
+        let stats = inspect_authenticated(Link::Display, &display, &key, &mut out).unwrap();
+        assert_eq!((stats.frames, stats.bad_tag), (1, 1), "{stats:?}");
+        let text = String::from_utf8(out).unwrap();
+        let first: Value = serde_json::from_str(text.lines().next().unwrap()).unwrap();
+        assert_eq!(first["mode"], "Auto");
+        assert_eq!(first["seq"], 9);
+        assert_eq!(first["sensors"]["gspeed_mm_s"], 2_500);
+        assert!(text.lines().nth(1).unwrap().contains("bad tag"), "{text}");
+        assert!(inspect_authenticated(Link::Sensor, &display, &key, &mut Vec::new()).is_err());
     }
 }

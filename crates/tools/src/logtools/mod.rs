@@ -133,6 +133,10 @@ pub struct InspectArgs {
     pub link: inspect::Link,
     /// The capture (default: stdin).
     pub file: Option<PathBuf>,
+    /// Decode and verify version 2 (authenticated) command or display frames with this link
+    /// key file (from `dima keygen`; the default link); without it, version 1 frames.
+    #[arg(long, value_name = "KEY")]
+    pub key_file: Option<PathBuf>,
 }
 
 /// Reads every file of the run `file` belongs to, in order (see [`dima_log::run`]), and
@@ -382,10 +386,28 @@ fn run_inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
             v
         }
     };
+    if let Some(path) = &args.key_file {
+        let key = dima_groundlink::key_file::load(path)?;
+        let stats =
+            inspect::inspect_authenticated(args.link, &bytes, &key, &mut std::io::stdout().lock())?;
+        eprintln!(
+            "frames {} bad-tag {} malformed {} skipped-bytes {}",
+            stats.frames, stats.bad_tag, stats.malformed, stats.skipped_bytes
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     let stats = inspect::inspect(args.link, &bytes, &mut std::io::stdout().lock())?;
     eprintln!(
         "frames {} errors {} skipped-bytes {}",
         stats.frames, stats.errors, stats.skipped_bytes
     );
+    let v2 = inspect::v2_candidates(args.link, &bytes);
+    if v2 > 0 {
+        eprintln!(
+            "the capture holds {v2} version 2 (authenticated) frame start{}: decode them with \
+             --key-file KEY",
+            if v2 == 1 { "" } else { "s" }
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }
