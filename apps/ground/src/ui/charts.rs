@@ -3,6 +3,7 @@
 use eframe::egui;
 use egui_plot::{Legend, Line, Plot, Points};
 
+use crate::plots;
 use crate::telemetry::Telemetry;
 
 pub fn plots(ui: &mut egui::Ui, t: &Telemetry) {
@@ -32,9 +33,15 @@ pub fn plots(ui: &mut egui::Ui, t: &Telemetry) {
         });
         ui.vertical(|ui| {
             ui.label("GNSS track, m east / north of the first fix");
+            // At least TRACK_MIN_SPAN_M across: a standing receiver's noise stays small.
+            let [lo, hi] = plots::track_bounds(&t.track.points(), plots::TRACK_MIN_SPAN_M);
             Plot::new("track")
                 .height(height)
                 .data_aspect(1.0)
+                .include_x(lo[0])
+                .include_x(hi[0])
+                .include_y(lo[1])
+                .include_y(hi[1])
                 .show(ui, |p| {
                     let points = t.track.points();
                     if let Some(last) = points.last().copied() {
@@ -44,18 +51,29 @@ pub fn plots(ui: &mut egui::Ui, t: &Telemetry) {
                 });
         });
     });
-    ui.label("ground speed, m/s (left) and heading of motion, ° / 100 (so both fit)");
+    ui.label(format!(
+        "ground speed, m/s, and heading of motion, ° / 100 (so both fit; unwrapped across \
+         north, drawn above {} m/s)",
+        plots::HEADING_MIN_SPEED_M_S
+    ));
     Plot::new("speed-heading")
         .height(height)
         .legend(Legend::default())
         .show(ui, |p| {
-            p.line(Line::new("ground speed m/s", t.speed.points()));
-            let heading: Vec<[f64; 2]> = t
-                .heading
-                .points()
-                .into_iter()
-                .map(|[x, y]| [x, y / 100.0])
-                .collect();
-            p.line(Line::new("heading °/100", heading));
+            let speed = t.speed.points();
+            for line in plots::split_at_gaps(&speed, plots::MAX_GAP_S) {
+                p.line(Line::new("ground speed m/s", line));
+            }
+            let heading = t.heading.points();
+            let lines = plots::heading_lines(
+                &heading,
+                &speed,
+                plots::HEADING_MIN_SPEED_M_S,
+                plots::MAX_GAP_S,
+            );
+            for line in lines {
+                let scaled: Vec<[f64; 2]> = line.into_iter().map(|[x, y]| [x, y / 100.0]).collect();
+                p.line(Line::new("heading °/100", scaled));
+            }
         });
 }
