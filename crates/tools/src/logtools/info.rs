@@ -73,32 +73,26 @@ fn overview(out: &mut String, run: &LoggedRun) {
     );
 }
 
-/// Mode changes and refused revives, in time.
+/// Mode changes and refused revives, merged in time order (a state record may be both).
 fn mode_changes(out: &mut String, run: &LoggedRun) {
     let _ = writeln!(out, "\nmode changes:");
-    for s in run
-        .states
-        .iter()
-        .filter(|s| s.msg.events.contains(&Event::ModeChanged))
-    {
-        let cause = s.msg.cause.map(|c| format!(" ({c:?})")).unwrap_or_default();
-        let _ = writeln!(
-            out,
-            "  {:8.3} s  cycle {:>7}  {}{cause}",
-            run.seconds(s.t_ns),
-            s.msg.cycle,
-            s.msg.mode
-        );
+    let mut lines: Vec<(u64, u64, String)> = Vec::new();
+    for s in &run.states {
+        if s.msg.events.contains(&Event::ModeChanged) {
+            let cause = s.msg.cause.map(|c| format!(" ({c:?})")).unwrap_or_default();
+            lines.push((s.t_ns, s.msg.cycle, format!("{}{cause}", s.msg.mode)));
+        }
+        if let Some(refusal) = s.msg.refused {
+            lines.push((s.t_ns, s.msg.cycle, format!("revive refused ({refusal:?})")));
+        }
     }
-    for s in run.states.iter().filter(|s| s.msg.refused.is_some()) {
+    // Stable: a record's mode change stays before its refusal.
+    lines.sort_by_key(|(t_ns, cycle, _)| (*t_ns, *cycle));
+    for (t_ns, cycle, text) in lines {
         let _ = writeln!(
             out,
-            "  {:8.3} s  cycle {:>7}  revive refused ({:?})",
-            run.seconds(s.t_ns),
-            s.msg.cycle,
-            s.msg
-                .refused
-                .unwrap_or(dima_core::ReviveRefusal::SensorLoss)
+            "  {:8.3} s  cycle {cycle:>7}  {text}",
+            run.seconds(t_ns)
         );
     }
 }
@@ -231,9 +225,137 @@ fn setup_and_configuration(out: &mut String, run: &LoggedRun) {
     }
 }
 
+/// One channel of an MCAP file (or of all files of a run), summarized.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ChannelSummary {
+    /// Topic.
+    pub topic: String,
+    /// Message encoding.
+    pub encoding: String,
+    /// Messages.
+    pub messages: u64,
+    /// Bytes of the messages' payloads.
+    pub bytes: u64,
+    /// Log time of the first message, ns.
+    pub first_ns: u64,
+    /// Log time of the last message, ns.
+    pub last_ns: u64,
+}
+
+/// Every channel with messages in the MCAP files `files` (bytes), by topic in order of first
+/// appearance, and what could not be read. Any MCAP file: a robot log, a ground station
+/// session, a comparison file.
+pub fn channel_summaries(files: &[&[u8]]) -> (Vec<ChannelSummary>, Vec<String>) {
+    let mut out: Vec<ChannelSummary> = Vec::new();
+    let mut warnings = Vec::new();
+    for bytes in files {
+        let read = super::read::for_each_message(bytes, |m| {
+            let len = m.data.len() as u64;
+            match out.iter_mut().find(|c| c.topic == m.channel.topic) {
+                Some(c) => {
+                    c.messages += 1;
+                    c.bytes += len;
+                    c.first_ns = c.first_ns.min(m.log_time);
+                    c.last_ns = c.last_ns.max(m.log_time);
+                }
+                None => out.push(ChannelSummary {
+                    topic: m.channel.topic.clone(),
+                    encoding: m.channel.message_encoding.clone(),
+                    messages: 1,
+                    bytes: len,
+                    first_ns: m.log_time,
+                    last_ns: m.log_time,
+                }),
+            }
+            Ok(())
+        });
+        if let Err(e) = read {
+            warnings.push(format!("read up to a damaged record: {e:#}"));
+        }
+    }
+    (out, warnings)
+}
+
+/// What the messages of a ground station session's channels are.
+fn meaning(topic: &str) -> &'static str {
+    match topic {
+        "/ground/command" => "command frames sent",
+        "/ground/display" => "display frames received",
+        "/ground/ack" => "command deliveries (acknowledged, given up, dropped)",
+        "/ground/rx_bytes" => "chunks of bytes received",
+        "/ground/link" => "link events (connects, disconnects, errors)",
+        "/dima/cycle" => "control cycles",
+        "/dima/state" => "mode changes and events",
+        "/replay/cycle" => "replayed cycles",
+        _ => "",
+    }
+}
+
+/// The report on an MCAP file that is not a robot log (no control cycles), such as a ground
+/// station session: its files, its duration from the first to the last message, and per
+/// channel the messages, their rate and bytes, and what they are.
+pub fn session_report(
+    file_names: &[String],
+    channels: &[ChannelSummary],
+    metadata: &[String],
+) -> String {
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "files: {} ({})",
+        file_names.len(),
+        file_names.join(", ")
+    );
+    let _ = writeln!(
+        out,
+        "no control cycles (/dima/cycle): not a robot log; a ground station session or another \
+         MCAP file"
+    );
+    let first = channels.iter().map(|c| c.first_ns).min();
+    let last = channels.iter().map(|c| c.last_ns).max();
+    let duration = first
+        .zip(last)
+        .map_or(0.0, |(a, b)| b.saturating_sub(a) as f64 * 1e-9);
+    let messages: u64 = channels.iter().map(|c| c.messages).sum();
+    let _ = writeln!(
+        out,
+        "duration {duration:.2} s (first to last message) | {messages} messages on {} channel{}",
+        channels.len(),
+        if channels.len() == 1 { "" } else { "s" }
+    );
+    let _ = writeln!(out, "\nchannels:");
+    let width = channels.iter().map(|c| c.topic.len()).max().unwrap_or(0);
+    for c in channels {
+        let rate = if duration > 0.0 {
+            format!("{:.1}/s", c.messages as f64 / duration)
+        } else {
+            "-".to_owned()
+        };
+        let what = meaning(&c.topic);
+        let _ = writeln!(
+            out,
+            "  {:<width$}  {:>8} messages  {:>8}  {:>10} bytes  {}{}",
+            c.topic,
+            c.messages,
+            rate,
+            c.bytes,
+            c.encoding,
+            if what.is_empty() {
+                String::new()
+            } else {
+                format!("  ({what})")
+            }
+        );
+    }
+    if !metadata.is_empty() {
+        let _ = writeln!(out, "\nmetadata: {}", metadata.join(", "));
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
-    use super::percentile;
+    use super::{channel_summaries, percentile, session_report};
     use crate::logtools::read::{LoggedRun, Timed};
     use dima_log::schema::{BoardHealthMessage, SensorInfoMessage};
 
@@ -287,5 +409,87 @@ mod tests {
         assert_eq!(percentile(&v, 99.9), Some(100.0));
         assert_eq!(percentile(&v, 0.0), Some(1.0));
         assert_eq!(percentile(&[], 50.0), None);
+    }
+
+    #[test]
+    fn refusals_and_mode_changes_are_listed_in_time_order() {
+        use dima_core::{Mode, ReviveRefusal};
+        use dima_log::schema::{Event, StateMessage};
+        let state = |t_s: u64, cycle, mode, refused: Option<ReviveRefusal>| Timed {
+            t_ns: t_s * 1_000_000_000,
+            msg: StateMessage {
+                cycle,
+                mode,
+                cause: None,
+                refused,
+                events: if refused.is_some() {
+                    vec![Event::ReviveRefused]
+                } else {
+                    vec![Event::ModeChanged]
+                },
+            },
+        };
+        let run = LoggedRun {
+            states: vec![
+                state(1, 250, Mode::Manual, None),
+                state(2, 500, Mode::Killed, Some(ReviveRefusal::SensorLoss)),
+                state(3, 750, Mode::Auto, None),
+            ],
+            ..LoggedRun::default()
+        };
+        let text = super::report(&run);
+        let at = |needle: &str| {
+            text.find(needle)
+                .unwrap_or_else(|| panic!("{needle}: {text}"))
+        };
+        assert!(at("MANUAL") < at("revive refused"), "{text}");
+        assert!(at("revive refused") < at("AUTO"), "{text}");
+    }
+
+    #[test]
+    fn a_station_session_is_summarised_by_channel() {
+        use dima_log::schema::ChannelSpec;
+        use dima_log::writer::{Channel, McapLog};
+        let spec = |topic| ChannelSpec {
+            topic,
+            encoding: "json",
+            schema_name: "",
+        };
+        let (command, display) = (spec("/ground/command"), spec("/ground/display"));
+        let path =
+            std::env::temp_dir().join(format!("dima-info-session-{}.mcap", std::process::id()));
+        let channels = [command, display].map(|spec| Channel { spec, schema: None });
+        let mut log = McapLog::create_with_channels(&path, channels.to_vec()).unwrap();
+        log.set_time_offset(0);
+        let t0 = 1_800_000_000_000_000_000u64;
+        for k in 0..40u64 {
+            log.message_on(&command, t0 + k * 50_000_000, b"{}")
+                .unwrap();
+        }
+        for k in 0..4u64 {
+            log.message_on(&display, t0 + k * 500_000_000, b"{\"a\":1}")
+                .unwrap();
+        }
+        log.finish().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        std::fs::remove_file(&path).unwrap();
+        let (channels, warnings) = channel_summaries(&[&bytes]);
+        assert!(warnings.is_empty(), "{warnings:?}");
+        assert_eq!(channels.len(), 2);
+        assert_eq!((channels[0].messages, channels[0].bytes), (40, 80));
+        assert_eq!(channels[1].messages, 4);
+        let text = session_report(&["ground.mcap".to_owned()], &channels, &[]);
+        assert!(text.contains("duration 1.95 s"), "{text}");
+        assert!(text.contains("44 messages on 2 channels"), "{text}");
+        let command_line = text
+            .lines()
+            .find(|l| l.contains("/ground/command"))
+            .unwrap();
+        assert!(command_line.contains("40 messages"), "{command_line}");
+        assert!(
+            command_line.contains("command frames sent"),
+            "{command_line}"
+        );
+        assert!(text.contains("display frames received"), "{text}");
     }
 }

@@ -193,7 +193,14 @@ pub fn log(args: LogArgs) -> anyhow::Result<ExitCode> {
 fn run_log(args: LogArgs) -> anyhow::Result<ExitCode> {
     match args.command {
         LogCommand::Info { file } => {
-            write_stdout(info::report(&open_log(&file)?).as_bytes())?;
+            let run = open_log(&file)?;
+            let text = if run.cycles.is_empty() && run.config.is_none() {
+                // Not a robot log: a ground station session (or any MCAP file).
+                session_info(&file)?
+            } else {
+                info::report(&run)
+            };
+            write_stdout(text.as_bytes())?;
         }
         LogCommand::Export {
             file,
@@ -281,6 +288,44 @@ fn run_log(args: LogArgs) -> anyhow::Result<ExitCode> {
         } => return replay_command(&file, config.as_deref(), output.as_deref()),
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `dima log info` on an MCAP file without control cycles (a ground station session): its
+/// channels, duration and message counts, over every file of its run.
+fn session_info(file: &std::path::Path) -> anyhow::Result<String> {
+    let files = dima_log::naming::run_files(file).unwrap_or_else(|_| vec![file.to_path_buf()]);
+    let mut contents = Vec::new();
+    for f in &files {
+        contents.push(std::fs::read(f).with_context(|| format!("cannot read {}", f.display()))?);
+    }
+    let slices: Vec<&[u8]> = contents.iter().map(Vec::as_slice).collect();
+    let (channels, warnings) = info::channel_summaries(&slices);
+    for w in &warnings {
+        eprintln!("warning: {}: {w}", file.display());
+    }
+    let (metadata, _) = slices.iter().map(|b| read::metadata(b)).fold(
+        (Vec::new(), Vec::<String>::new()),
+        |mut acc, (m, _)| {
+            acc.0.extend(m.into_iter().map(|m| m.name));
+            acc
+        },
+    );
+    anyhow::ensure!(
+        !channels.is_empty() || !metadata.is_empty(),
+        "{}: no complete message or metadata record: not an MCAP log, or cut before its first \
+         record",
+        file.display()
+    );
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| {
+            f.file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .into_owned()
+        })
+        .collect();
+    Ok(info::session_report(&names, &channels, &metadata))
 }
 
 /// The error of `--channel replay` on a file without replayed cycles.
