@@ -1,6 +1,9 @@
 //! `dima log export FILE --format csv|jsonl|parquet`: one row per cycle (channel `cycle`), per
-//! GNSS fix (`gnss`) or per state change (`state`), every value in physical units with the unit
-//! in its column name. The CSV opens in a spreadsheet and in PlotJuggler (first column `t_s`);
+//! GNSS fix (`gnss`), per state change (`state`) or per replayed cycle of a comparison file
+//! (`replay`), every value in physical units with the unit in its column name. The cycle rows
+//! end with the GNSS values the cycle's packet carried (`gnss_speed_m_s`, `gnss_heading_deg`,
+//! `gnss_lat_deg`, `gnss_lon_deg`) and the state estimate (`est_speed_m_s`,
+//! `est_heading_deg`, see [`recorded_estimates`]), so a speed meets its setpoint in one row. The CSV opens in a spreadsheet and in PlotJuggler (first column `t_s`);
 //! the same rows go to Parquet through [`parquet`](super::parquet).
 
 use std::collections::BTreeMap;
