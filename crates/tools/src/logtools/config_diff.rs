@@ -36,7 +36,8 @@ const READ_BY_STEP: &[&str] = &[
     "sensor.request_ahead",
 ];
 
-/// Whether the control step reads `key` (see [`READ_BY_STEP`]).
+/// Whether the control step reads `key`: the safety limits, channels, controllers, estimator,
+/// loop rate and sensor link timing.
 pub fn read_by_step(key: &str) -> bool {
     READ_BY_STEP.iter().any(|p| {
         if p.ends_with('.') {
