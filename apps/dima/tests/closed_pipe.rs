@@ -62,3 +62,22 @@ fn inspect_into_a_closed_pipe_ends_quietly_with_success_and_nothing_on_stderr() 
     assert!(status.success(), "{status:?}: {stderr}");
     assert_eq!(stderr, "");
 }
+
+#[test]
+fn bench_wakeup_into_a_closed_pipe_ends_quietly_with_success() {
+    // About 140 kB of histogram: more than a pipe holds.
+    let args = [
+        "bench",
+        "wakeup",
+        "--duration",
+        "0.3",
+        "--priority",
+        "0",
+        "--interval-us",
+        "1000",
+    ];
+    let (status, first, stderr) = first_line_then_close(&args);
+    assert!(first.starts_with('#'), "{first}");
+    assert!(status.success(), "{status:?}: {stderr}");
+    assert_eq!(stderr, "");
+}

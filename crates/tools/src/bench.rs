@@ -237,8 +237,24 @@ pub fn wakeup(args: &WakeupArgs) -> anyhow::Result<WakeupResult> {
         .map_err(|_| anyhow::anyhow!("the benchmark thread panicked"))
 }
 
-/// Runs `dima bench ...`.
+/// Runs `dima bench ...`. A closed stdout (`dima bench wakeup | head`) ends it with success
+/// and nothing on stderr.
 pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
+    match run_bench(args) {
+        Err(e) if crate::logtools::is_broken_pipe(&e) => Ok(()),
+        other => other,
+    }
+}
+
+/// Writes `text` to stdout and flushes it.
+fn write_stdout(text: &str) -> std::io::Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())?;
+    out.flush()
+}
+
+fn run_bench(args: BenchArgs) -> anyhow::Result<()> {
     match args.command {
         BenchCommand::PlotHistograms {
             files,
@@ -260,7 +276,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
         }
         BenchCommand::Cycle { log, repeat } => {
             let (n, ns) = cycle_cost(&log, repeat)?;
-            println!("{n} cycles, {ns:.0} ns per cycle");
+            write_stdout(&format!("{n} cycles, {ns:.0} ns per cycle\n"))?;
             Ok(())
         }
         BenchCommand::Wakeup(w) => {
@@ -269,7 +285,7 @@ pub fn bench(args: BenchArgs) -> anyhow::Result<()> {
             match &w.histfile {
                 Some(path) => std::fs::write(path, &text)
                     .with_context(|| format!("writing {}", path.display()))?,
-                None => print!("{text}"),
+                None => write_stdout(&text)?,
             }
             let h = &result.histogram;
             eprintln!(
