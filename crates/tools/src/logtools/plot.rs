@@ -395,7 +395,11 @@ fn track(
         .collect();
     // Same scale on both axes, at least TRACK_MIN_SPAN_M: standing noise stays small.
     let en: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
-    let (x, y) = track_extent(&en, TRACK_MIN_SPAN_M);
+    // The plotting area: the whole less the label areas, margins and caption.
+    let (w, h) = root.dim_in_pixel();
+    let aspect = f64::from(w.saturating_sub(70 + 24).max(1))
+        / f64::from(h.saturating_sub(44 + 24 + 30).max(1));
+    let (x, y) = track_extent(&en, TRACK_MIN_SPAN_M, aspect);
     let mut chart = ChartBuilder::on(root)
         .caption(
             format!("GNSS track (coloured by mode; at least {TRACK_MIN_SPAN_M} m across)"),

@@ -93,10 +93,15 @@ pub fn angle_lines(samples: &[(f64, Option<f64>)], max_gap_s: f64) -> Vec<Vec<(f
         .collect()
 }
 
-/// The east and north ranges, m, of a track plot of `points` (`(east, north)`): one scale on
-/// both axes, centred on the points, spanning at least `min_span_m` and 10 % more than the
-/// points. No points: `min_span_m` around 0.
-pub fn track_extent(points: &[(f64, f64)], min_span_m: f64) -> (Range<f64>, Range<f64>) {
+/// The east and north ranges, m, of a track plot of `points` (`(east, north)`) drawn in an
+/// area `aspect` times as wide as high (pixels): one scale on both axes (a metre is as many
+/// pixels east as north), centred on the points, spanning at least `min_span_m` and 10 % more
+/// than the points on each axis. No points: `min_span_m` around 0.
+pub fn track_extent(
+    points: &[(f64, f64)],
+    min_span_m: f64,
+    aspect: f64,
+) -> (Range<f64>, Range<f64>) {
     let finite = points.iter().filter(|p| p.0.is_finite() && p.1.is_finite());
     let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0.0);
     let mut any = false;
@@ -110,9 +115,17 @@ pub fn track_extent(points: &[(f64, f64)], min_span_m: f64) -> (Range<f64>, Rang
     if !any {
         (x0, x1) = (0.0, 0.0);
     }
-    let half = ((x1 - x0).max(y1 - y0) * 1.1).max(min_span_m) / 2.0;
+    let aspect = if aspect.is_finite() && aspect > 0.0 {
+        aspect
+    } else {
+        1.0
+    };
+    // Half the north span; the east span is `aspect` times the north span.
+    let half_n = ((x1 - x0) / aspect).max(y1 - y0) * 1.1 / 2.0;
+    let half_n = half_n.max(min_span_m / 2.0).max(min_span_m / 2.0 / aspect);
+    let half_e = half_n * aspect;
     let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-    (cx - half..cx + half, cy - half..cy + half)
+    (cx - half_e..cx + half_e, cy - half_n..cy + half_n)
 }
 
 /// A latency histogram: buckets of `width_us` from 0 up to `top_us` (the 99.9th percentile,
@@ -246,17 +259,27 @@ mod tests {
     fn a_standing_receiver_does_not_fill_the_track_plot() {
         // A metre of noise around the origin.
         let noise = [(0.3, -0.4), (-0.5, 0.6), (0.2, 0.1), (-0.1, -0.5)];
-        let (x, y) = track_extent(&noise, TRACK_MIN_SPAN_M);
+        let (x, y) = track_extent(&noise, TRACK_MIN_SPAN_M, 1.0);
         assert!((x.end - x.start - TRACK_MIN_SPAN_M).abs() < 1e-9, "{x:?}");
         assert!((y.end - y.start - TRACK_MIN_SPAN_M).abs() < 1e-9, "{y:?}");
         assert!(x.contains(&0.3) && y.contains(&0.6));
+        // In a wide area the shorter (north) axis gets the floor, east as many metres per pixel.
+        let (x, y) = track_extent(&noise, TRACK_MIN_SPAN_M, 2.0);
+        assert!((y.end - y.start - TRACK_MIN_SPAN_M).abs() < 1e-9, "{y:?}");
+        assert!(
+            (x.end - x.start - 2.0 * TRACK_MIN_SPAN_M).abs() < 1e-9,
+            "{x:?}"
+        );
         // A drive of 100 m east keeps its own scale, the same on both axes.
         let drive = [(0.0, 0.0), (100.0, 5.0)];
-        let (x, y) = track_extent(&drive, TRACK_MIN_SPAN_M);
+        let (x, y) = track_extent(&drive, TRACK_MIN_SPAN_M, 1.0);
         assert!((x.end - x.start - 110.0).abs() < 1e-9, "{x:?}");
         assert!((y.end - y.start - 110.0).abs() < 1e-9, "{y:?}");
         assert!((x.start + x.end) / 2.0 == 50.0 && (y.start + y.end) / 2.0 == 2.5);
-        let (x, _) = track_extent(&[], TRACK_MIN_SPAN_M);
+        let (x, y) = track_extent(&drive, TRACK_MIN_SPAN_M, 2.0);
+        assert!((x.end - x.start - 110.0).abs() < 1e-9, "{x:?}");
+        assert!((y.end - y.start - 55.0).abs() < 1e-9, "{y:?}");
+        let (x, _) = track_extent(&[], TRACK_MIN_SPAN_M, 1.0);
         assert_eq!(x, -5.0..5.0);
     }
 
