@@ -456,3 +456,78 @@ fn run_inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
     }
     Ok(ExitCode::SUCCESS)
 }
+
+#[cfg(test)]
+mod tests {
+    use clap::Parser;
+
+    use super::*;
+
+    /// `dima log ...` and `dima inspect ...` as the program parses them.
+    #[derive(Debug, Parser)]
+    enum Tools {
+        Log(LogArgs),
+        Inspect(InspectArgs),
+    }
+
+    fn log(args: &[&str]) -> LogCommand {
+        let argv = ["dima", "log"].iter().chain(args).copied();
+        match Tools::try_parse_from(argv).unwrap() {
+            Tools::Log(l) => l.command,
+            Tools::Inspect(_) => unreachable!(),
+        }
+    }
+
+    #[test]
+    fn the_tuning_workflow_parses() {
+        let LogCommand::Config { file, replayed } = log(&["config", "drive.mcap"]) else {
+            panic!("not config")
+        };
+        assert_eq!((file, replayed), (PathBuf::from("drive.mcap"), false));
+        let LogCommand::Config { replayed, .. } = log(&["config", "c.mcap", "--replayed"]) else {
+            panic!("not config")
+        };
+        assert!(replayed);
+        let LogCommand::Export { channel, .. } = log(&["export", "c.mcap", "--channel", "replay"])
+        else {
+            panic!("not export")
+        };
+        assert_eq!(channel, export::Channel::Replay);
+        let LogCommand::Plot { channel, .. } = log(&["plot", "c.mcap", "-o", "p.png"]) else {
+            panic!("not plot")
+        };
+        assert_eq!(channel, plot::Source::Cycle, "the default");
+        let LogCommand::Plot { channel, .. } =
+            log(&["plot", "c.mcap", "-o", "p.png", "--channel", "replay"])
+        else {
+            panic!("not plot")
+        };
+        assert_eq!(channel, plot::Source::Replay);
+        let argv = [
+            "dima",
+            "inspect",
+            "command",
+            "cap.bin",
+            "--key-file",
+            "link.key",
+        ];
+        let Tools::Inspect(i) = Tools::try_parse_from(argv).unwrap() else {
+            panic!("not inspect")
+        };
+        assert_eq!(i.key_file, Some(PathBuf::from("link.key")));
+    }
+
+    #[test]
+    fn a_closed_pipe_is_recognised_through_the_context() {
+        let closed = anyhow::Error::from(std::io::Error::from(std::io::ErrorKind::BrokenPipe))
+            .context("writing the export");
+        assert!(is_broken_pipe(&closed));
+        assert_eq!(
+            quiet_on_closed_pipe(Err(closed)).unwrap(),
+            ExitCode::SUCCESS
+        );
+        let other = anyhow::anyhow!("cannot read drive.mcap");
+        assert!(!is_broken_pipe(&other));
+        assert!(quiet_on_closed_pipe(Err(other)).is_err());
+    }
+}
