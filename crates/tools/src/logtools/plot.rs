@@ -17,7 +17,7 @@ use plotters::prelude::*;
 use dima_log::schema::ReplayMessage;
 
 use super::plot_math::{
-    angle_lines, heading_lines, latency_histogram, split_at_gaps, track_extent,
+    align_turns, angle_lines, heading_lines, latency_histogram, split_at_gaps, track_extent,
     HEADING_MIN_SPEED_M_S, LATENCY_MAX_BUCKETS, MAX_GAP_S, TRACK_MIN_SPAN_M,
 };
 use super::read::{LoggedRun, Timed};
@@ -284,12 +284,16 @@ fn gnss_with_estimate(
     time_chart(&top, run, "ground speed", "speed (m/s)", &speeds)?;
     let heading = heading_lines(&fixes, HEADING_MIN_SPEED_M_S, MAX_GAP_S);
     let setpoint = angle_lines(&cycle_samples(run, |c| c.setpoints.heading_deg), MAX_GAP_S);
+    // Setpoint and estimate in the turn of the measured heading beside them.
+    let setpoint = align_turns(&setpoint, &heading);
+    let replayed_heading = estimate(|m| m.estimate.heading_deg.map(|h| f64::from(h.value)))
+        .map(|samples| align_turns(&angle_lines(&samples, MAX_GAP_S), &heading));
     let mut headings = vec![
         ("GNSS heading of motion", BLUE, heading),
         ("setpoint", RED, setpoint),
     ];
-    if let Some(samples) = estimate(|m| m.estimate.heading_deg.map(|h| f64::from(h.value))) {
-        headings.push(("replayed estimate", GREEN, angle_lines(&samples, MAX_GAP_S)));
+    if let Some(lines) = replayed_heading {
+        headings.push(("replayed estimate", GREEN, lines));
     }
     time_chart(
         &bottom,
@@ -617,4 +621,53 @@ pub fn plot(run: &LoggedRun, what: What, path: &Path, size: (u32, u32)) -> anyho
     root.present()
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fixture's drive turned by `degrees`: its heading of motion crosses north.
+    fn turned_drive(degrees: f64) -> LoggedRun {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../tests/fixtures/auto-pid-before-plugins.mcap"
+        );
+        let mut run = LoggedRun::read(Path::new(path)).unwrap();
+        for c in &mut run.cycles {
+            if let Some(h) = c.msg.sensor.as_mut().and_then(|s| s.head_mot_deg.as_mut()) {
+                *h = (*h + degrees).rem_euclid(360.0);
+            }
+        }
+        run
+    }
+
+    #[test]
+    fn the_gnss_plot_of_a_drive_across_north_has_no_vertical_bar() {
+        // Turned so that the AUTO leg's heading is near north: both sides of 0/360° occur.
+        let run = turned_drive(240.0);
+        let fixes = gnss_fixes(&run);
+        let raw: Vec<f64> = fixes.iter().filter_map(|f| f.1).collect();
+        assert!(raw.iter().any(|h| *h < 20.0) && raw.iter().any(|h| *h > 340.0));
+        let lines = heading_lines(&fixes, HEADING_MIN_SPEED_M_S, MAX_GAP_S);
+        assert!(!lines.is_empty());
+        for line in &lines {
+            for pair in line.windows(2) {
+                assert!((pair[1].1 - pair[0].1).abs() < 90.0, "{pair:?}");
+            }
+        }
+        // Drawn only while moving: no point of a fix slower than the threshold.
+        let drawn: usize = lines.iter().map(Vec::len).sum();
+        let moving = fixes
+            .iter()
+            .filter(|f| f.1.is_some() && f.2.is_some_and(|v| v >= HEADING_MIN_SPEED_M_S))
+            .count();
+        assert_eq!(drawn, moving);
+        let png = std::env::temp_dir().join(format!("dima-plot-north-{}.png", std::process::id()));
+        plot(&run, What::Gnss, &png, (900, 500)).unwrap();
+        assert!(std::fs::metadata(&png).unwrap().len() > 1_000);
+        if std::env::var_os("DIMA_KEEP_PLOTS").is_none() {
+            std::fs::remove_file(&png).unwrap();
+        }
+    }
 }

@@ -93,6 +93,31 @@ pub fn angle_lines(samples: &[(f64, Option<f64>)], max_gap_s: f64) -> Vec<Vec<(f
         .collect()
 }
 
+/// `lines` of angles (a setpoint, an estimate) each moved by a whole number of turns to lie
+/// nearest the `reference` lines (the measured heading) at the time the line starts, so that
+/// a setpoint of 5° beside a heading unwrapped to 358° is drawn at 365°, 7° away, not 353°
+/// away. The reference point nearest in time to the line's start decides; without reference
+/// points the lines are left as they are.
+pub fn align_turns(
+    lines: &[Vec<(f64, f64)>],
+    reference: &[Vec<(f64, f64)>],
+) -> Vec<Vec<(f64, f64)>> {
+    let refs: Vec<(f64, f64)> = reference.iter().flatten().copied().collect();
+    lines
+        .iter()
+        .map(|line| {
+            let Some(&(t0, v0)) = line.first() else {
+                return Vec::new();
+            };
+            let nearest = refs
+                .iter()
+                .min_by(|a, b| (a.0 - t0).abs().total_cmp(&(b.0 - t0).abs()));
+            let turns = nearest.map_or(0.0, |&(_, r)| ((r - v0) / 360.0).round());
+            line.iter().map(|&(t, v)| (t, v + 360.0 * turns)).collect()
+        })
+        .collect()
+}
+
 /// The east and north ranges, m, of a track plot of `points` (`(east, north)`) drawn in an
 /// area `aspect` times as wide as high (pixels): one scale on both axes (a metre is as many
 /// pixels east as north), centred on the points, spanning at least `min_span_m` and 10 % more
@@ -211,6 +236,19 @@ mod tests {
             [5.0, -5.0, 5.0]
         );
         assert!(unwrap_degrees(&[]).is_empty());
+    }
+
+    #[test]
+    fn a_setpoint_is_drawn_in_the_turn_of_the_heading_beside_it() {
+        let heading = vec![vec![(0.0, 350.0), (1.0, 358.0), (2.0, 365.0)]];
+        let setpoint = vec![vec![(0.5, 5.0), (2.0, 5.0)], vec![(10.0, 90.0)]];
+        let aligned = align_turns(&setpoint, &heading);
+        assert_eq!(aligned[0], vec![(0.5, 365.0), (2.0, 365.0)]);
+        // Nearest in time is the last heading point (365°): 90° is drawn 85° from it, at 450°.
+        assert_eq!(aligned[1], vec![(10.0, 450.0)]);
+        let below = align_turns(&[vec![(0.0, 355.0)]], &[vec![(0.0, -3.0)]]);
+        assert_eq!(below, vec![vec![(0.0, -5.0)]]);
+        assert_eq!(align_turns(&setpoint, &[]), setpoint);
     }
 
     #[test]
