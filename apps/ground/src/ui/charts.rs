@@ -60,9 +60,11 @@ pub fn plots(ui: &mut egui::Ui, t: &Telemetry) {
         .height(height)
         .legend(Legend::default())
         .show(ui, |p| {
+            // One colour per series: a series broken at gaps is drawn as several lines.
+            let (speed_color, heading_color) = (series_color(0), series_color(1));
             let speed = t.speed.points();
             for line in plots::split_at_gaps(&speed, plots::MAX_GAP_S) {
-                p.line(Line::new("ground speed m/s", line));
+                p.line(Line::new("ground speed m/s", line).color(speed_color));
             }
             let heading = t.heading.points();
             let lines = plots::heading_lines(
@@ -73,7 +75,15 @@ pub fn plots(ui: &mut egui::Ui, t: &Telemetry) {
             );
             for line in lines {
                 let scaled: Vec<[f64; 2]> = line.into_iter().map(|[x, y]| [x, y / 100.0]).collect();
-                p.line(Line::new("heading °/100", scaled));
+                p.line(Line::new("heading °/100", scaled).color(heading_color));
             }
         });
+}
+
+/// The colour the plot gives its `index`-th series by default (so a series drawn as several
+/// lines keeps one colour).
+fn series_color(index: u8) -> egui::Color32 {
+    // The golden ratio's fractional part, as egui_plot steps its automatic hues.
+    let hue = f32::from(index) * 0.618_034;
+    egui::ecolor::Hsva::new(hue.fract(), 0.85, 0.5, 1.0).into()
 }
