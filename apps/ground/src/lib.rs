@@ -19,6 +19,9 @@
 //! - [`plots`]: time-series buffers and the GNSS track in local metres;
 //! - [`downlink`]: what the station can say about the robot's reports (authentic, or why
 //!   not: a wrong key, a v1 station and a v2 robot, silence), as a pure function;
+//! - [`robot_view`]: what the station shows as the robot's state: its reported outputs and
+//!   setpoints (never the station's intent), whether the drive controls can act, the
+//!   downlink's loss from its sequence numbers;
 //! - [`recording`]: the session log (everything sent and received, timestamped) as MCAP;
 //! - [`sim`]: `--sim`, the simulated robot exactly as `dima sim --ground-pty` runs it, in a
 //!   child process;
@@ -34,6 +37,7 @@ pub mod keys;
 pub mod link;
 pub mod plots;
 pub mod recording;
+pub mod robot_view;
 pub mod serial;
 pub mod sim;
 pub mod sim_robot;
