@@ -92,6 +92,10 @@ impl<'a> Truth<'a> {
     /// servo target the robot commanded, in microseconds, never the station's own.
     pub fn output_text(self, channel: usize) -> String {
         match self {
+            // 0: the robot has commanded nothing yet (its loop has not run a cycle).
+            Truth::Fresh(a) | Truth::Stale(a, _) if a.servo_quarter_us[channel] == 0 => {
+                "robot: nothing commanded yet".to_owned()
+            }
             Truth::Fresh(a) => format!("robot {} µs", a.servo_us()[channel]),
             Truth::Stale(a, age) => format!(
                 "robot {} µs, {:.1} s ago",

@@ -217,7 +217,9 @@ fn robot_setpoints(ui: &mut egui::Ui, app: &GroundApp) {
                 ("controllers", truth.controllers_text()),
             ] {
                 ui.label(k);
-                let colour = if v.starts_with("none") { WARN } else { GOOD };
+                // Green only for a fresh value; amber for none, unknown or old.
+                let fresh = matches!(truth, Truth::Fresh(_));
+                let colour = if fresh && v != "none" { GOOD } else { WARN };
                 ui.label(RichText::new(v).monospace().color(colour));
                 ui.end_row();
             }

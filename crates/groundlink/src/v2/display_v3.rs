@@ -10,7 +10,7 @@
 //! | 0-1 | start token `A5 46` |
 //! | 2 | length, 156 |
 //! | 3-117 | as in a display frame v2: mode, cause, refusal, session, sequence number, acknowledgement, health, version 1 payload |
-//! | 118-119 | throttle servo target the robot commanded this cycle, u16, quarter-microseconds (the Maestro's unit) |
+//! | 118-119 | throttle servo target the robot commanded this cycle, u16, quarter-microseconds (the Maestro's unit; 0: nothing commanded yet) |
 //! | 120-121 | steering servo target, u16, quarter-microseconds |
 //! | 122-123 | tail servo target, u16, quarter-microseconds |
 //! | 124 | presence bits: 0 speed setpoint, 1 heading setpoint, 2 speed estimate, 3 heading estimate, 4 speed error (other bits 0, ignored) |
@@ -120,7 +120,8 @@ impl ControllerCode {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Actuation {
     /// Servo targets the robot commanded the Maestro this cycle, throttle, steering, tail, in
-    /// quarter-microseconds (the safe targets in KILLED and FAILSAFE).
+    /// quarter-microseconds (the safe targets in KILLED and FAILSAFE; 0 before the robot's
+    /// first cycle: nothing commanded yet).
     pub servo_quarter_us: [u16; 3],
     /// AUTO speed setpoint in force, mm/s; `None`: no speed setpoint.
     pub speed_setpoint_mm_s: Option<i32>,
