@@ -58,6 +58,8 @@ struct StateShots {
     saved: Option<String>,
     /// Screenshots requested so far.
     count: u32,
+    /// The state of the frame last drawn: the screenshot, taken later, is named after it.
+    drawn: Arc<Mutex<String>>,
 }
 
 /// A state is saved once it has been drawn for this long (the frame shows it).
@@ -190,6 +192,7 @@ impl GroundApp {
                 state: None,
                 saved: None,
                 count: 0,
+                drawn: Arc::default(),
             }),
             alerts: Alerts::default(),
             sounder: Sounder::new(cli.mute),
@@ -332,6 +335,7 @@ impl GroundApp {
         };
         let now = Instant::now();
         let state = format!("{banner}-{controls}-throttle-{throttle}");
+        state.clone_into(&mut shots.drawn.lock().unwrap_or_else(|e| e.into_inner()));
         match &shots.state {
             Some((s, _)) if *s == state => {}
             _ => shots.state = Some((state.clone(), now)),
@@ -344,11 +348,17 @@ impl GroundApp {
         }
         shots.saved = Some(state.clone());
         shots.count += 1;
-        let path = shots.dir.join(format!("{:02}-{state}.png", shots.count));
-        let _ = std::fs::create_dir_all(&shots.dir);
-        ctx.request_screenshot(move |image| match save_png(&path, &image) {
-            Ok(()) => eprintln!("dima-ground: state screenshot {}", path.display()),
-            Err(e) => eprintln!("dima-ground: state screenshot failed: {e}"),
+        let (dir, count, drawn) = (shots.dir.clone(), shots.count, shots.drawn.clone());
+        let _ = std::fs::create_dir_all(&dir);
+        ctx.request_screenshot(move |image| {
+            // Named after the state of the frame it shows (it may have changed since the
+            // request).
+            let state = drawn.lock().unwrap_or_else(|e| e.into_inner()).clone();
+            let path = dir.join(format!("{count:02}-{state}.png"));
+            match save_png(&path, &image) {
+                Ok(()) => eprintln!("dima-ground: state screenshot {}", path.display()),
+                Err(e) => eprintln!("dima-ground: state screenshot failed: {e}"),
+            }
         });
     }
 
