@@ -351,7 +351,9 @@ impl DisplayRecord {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[schemars(title = "dima_ground.Link")]
 pub struct LinkRecord {
-    /// What happened: `connected`, `disconnected`, `lost`, `error`.
+    /// What happened: `connected`, `disconnected`, `lost`, `error`; and the station's own
+    /// `alert` (an alert raised: its name and text in `detail`) and `controls` (the drive
+    /// controls became live or greyed, and why, in `detail`).
     pub event: String,
     /// The port, when there is one.
     pub port: Option<String>,
