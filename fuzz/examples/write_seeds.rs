@@ -245,6 +245,28 @@ fn display_v2(seq: u32, mode: RobotMode) -> [u8; v2::DISPLAY_FRAME_LEN] {
     .encode(&LinkKey::from_bytes(LINK_KEY))
 }
 
+fn display_v3(seq: u32, mode: RobotMode) -> [u8; v2::DISPLAY_V3_FRAME_LEN] {
+    let key = LinkKey::from_bytes(LINK_KEY);
+    let status = v2::DisplayFrame::decode(&display_v2(seq, mode), &key).expect("authentic");
+    v2::DisplayFrameV3 {
+        status,
+        actuation: v2::Actuation {
+            servo_quarter_us: [6400, 6000, 5600],
+            speed_setpoint_mm_s: Some(1500),
+            heading_setpoint_deg_e5: None,
+            speed_estimate_mm_s: Some(1200),
+            heading_estimate_deg_e5: Some(9_000_000),
+            speed_error_mm_s: Some(300),
+            controllers: [
+                v2::ControllerCode::SpeedPid,
+                v2::ControllerCode::HeadingPid,
+                v2::ControllerCode::Neutral,
+            ],
+        },
+    }
+    .encode(&key)
+}
+
 fn display_seeds() -> Vec<(&'static str, Vec<u8>)> {
     let mut stream = b"noise".to_vec();
     stream.extend(display_v1().encode());
@@ -252,9 +274,11 @@ fn display_seeds() -> Vec<(&'static str, Vec<u8>)> {
     stream.extend(&display_v1().encode()[..30]);
     stream.extend(display_v2(2, RobotMode::Failsafe));
     stream.extend(DisplayFrame::default().encode());
+    stream.extend(display_v3(3, RobotMode::Auto));
     vec![
         ("v1", display_v1().encode().to_vec()),
         ("v2", display_v2(7, RobotMode::Auto).to_vec()),
+        ("v3", display_v3(8, RobotMode::Auto).to_vec()),
         ("mixed", stream),
     ]
 }

@@ -1,5 +1,5 @@
-//! Ground-link display stream on any bytes: `dima_groundlink::DisplayDecoder` (v1), and the v2
-//! `DisplayDecoder` with a fixed key.
+//! Ground-link display stream on any bytes: `dima_groundlink::DisplayDecoder` (v1), the v2
+//! `DisplayDecoder` with a fixed key, and the `DownlinkDecoder` of display frames v2 and v3.
 //!
 //! Beyond "no panic", for v1:
 //! - the same bytes fed whole, one byte at a time and in reads of random sizes give the same
@@ -12,6 +12,10 @@
 //! finds (every offset tried, an authentic frame taken whole, anything else costing one byte);
 //! 126 bytes per frame, plus skipped and pending bytes, add up to the input; a delivered frame
 //! re-encodes to bytes that decode to it.
+//!
+//! For v2 and v3 together (`v2::DownlinkDecoder`, key [`LINK_KEY`]): its v2 frames are exactly
+//! those of the v2 decoder; frames (126 or 156 bytes each), skipped and pending bytes add up
+//! to the input; a delivered v3 frame re-encodes to bytes that decode to it.
 #![no_main]
 
 use dima_fuzz::{chunks, LINK_KEY};
@@ -112,7 +116,47 @@ fn check_v2(data: &[u8]) {
     }
 }
 
+fn check_downlink(data: &[u8]) {
+    let key = LinkKey::from_bytes(LINK_KEY);
+    let mut decoder = v2::DownlinkDecoder::new(key.clone());
+    let results: Vec<_> = decoder.feed(data).collect();
+    let mut v2_only = v2::DisplayDecoder::new(key.clone());
+    let v2_frames: Vec<_> = v2_only.feed(data).filter_map(Result::ok).collect();
+    let from_downlink: Vec<_> = results
+        .iter()
+        .filter_map(|r| match r {
+            Ok(v2::Downlink::V2(frame)) => Some(*frame),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(from_downlink, v2_frames);
+    let stats = decoder.stats();
+    let (mut n2, mut n3) = (0, 0);
+    for frame in results.iter().flatten() {
+        match frame {
+            v2::Downlink::V2(_) => n2 += 1,
+            v2::Downlink::V3(frame) => {
+                n3 += 1;
+                assert_eq!(
+                    v2::DisplayFrameV3::decode(&frame.encode(&key), &key),
+                    Ok(*frame)
+                );
+            }
+        }
+    }
+    assert_eq!(n2 + n3, stats.frames as usize);
+    assert_eq!(
+        n2 * v2::DISPLAY_FRAME_LEN
+            + n3 * v2::DISPLAY_V3_FRAME_LEN
+            + stats.skipped_bytes as usize
+            + decoder.pending(),
+        data.len(),
+        "{stats:?}"
+    );
+}
+
 fuzz_target!(|data: &[u8]| {
     check_v1(data);
     check_v2(data);
+    check_downlink(data);
 });

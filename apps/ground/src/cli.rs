@@ -66,6 +66,14 @@ pub struct Cli {
         requires = "screenshot"
     )]
     pub after: f64,
+    /// No alert sounds (the banners still show).
+    #[arg(long)]
+    pub mute: bool,
+    /// Save a screenshot of the window to this directory each time the alert banner, the
+    /// drive controls' state or the robot's reported throttle target changes
+    /// (`NN-<alert>-<controls>-throttle-<µs>.png`, once the change is drawn).
+    #[arg(long, value_name = "DIR")]
+    pub state_screenshots: Option<PathBuf>,
     /// Window size in logical pixels, WIDTHxHEIGHT.
     #[arg(long, default_value = "1400x900", value_name = "WxH", value_parser = parse_size)]
     pub window_size: (f32, f32),

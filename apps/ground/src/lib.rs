@@ -19,12 +19,19 @@
 //! - [`plots`]: time-series buffers and the GNSS track in local metres;
 //! - [`downlink`]: what the station can say about the robot's reports (authentic, or why
 //!   not: a wrong key, a v1 station and a v2 robot, silence), as a pure function;
+//! - [`robot_view`]: what the station shows as the robot's state: its reported outputs and
+//!   setpoints (never the station's intent), whether the drive controls can act, the
+//!   downlink's loss from its sequence numbers;
+//! - [`alerts`]: which alert the operator must see (FAILSAFE with its cause, a kill, the link
+//!   lost and regained, a refused revive) and when it clears, as a pure function;
+//! - [`sound`]: the alerts' sounds through the system's command-line player, or skipped;
 //! - [`recording`]: the session log (everything sent and received, timestamped) as MCAP;
 //! - [`sim`]: `--sim`, the simulated robot exactly as `dima sim --ground-pty` runs it, in a
 //!   child process;
 //! - [`cli`]: the command line.
 #![deny(missing_docs)]
 
+pub mod alerts;
 pub mod channels;
 pub mod cli;
 pub mod control;
@@ -34,9 +41,11 @@ pub mod keys;
 pub mod link;
 pub mod plots;
 pub mod recording;
+pub mod robot_view;
 pub mod serial;
 pub mod sim;
 pub mod sim_robot;
+pub mod sound;
 pub mod telemetry;
 pub mod ui;
 pub mod units;

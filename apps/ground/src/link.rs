@@ -28,7 +28,9 @@ use dima_groundlink::station::{
     CommandScheduler, CommandStatus, DownlinkVerdict, ManualChannel, Station, StationTime, Uplink,
     UplinkStats,
 };
-use dima_groundlink::v2::{self, FailsafeCause, Health, LinkKey, ReviveRefusal, RobotMode};
+use dima_groundlink::v2::{
+    self, Actuation, Downlink, FailsafeCause, Health, LinkKey, ReviveRefusal, RobotMode,
+};
 use dima_groundlink::{Command, DisplayDecoder, DisplayFrame};
 use nix::poll::{poll, PollFd, PollFlags, PollTimeout};
 
@@ -36,6 +38,7 @@ use crate::downlink::{DownlinkHealth, DownlinkObservation, V2TokenSpotter};
 use crate::recording::{
     now_ns, CommandRecord, DeliveryRecord, DisplayRecord, LinkRecord, RecordEvent, RobotRecord,
 };
+use crate::robot_view::SequenceLoss;
 use crate::serial::open_port;
 use crate::units::{Physical, SensorCalibration};
 
@@ -107,12 +110,18 @@ pub struct RobotReport {
     pub ack_seq: u32,
     /// Its health and link rejection counters.
     pub health: Health,
+    /// What it does: its servo targets, setpoints, estimates and controllers (display frame
+    /// v3; `None` from a robot that sends display frames v2).
+    pub actuation: Option<Actuation>,
 }
 
 impl RobotReport {
-    fn new(at: Instant, frame: &v2::DisplayFrame) -> RobotReport {
+    /// The report of an authentic display frame (v2 or v3) that arrived `at`.
+    pub fn new(at: Instant, downlink: &Downlink) -> RobotReport {
+        let frame = downlink.status();
         RobotReport {
             at,
+            actuation: downlink.actuation().copied(),
             mode: frame.mode,
             failsafe_cause: frame.failsafe_cause,
             revive_refusal: frame.revive_refusal,
@@ -161,6 +170,8 @@ pub struct LinkStatus {
     pub authenticated: bool,
     /// v2: the robot's report from the last authenticated display frame.
     pub robot: Option<RobotReport>,
+    /// v2: display frames lost on the downlink, from the gaps in their sequence numbers.
+    pub loss: SequenceLoss,
     /// v2: session, numbering and acknowledgements.
     pub uplink: Option<UplinkView>,
     /// v2: candidate display frames whose tag did not match (forged, corrupt, another key);
@@ -284,7 +295,7 @@ impl LinkHandle {
         }));
         let protocol = match key {
             Some(key) => Protocol::V2 {
-                decoder: v2::DisplayDecoder::new(key.clone()),
+                decoder: v2::DownlinkDecoder::new(key.clone()),
                 key,
                 station: Box::default(),
             },
@@ -365,8 +376,8 @@ enum Protocol {
     V2 {
         /// The link key.
         key: LinkKey,
-        /// Display frames v2 under the key.
-        decoder: v2::DisplayDecoder,
+        /// Display frames v2 and v3 under the key.
+        decoder: v2::DownlinkDecoder,
         /// The schedule, session, numbering and acknowledgements.
         station: Box<Station>,
     },
@@ -765,9 +776,9 @@ impl LinkWorker {
         for &b in bytes {
             // A rejected candidate is counted by the decoder; the content of a frame whose tag
             // does not match is never looked at.
-            if let Some(Ok(frame)) = decoder.push(b) {
-                if station.on_display(&frame, t) != DownlinkVerdict::Old {
-                    frames.push(frame);
+            for downlink in decoder.push(b).into_iter().flatten().flatten() {
+                if station.on_display(downlink.status(), t) != DownlinkVerdict::Old {
+                    frames.push(downlink);
                 }
             }
         }
@@ -782,11 +793,12 @@ impl LinkWorker {
         for s in settled {
             self.record(RecordEvent::Delivery(t_ns, DeliveryRecord::new(&s)));
         }
-        for frame in frames {
-            let report = RobotReport::new(now, &frame);
+        for downlink in frames {
+            let report = RobotReport::new(now, &downlink);
+            self.status.loss.on_report(report.session, report.seq);
             self.status.robot = Some(report);
-            let record = RobotRecord::new(&frame, self.status.bad_tag);
-            self.deliver(now, t_ns, frame.sensors, Some(record));
+            let record = RobotRecord::from_downlink(&downlink, self.status.bad_tag);
+            self.deliver(now, t_ns, downlink.status().sensors, Some(record));
         }
     }
 
@@ -1148,6 +1160,38 @@ mod tests {
             .map(|LinkEvent::Frame(_, f)| f.g_speed_mm_s)
             .collect();
         assert_eq!(speeds, vec![1_234, 1_234]);
+    }
+
+    #[test]
+    fn v3_reports_carry_the_robots_outputs_and_gaps_count_as_loss() {
+        let (mut robot, path, _slave) = robot_end();
+        let link = LinkHandle::spawn(None, None, Some(KEY)).unwrap();
+        link.send(LinkControl::Connect { path, baud: 9600 });
+        wait_for("connected", || link.status().state == LinkState::Connected);
+        let frame = |seq| v2::DisplayFrameV3 {
+            status: robot_frame(seq, 0, RobotMode::Failsafe),
+            actuation: Actuation {
+                servo_quarter_us: [6000, 6180, 6000],
+                speed_setpoint_mm_s: Some(1_500),
+                ..Actuation::default()
+            },
+        };
+        // Frames 1, 2, then 5: two lost.
+        for seq in [1, 2, 5] {
+            robot.write_all(&frame(seq).encode(&KEY)).unwrap();
+        }
+        wait_for("three frames", || link.status().frames_in == 3);
+        let s = link.status();
+        let r = s.robot.unwrap();
+        assert_eq!(r.mode, RobotMode::Failsafe);
+        assert_eq!(r.actuation, Some(frame(5).actuation));
+        assert_eq!((s.loss.received, s.loss.lost), (3, 2));
+        // A v2 frame after it: the outputs are no longer known.
+        robot
+            .write_all(&robot_frame(6, 0, RobotMode::Failsafe).encode(&KEY))
+            .unwrap();
+        wait_for("four frames", || link.status().frames_in == 4);
+        assert_eq!(link.status().robot.unwrap().actuation, None);
     }
 
     #[test]

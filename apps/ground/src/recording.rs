@@ -143,7 +143,7 @@ impl DeliveryRecord {
     }
 }
 
-/// The robot's own report in a display frame v2.
+/// The robot's own report in a display frame v2 or v3.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[schemars(title = "dima_ground.Robot")]
 pub struct RobotRecord {
@@ -179,9 +179,31 @@ pub struct RobotRecord {
     pub v1_ignored: u32,
     /// Display frames the station rejected so far for a bad tag.
     pub station_bad_tag: u64,
+    /// Display frame v3: the servo targets the robot commanded (throttle, steering, tail),
+    /// microseconds (null: a display frame v2, which does not carry them).
+    #[serde(default)]
+    pub servo_us: Option<[u16; 3]>,
+    /// Display frame v3: the AUTO speed setpoint in force, mm/s (null: none, or a v2 frame).
+    #[serde(default)]
+    pub speed_setpoint_mm_s: Option<i32>,
+    /// Display frame v3: the AUTO heading setpoint in force, 1e-5 degrees (null: none, or a
+    /// v2 frame).
+    #[serde(default)]
+    pub heading_setpoint_deg_e5: Option<i32>,
 }
 
 impl RobotRecord {
+    /// The record of a display frame v2 or v3; `station_bad_tag` is the station's own count.
+    pub fn from_downlink(downlink: &v2::Downlink, station_bad_tag: u64) -> RobotRecord {
+        let mut record = RobotRecord::new(downlink.status(), station_bad_tag);
+        if let Some(a) = downlink.actuation() {
+            record.servo_us = Some(a.servo_us());
+            record.speed_setpoint_mm_s = a.speed_setpoint_mm_s;
+            record.heading_setpoint_deg_e5 = a.heading_setpoint_deg_e5;
+        }
+        record
+    }
+
     /// The record of `frame`; `station_bad_tag` is the station's own count.
     pub fn new(frame: &v2::DisplayFrame, station_bad_tag: u64) -> RobotRecord {
         let h = frame.health;
@@ -202,6 +224,9 @@ impl RobotRecord {
             rejected_malformed: h.malformed,
             v1_ignored: h.v1_ignored,
             station_bad_tag,
+            servo_us: None,
+            speed_setpoint_mm_s: None,
+            heading_setpoint_deg_e5: None,
         }
     }
 }
@@ -326,7 +351,9 @@ impl DisplayRecord {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[schemars(title = "dima_ground.Link")]
 pub struct LinkRecord {
-    /// What happened: `connected`, `disconnected`, `lost`, `error`.
+    /// What happened: `connected`, `disconnected`, `lost`, `error`; and the station's own
+    /// `alert` (an alert raised: its name and text in `detail`) and `controls` (the drive
+    /// controls became live or greyed, and why, in `detail`).
     pub event: String,
     /// The port, when there is one.
     pub port: Option<String>,

@@ -8,6 +8,13 @@
 //! the station's session recording must show the robot's acknowledged mode and acknowledged
 //! revives; its `--screenshot` must exist.
 //!
+//! What the station showed is checked against what the robot did: every servo target the
+//! station received in a display frame v3 (what its sliders' text shows) is one the robot logged
+//! in the second before, a throttle above neutral among them while Up was held; after each
+//! Space the station raised the KILLED alert and greyed its drive controls (its recording's
+//! `/ground/link` events). The station saves a screenshot per state (`--state-screenshots`) in
+//! a directory the test prints; they are kept after the run.
+//!
 //! Needs an X display (`xvfb-run`, with `LIBGL_ALWAYS_SOFTWARE=1` for Mesa's software GL) and
 //! `xdotool`. Without them the test says why and passes, except under `CI=true`, where it
 //! must run and fails instead.
@@ -18,7 +25,8 @@ use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 use dima_core::{Mode, ReviveRefusal};
 use dima_ground::recording::{
-    CommandRecord, DeliveryRecord, DisplayRecord, TOPIC_ACK, TOPIC_COMMAND, TOPIC_DISPLAY,
+    CommandRecord, DeliveryRecord, DisplayRecord, LinkRecord, TOPIC_ACK, TOPIC_COMMAND,
+    TOPIC_DISPLAY, TOPIC_LINK,
 };
 use dima_log::schema::{CycleMessage, StateMessage, CYCLE, STATE};
 
@@ -121,6 +129,9 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     let screenshot = dir.join("station.png");
+    // Kept after the run, to be looked at.
+    let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("gui-e2e-screenshots");
+    let _ = std::fs::remove_dir_all(&shots);
 
     let station = Command::new(env!("CARGO_BIN_EXE_dima-ground"))
         .arg("--sim")
@@ -130,6 +141,8 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
         .arg(dir.join("ground"))
         .arg("--screenshot")
         .arg(&screenshot)
+        .arg("--state-screenshots")
+        .arg(&shots)
         .args(["--after", "24", "--window-size", "1400x900"])
         .env("LIBGL_ALWAYS_SOFTWARE", "1")
         .spawn()
@@ -202,9 +215,31 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
     };
     assert!(status.success(), "dima-ground exited with {status}");
 
+    let robot = robot_log(&newest_mcap(&dir.join("robot")));
     check_robot_log(&newest_mcap(&dir.join("robot")), &timeline);
     check_session_recording(&newest_mcap(&dir.join("ground")));
+    check_truth_and_alerts(&newest_mcap(&dir.join("ground")), &robot, &timeline);
     check_screenshot(&screenshot);
+    let kept = shots.join("final.png");
+    std::fs::copy(&screenshot, &kept).unwrap();
+    let mut saved: Vec<_> = std::fs::read_dir(&shots)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    saved.sort();
+    eprintln!(
+        "station screenshots, one per state, in {}:",
+        shots.display()
+    );
+    for path in &saved {
+        eprintln!("  {}", path.display());
+    }
+    assert!(
+        saved
+            .iter()
+            .any(|p| p.to_string_lossy().contains("killed-greyed")),
+        "no screenshot of the KILLED banner with greyed controls: {saved:?}"
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -212,6 +247,8 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
 struct RobotLog {
     /// (log time ns, mode, throttle target µs) per cycle.
     cycles: Vec<(u64, Mode, u16)>,
+    /// (log time ns, targets µs: throttle, steering, tail) per cycle.
+    targets: Vec<(u64, [u16; 3])>,
     /// Commands accepted over the run, per type byte.
     accepted: [u32; 8],
     /// Its ground-link counters at the end.
@@ -223,6 +260,7 @@ struct RobotLog {
 fn robot_log(path: &Path) -> RobotLog {
     let bytes = std::fs::read(path).unwrap();
     let mut cycles = Vec::new();
+    let mut targets = Vec::new();
     let mut accepted = [0u32; 8];
     let mut link = serde_json::Value::Null;
     let mut refusals = Vec::new();
@@ -234,6 +272,7 @@ fn robot_log(path: &Path) -> RobotLog {
         if m.channel.topic == CYCLE.topic {
             let c: CycleMessage = serde_json::from_slice(&m.data).unwrap();
             cycles.push((m.log_time, c.mode, c.targets_us[0]));
+            targets.push((m.log_time, c.targets_us));
             for command in &c.commands {
                 accepted[usize::from(command.kind).min(7)] += 1;
             }
@@ -243,6 +282,7 @@ fn robot_log(path: &Path) -> RobotLog {
     }
     RobotLog {
         cycles,
+        targets,
         accepted,
         link,
         refusals,
@@ -263,6 +303,7 @@ fn check_robot_log(path: &Path, t: &Timeline) {
         accepted,
         link,
         refusals,
+        ..
     } = robot_log(path);
     assert!(
         cycles.len() > 1_000,
@@ -471,6 +512,106 @@ print(" ".join(map(str, kinds)), ",".join(sorted(topics)))
     ] {
         assert!(topics.contains(t), "{t} missing from {topics}");
     }
+}
+
+/// What the station received as the robot's outputs is what the robot logged; after each
+/// kill it raised the KILLED alert and greyed the drive controls.
+fn check_truth_and_alerts(path: &Path, robot: &RobotLog, t: &Timeline) {
+    let bytes = std::fs::read(path).unwrap();
+    let mut shown: Vec<(u64, String, [u16; 3])> = Vec::new();
+    let mut events: Vec<(u64, LinkRecord)> = Vec::new();
+    for m in dima_log::reader::messages(&bytes).unwrap() {
+        match m.channel.topic.as_str() {
+            TOPIC_DISPLAY => {
+                let d: DisplayRecord = serde_json::from_slice(&m.data).unwrap();
+                let robot = d
+                    .robot
+                    .expect("v2/v3 display frames carry the robot's report");
+                let servo = robot
+                    .servo_us
+                    .expect("the robot sends display frames v3 with its servo targets");
+                shown.push((m.log_time, robot.mode, servo));
+            }
+            TOPIC_LINK => {
+                let l: LinkRecord = serde_json::from_slice(&m.data).unwrap();
+                events.push((m.log_time, l));
+            }
+            _ => {}
+        }
+    }
+    assert!(shown.len() > 10, "{} display frames", shown.len());
+    // Every servo target shown is one the robot commanded in the second before (the frame is
+    // built from the loop's latest cycle, then crosses a 9600-baud link).
+    for (at, mode, servo) in &shown {
+        if *servo == [0; 3] {
+            // Sent before the robot's first cycle: nothing commanded yet.
+            continue;
+        }
+        let commanded = robot
+            .targets
+            .iter()
+            .any(|(ct, targets)| *ct <= *at && *ct + 1_500_000_000 >= *at && targets == servo);
+        assert!(
+            commanded,
+            "the station was shown {servo:?} µs ({mode}) at {at} that the robot did not command"
+        );
+    }
+    let driving: Vec<u16> = shown
+        .iter()
+        .filter(|(at, mode, _)| {
+            mode == "MANUAL" && *at >= t.up_pressed && *at <= t.up_released + 500_000_000
+        })
+        .map(|(_, _, servo)| servo[0])
+        .collect();
+    assert!(
+        driving.iter().any(|&us| us > THROTTLE_NEUTRAL_US),
+        "throttle shown while Up was held: {driving:?}"
+    );
+    // After each Space: the KILLED alert within 2 s, and the controls greyed.
+    let within = |from: u64, event: &str, detail: &str| {
+        events.iter().any(|(at, l)| {
+            *at >= from
+                && *at <= from + 2_000_000_000
+                && l.event == event
+                && l.detail.as_deref().is_some_and(|d| d.contains(detail))
+        })
+    };
+    for (name, space) in [("first", t.space), ("second", t.second_space)] {
+        assert!(
+            within(space, "alert", "killed"),
+            "no KILLED alert after the {name} Space: {events:?}"
+        );
+        // Greyed 2 s after it (already, if the robot was not driving when Space went down).
+        let controls = events
+            .iter()
+            .filter(|(at, l)| *at <= space + 2_000_000_000 && l.event == "controls")
+            .filter_map(|(_, l)| l.detail.as_deref())
+            .next_back();
+        assert!(
+            controls.is_some_and(|d| d.starts_with("drive controls off")),
+            "drive controls not greyed after the {name} Space: {events:?}"
+        );
+    }
+    // Live while it drove.
+    assert!(
+        within(
+            t.up_pressed.saturating_sub(1_500_000_000),
+            "controls",
+            "live"
+        ),
+        "drive controls not live after the revive: {events:?}"
+    );
+    let alerts: Vec<&str> = events
+        .iter()
+        .filter(|(_, l)| l.event == "alert" || l.event == "controls")
+        .filter_map(|(_, l)| l.detail.as_deref())
+        .collect();
+    eprintln!(
+        "station: {} display frames with the robot's outputs, throttle shown while Up was held \
+         up to {} µs; alerts and controls: {alerts:?}",
+        shown.len(),
+        driving.iter().max().unwrap()
+    );
 }
 
 fn check_screenshot(path: &Path) {

@@ -3,8 +3,10 @@
 //!
 //! Command frames v2 pass through a [`CommandGate`] (tag, session, sequence); v1 frames are
 //! acted on only with `xbee.require_auth = false`, and counted as ignored otherwise. Display
-//! frames v2 (mode, failsafe cause, health, the acknowledgement of the last accepted command)
-//! go out whenever a key is configured, v1 display frames whenever v1 commands are accepted.
+//! frames v3 (mode, failsafe cause, health, the acknowledgement of the last accepted command,
+//! and what the robot does: servo targets, setpoints, estimates, controllers; encoded from one
+//! [`RobotReport`]) go out whenever a key is configured, v1 display frames whenever v1
+//! commands are accepted.
 //!
 //! Commands go to the loop as events through a ring, never as a latest value, so a kill or a
 //! revive cannot be overwritten; each carries the earliest time it can have arrived at the port
@@ -20,6 +22,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use dima_core::config::XbeeConfig;
+use dima_core::control::ServoTargets;
 use dima_core::{FailsafeCause, Mode, ReviveRefusal};
 use dima_groundlink::v2::{self, CommandGate, LinkKey};
 use dima_groundlink::{key_file, Command, CommandDecoder, CommandStats, DisplayFrame};
@@ -397,27 +400,135 @@ pub fn display_frame_v2(
     ack_seq: u32,
     link: &GroundLinkCounters,
 ) -> v2::DisplayFrame {
-    let c = &snap.counters;
-    v2::DisplayFrame {
-        mode: robot_mode(snap.mode),
-        failsafe_cause: snap.cause.map(failsafe_cause),
-        revive_refusal: snap.refusal.map(revive_refusal),
+    RobotReport::new(
+        snap,
         session,
         seq,
         ack_seq,
-        health: v2::Health {
-            missed_periods: c32(c.missed_periods),
-            sensor_bad: c32(c.packet_crc_errors + c.packets_stale + c.packets_late),
-            sensor_missing: c32(c.packets_missing),
-            commands: c32(c.commands),
-            bad_tag: c32(link.bad_tag),
-            replayed: c32(link.replayed),
-            stale_session: c32(link.stale_session),
-            malformed: c32(link.malformed),
-            v1_ignored: c32(link.v1_ignored),
-        },
-        sensors: display_frame(snap.packet.as_ref()),
+        link,
+        [v2::ControllerCode::Neutral; 3],
+    )
+    .display_v2()
+}
+
+/// What the robot reports about itself each display period: what it is (mode, cause, refusal,
+/// health, sensors) and what it does (the servo targets it commanded, the AUTO setpoints in
+/// force, its estimates, its controllers). One report, whatever the encoding: display frames
+/// v2 and v3 are encoded from it, and so can any other downlink.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RobotReport {
+    /// Mode after the last cycle.
+    pub mode: Mode,
+    /// Why the robot is or last was in FAILSAFE, until a revive succeeds.
+    pub cause: Option<FailsafeCause>,
+    /// Why the last revive was refused, until a revive succeeds.
+    pub refusal: Option<ReviveRefusal>,
+    /// This boot's session id.
+    pub session: u32,
+    /// Downlink sequence number of this report.
+    pub seq: u32,
+    /// Sequence number of the last accepted command (0: none yet).
+    pub ack_seq: u32,
+    /// Health and link counters (saturated to 32 bits).
+    pub health: v2::Health,
+    /// Sensor values and the GNSS solution of the last packet.
+    pub sensors: DisplayFrame,
+    /// The servo targets the step commanded in the last cycle (safe ones in KILLED and
+    /// FAILSAFE).
+    pub targets: ServoTargets,
+    /// AUTO speed setpoint in force, mm/s.
+    pub speed_setpoint_mm_s: Option<i32>,
+    /// AUTO heading setpoint in force, 1e-5 degrees.
+    pub heading_setpoint_deg_e5: Option<i32>,
+    /// Estimated ground speed, mm/s.
+    pub speed_estimate_mm_s: Option<f32>,
+    /// Estimated heading, degrees clockwise from north.
+    pub heading_estimate_deg: Option<f32>,
+    /// Configured controller kinds: throttle, steering, tail.
+    pub controllers: [v2::ControllerCode; 3],
+}
+
+impl RobotReport {
+    /// The report for the loop's latest snapshot, the link's state and the configured
+    /// controller kinds.
+    pub fn new(
+        snap: &Snapshot,
+        session: u32,
+        seq: u32,
+        ack_seq: u32,
+        link: &GroundLinkCounters,
+        controllers: [v2::ControllerCode; 3],
+    ) -> RobotReport {
+        let c = &snap.counters;
+        RobotReport {
+            mode: snap.mode,
+            cause: snap.cause,
+            refusal: snap.refusal,
+            session,
+            seq,
+            ack_seq,
+            health: v2::Health {
+                missed_periods: c32(c.missed_periods),
+                sensor_bad: c32(c.packet_crc_errors + c.packets_stale + c.packets_late),
+                sensor_missing: c32(c.packets_missing),
+                commands: c32(c.commands),
+                bad_tag: c32(link.bad_tag),
+                replayed: c32(link.replayed),
+                stale_session: c32(link.stale_session),
+                malformed: c32(link.malformed),
+                v1_ignored: c32(link.v1_ignored),
+            },
+            sensors: display_frame(snap.packet.as_ref()),
+            targets: snap.targets,
+            speed_setpoint_mm_s: snap.setpoints.speed_mm_s,
+            heading_setpoint_deg_e5: snap.setpoints.heading_deg_e5,
+            speed_estimate_mm_s: snap.speed_mm_s.filter(|v| v.is_finite()),
+            heading_estimate_deg: snap.heading_deg.filter(|v| v.is_finite()),
+            controllers,
+        }
     }
+
+    /// Speed setpoint minus estimated speed, mm/s, when both are known.
+    pub fn speed_error_mm_s(&self) -> Option<i32> {
+        let setpoint = self.speed_setpoint_mm_s?;
+        let estimate = self.speed_estimate_mm_s?;
+        Some(round_i32(setpoint as f32 - estimate))
+    }
+
+    /// The display frame v2: what the robot is.
+    pub fn display_v2(&self) -> v2::DisplayFrame {
+        v2::DisplayFrame {
+            mode: robot_mode(self.mode),
+            failsafe_cause: self.cause.map(failsafe_cause),
+            revive_refusal: self.refusal.map(revive_refusal),
+            session: self.session,
+            seq: self.seq,
+            ack_seq: self.ack_seq,
+            health: self.health,
+            sensors: self.sensors,
+        }
+    }
+
+    /// The display frame v3: what the robot is and what it does.
+    pub fn display_v3(&self) -> v2::DisplayFrameV3 {
+        v2::DisplayFrameV3 {
+            status: self.display_v2(),
+            actuation: v2::Actuation {
+                servo_quarter_us: self.targets.quarter_us(),
+                speed_setpoint_mm_s: self.speed_setpoint_mm_s,
+                heading_setpoint_deg_e5: self.heading_setpoint_deg_e5,
+                speed_estimate_mm_s: self.speed_estimate_mm_s.map(round_i32),
+                heading_estimate_deg_e5: self.heading_estimate_deg.map(|d| round_i32(d * 1e5)),
+                speed_error_mm_s: self.speed_error_mm_s(),
+                controllers: self.controllers,
+            },
+        }
+    }
+}
+
+/// Rounds to the nearest i32 (saturating; the inputs are finite).
+fn round_i32(value: f32) -> i32 {
+    value.round() as i32
 }
 
 /// Why a radio operation failed: the port is then reopened.
@@ -488,6 +599,8 @@ pub struct TelemetrySettings {
     pub priority: u8,
     /// Key, session and the v1 rule.
     pub security: LinkSecurity,
+    /// Configured controller kinds (throttle, steering, tail), for display frames v3.
+    pub controllers: [v2::ControllerCode; 3],
 }
 
 /// What the telemetry thread counted.
@@ -532,19 +645,23 @@ impl TelemetryStats {
     }
 }
 
-/// The display frames due now, v1 and/or v2, as one burst of bytes.
+/// The display frames due now, v1 and/or v3, as one burst of bytes.
 struct Downlink {
     security: LinkSecurity,
+    controllers: [v2::ControllerCode; 3],
     seq: u32,
     bytes: Vec<u8>,
 }
 
 impl Downlink {
-    fn new(security: LinkSecurity) -> Downlink {
+    fn new(security: LinkSecurity, controllers: [v2::ControllerCode; 3]) -> Downlink {
         Downlink {
             security,
+            controllers,
             seq: 0,
-            bytes: Vec::with_capacity(v2::DISPLAY_FRAME_LEN + dima_groundlink::DISPLAY_FRAME_LEN),
+            bytes: Vec::with_capacity(
+                v2::DISPLAY_V3_FRAME_LEN + dima_groundlink::DISPLAY_FRAME_LEN,
+            ),
         }
     }
 
@@ -559,14 +676,16 @@ impl Downlink {
         }
         if let Some(key) = &self.security.key {
             self.seq = self.seq.wrapping_add(1).max(1);
-            let frame = display_frame_v2(
+            let report = RobotReport::new(
                 snap,
                 self.security.session,
                 self.seq,
                 link.last_accepted(),
                 &link.counters(),
+                self.controllers,
             );
-            self.bytes.extend_from_slice(&frame.encode(key));
+            self.bytes
+                .extend_from_slice(&report.display_v3().encode(key));
             n += 1;
         }
         n
@@ -624,7 +743,7 @@ impl TelemetryWorker {
             open,
             snapshot,
             link: CommandLink::new(&settings.security),
-            downlink: Downlink::new(settings.security.clone()),
+            downlink: Downlink::new(settings.security.clone(), settings.controllers),
             hand_off: CommandHandOff::new(commands),
             next_display: Instant::now() + settings.display_period,
             settings,
@@ -895,6 +1014,57 @@ mod tests {
         );
         assert_eq!(h.commands, u32::MAX);
         assert_eq!((h.bad_tag, h.v1_ignored), (4, 6));
+    }
+
+    #[test]
+    fn display_v3_carries_the_outputs_and_setpoints_the_robot_has() {
+        // AUTO after "send speed" alone: a speed setpoint, no heading setpoint.
+        let snap = Snapshot {
+            mode: Mode::Auto,
+            targets: ServoTargets {
+                pulse_us: [1700, 1545, 1500],
+            },
+            setpoints: dima_core::safety::Setpoints {
+                speed_mm_s: Some(1500),
+                ..Default::default()
+            },
+            speed_mm_s: Some(1200.4),
+            heading_deg: Some(359.5),
+            ..Snapshot::default()
+        };
+        let kinds = [
+            v2::ControllerCode::SpeedPid,
+            v2::ControllerCode::HeadingPid,
+            v2::ControllerCode::Neutral,
+        ];
+        let report = RobotReport::new(&snap, 1, 2, 3, &GroundLinkCounters::default(), kinds);
+        let frame = report.display_v3();
+        assert_eq!(frame.status, report.display_v2());
+        assert_eq!(frame.status.mode, v2::RobotMode::Auto);
+        let a = frame.actuation;
+        assert_eq!(a.servo_quarter_us, [6800, 6180, 6000]);
+        assert_eq!(a.speed_setpoint_mm_s, Some(1500));
+        assert_eq!(a.heading_setpoint_deg_e5, None);
+        assert_eq!(a.speed_estimate_mm_s, Some(1200));
+        assert_eq!(a.heading_estimate_deg_e5, Some(35_950_000));
+        assert_eq!(a.speed_error_mm_s, Some(300));
+        assert_eq!(a.controllers, kinds);
+
+        // FAILSAFE: the safe targets the loop commanded, whatever was asked before.
+        let failsafe = Snapshot {
+            mode: Mode::Failsafe,
+            cause: Some(FailsafeCause::CommsLoss),
+            targets: ServoTargets {
+                pulse_us: [1500, 1545, 1500],
+            },
+            speed_mm_s: None,
+            ..snap
+        };
+        let a = RobotReport::new(&failsafe, 1, 3, 3, &GroundLinkCounters::default(), kinds)
+            .display_v3()
+            .actuation;
+        assert_eq!(a.servo_quarter_us, [6000, 6180, 6000]);
+        assert_eq!(a.speed_error_mm_s, None);
     }
 
     fn drain(ring: &mut rtrb::Consumer<ReceivedCommand>) -> Vec<Command> {

@@ -16,7 +16,7 @@ use std::time::{Duration, Instant};
 
 use common::*;
 use dima_groundlink::key_file;
-use dima_groundlink::v2::{self, CommandFrame, DisplayDecoder, FailsafeCause, LinkKey, RobotMode};
+use dima_groundlink::v2::{self, CommandFrame, DownlinkDecoder, FailsafeCause, LinkKey, RobotMode};
 use dima_groundlink::{Command, Percent};
 use dima_robot::app::{self, Devices, RunOptions, RunSummary};
 use dima_robot::config::Config;
@@ -53,7 +53,7 @@ impl Wire {
 struct StationV2 {
     wire: Arc<Mutex<Wire>>,
     heartbeats: Arc<AtomicBool>,
-    displays: Arc<Mutex<Vec<(Instant, v2::DisplayFrame)>>>,
+    displays: Arc<Mutex<Vec<(Instant, v2::DisplayFrameV3)>>>,
     last_good: Arc<Mutex<Instant>>,
     stop: Arc<AtomicBool>,
     handle: Option<JoinHandle<()>>,
@@ -81,13 +81,17 @@ impl StationV2 {
         let master = wire.lock().unwrap().master.clone();
         let handle = std::thread::spawn(move || {
             try_fifo(40);
-            let mut decoder = DisplayDecoder::new(key);
+            // The robot sends display frames v3; a v2 frame would never be stored.
+            let mut decoder = DownlinkDecoder::new(key);
             let mut buf = [0u8; 512];
             let mut next_hb = Instant::now();
             while !s.load(Ordering::Relaxed) {
                 let n = read_some(&master, &mut buf, 5);
-                for frame in decoder.feed(&buf[..n]).flatten() {
-                    w.lock().unwrap().session = Some(frame.session);
+                for downlink in decoder.feed(&buf[..n]).flatten() {
+                    let v2::Downlink::V3(frame) = downlink else {
+                        continue;
+                    };
+                    w.lock().unwrap().session = Some(frame.status.session);
                     d.lock().unwrap().push((Instant::now(), frame));
                 }
                 if Instant::now() < next_hb {
@@ -160,6 +164,11 @@ impl StationV2 {
 
     /// The latest display frame received after `since`, waiting up to `timeout`.
     fn display_after(&self, since: Instant, timeout: Duration) -> v2::DisplayFrame {
+        self.report_after(since, timeout).status
+    }
+
+    /// The latest display frame v3 received after `since`, waiting up to `timeout`.
+    fn report_after(&self, since: Instant, timeout: Duration) -> v2::DisplayFrameV3 {
         let t0 = Instant::now();
         loop {
             if let Some((_, f)) = self
@@ -515,6 +524,9 @@ fn a_throttle_given_while_killed_and_repeated_after_a_revive_is_refused() {
         d.ack_seq >= last
     });
     assert_eq!(shown.mode, RobotMode::Manual, "{shown:?}");
+    // What the robot reports doing is what the Maestro got: the safe outputs so far.
+    let report = station.report_after(Instant::now(), Duration::from_secs(2));
+    assert_eq!(report.actuation.servo_quarter_us, SAFE, "{report:?}");
     // The operator gives it again: it drives (MANUAL at neutral is what the safe outputs
     // look like, so this shows the robot was listening).
     station.send(Command::Throttle(pct(80)));
@@ -522,6 +534,19 @@ fn a_throttle_given_while_killed_and_repeated_after_a_revive_is_refused() {
         .maestro
         .wait_for(throttle_qus(80), Duration::from_secs(1))
         .is_some());
+    // ... and the display frames say so, with no AUTO setpoint in force.
+    let t_drive = Instant::now();
+    let t0 = Instant::now();
+    let report = loop {
+        let report = station.report_after(t_drive, Duration::from_secs(2));
+        if report.actuation.servo_quarter_us == throttle_qus(80) {
+            break report;
+        }
+        assert!(t0.elapsed() < Duration::from_secs(2), "{report:?}");
+        std::thread::sleep(Duration::from_millis(10));
+    };
+    assert_eq!(report.actuation.speed_setpoint_mm_s, None, "{report:?}");
+    assert_eq!(report.actuation.heading_setpoint_deg_e5, None, "{report:?}");
     let link = robot.finish().telemetry.link;
     eprintln!("link counters: {link:?}");
     assert_eq!(link.pre_revive_requests, 5, "{link:?}");

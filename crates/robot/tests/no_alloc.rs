@@ -104,6 +104,7 @@ fn realtime_thread_never_allocates() {
             reopen_interval: Duration::from_millis(100),
             priority: 0,
             security: LinkSecurity::from_config(&config.xbee).unwrap(),
+            controllers: Default::default(),
         },
         link_counters.clone(),
         aux_stop.clone(),

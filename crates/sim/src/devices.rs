@@ -584,7 +584,8 @@ pub struct GroundStats {
     pub display_errors: AtomicU64,
     /// The sensor values of the last display frame and its arrival time, s.
     pub last_display: Mutex<Option<(f64, DisplayFrame)>>,
-    /// The last display frame v2 (mode, health, acknowledgement) and its arrival time, s.
+    /// The last display frame v2, or the v2 fields of a v3 one (mode, health,
+    /// acknowledgement), and its arrival time, s.
     pub last_status: Mutex<Option<(f64, v2::DisplayFrame)>>,
     /// Samples of the model: time and state, once per 100 ms.
     pub truth: Mutex<Vec<VehicleState>>,
@@ -634,7 +635,8 @@ enum StationSide {
     /// Ground link v2: the ground station's own [`Station`] decides what goes out when.
     V2 {
         key: LinkKey,
-        decoder: v2::DisplayDecoder,
+        /// Display frames v2 and v3 (the robot sends v3).
+        decoder: Box<v2::DownlinkDecoder>,
         station: Box<Station>,
     },
 }
@@ -667,7 +669,7 @@ impl ScriptedStation {
                 let mut station = Box::new(Station::new());
                 station.set_link_baud(pace.baud_8n1());
                 StationSide::V2 {
-                    decoder: v2::DisplayDecoder::new(key.clone()),
+                    decoder: Box::new(v2::DownlinkDecoder::new(key.clone())),
                     key,
                     station,
                 }
@@ -698,7 +700,8 @@ impl ScriptedStation {
             } => {
                 for result in decoder.feed(bytes) {
                     count(result.is_ok());
-                    if let Ok(frame) = result {
+                    if let Ok(downlink) = result {
+                        let frame = *downlink.status();
                         station.on_display(&frame, station_time(at));
                         *lock(&stats.last_display) = Some((at, frame.sensors));
                         *lock(&stats.last_status) = Some((at, frame));

@@ -1,8 +1,12 @@
-//! The driving panel: kill, revive, the manual sliders with their pulse widths, control-mode
-//! setpoints, the gamepad and the keys.
+//! The driving panel: kill, revive, the manual sliders (what the operator asks for) with the
+//! servo targets the robot reports it commanded, control-mode setpoints with the setpoints the
+//! robot reports it follows, the gamepad and the keys. The drive controls are greyed while the
+//! robot is not live (no fresh report, or KILLED/FAILSAFE).
 
 use dima_groundlink::station::ManualChannel;
 use dima_groundlink::{Command, Percent};
+use std::time::Instant;
+
 use eframe::egui::{self, Color32, RichText};
 
 use super::connection::{BAD, GOOD, WARN};
@@ -10,6 +14,7 @@ use super::GroundApp;
 use crate::control::Source;
 use crate::keys::REVIVE_HOLD;
 use crate::link::LinkControl;
+use crate::robot_view::{slider_text, Liveness, Truth};
 use crate::units::{heading_setpoint_deg_e5, speed_setpoint_mm_s};
 
 pub fn left_panel(ui: &mut egui::Ui, app: &mut GroundApp) {
@@ -20,9 +25,15 @@ pub fn left_panel(ui: &mut egui::Ui, app: &mut GroundApp) {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 kill_and_revive(ui, app);
                 ui.separator();
-                manual(ui, app);
+                // Drive controls act only while the robot is live: greyed otherwise.
+                let liveness = Liveness::of(&app.status, Instant::now());
+                if let Some(why) = liveness.why_greyed() {
+                    ui.label(RichText::new(why).color(WARN));
+                }
+                ui.add_enabled_ui(liveness.is_live(), |ui| manual(ui, app));
                 ui.separator();
-                setpoints(ui, app);
+                ui.add_enabled_ui(liveness.is_live(), |ui| setpoints(ui, app));
+                robot_setpoints(ui, app);
                 ui.separator();
                 gamepad(ui, app);
                 ui.separator();
@@ -96,9 +107,11 @@ pub fn revive_confirmation(ctx: &egui::Context, app: &mut GroundApp) {
 
 fn manual(ui: &mut egui::Ui, app: &mut GroundApp) {
     ui.heading("Manual");
+    let now = Instant::now();
+    let truth = Truth::of(&app.status, now);
     for (i, channel) in ManualChannel::ALL.into_iter().enumerate() {
         let mut value = app.manual.shown[i].get();
-        let pulse = app.table.pulse_us(channel, app.manual.shown[i]);
+        let readout = slider_text(truth, i);
         let holder = match app.manual.holder(channel) {
             Some(Source::Key) => " (key)",
             Some(Source::Gamepad) => " (gamepad)",
@@ -108,7 +121,7 @@ fn manual(ui: &mut egui::Ui, app: &mut GroundApp) {
         ui.label(format!("{}{holder}", channel.name()));
         ui.horizontal(|ui| {
             let r = ui.add(egui::Slider::new(&mut value, 0..=100).suffix(" %"));
-            ui.label(RichText::new(format!("{pulse} µs")).monospace());
+            ui.label(RichText::new(readout).monospace());
             let v = Percent::new(value).unwrap_or(Percent::HALF);
             app.slider_dragged[i] = r.dragged().then_some(v);
             if r.changed() && !r.dragged() {
@@ -185,6 +198,32 @@ fn setpoints(ui: &mut egui::Ui, app: &mut GroundApp) {
         ui.small(m);
     }
     ui.small("A setpoint switches MANUAL to AUTO; any manual command switches back.");
+}
+
+/// What the robot reports it follows: its setpoints (or none), estimates, controllers.
+fn robot_setpoints(ui: &mut egui::Ui, app: &GroundApp) {
+    let truth = Truth::of(&app.status, Instant::now());
+    ui.label(RichText::new("the robot reports").strong());
+    egui::Grid::new("robot-setpoints")
+        .num_columns(2)
+        .striped(true)
+        .show(ui, |ui| {
+            for (k, v) in [
+                ("speed setpoint", truth.speed_setpoint_text()),
+                ("heading setpoint", truth.heading_setpoint_text()),
+                ("speed (estimate)", truth.speed_estimate_text()),
+                ("heading (estimate)", truth.heading_estimate_text()),
+                ("speed error", truth.speed_error_text()),
+                ("controllers", truth.controllers_text()),
+            ] {
+                ui.label(k);
+                // Green only for a fresh value; amber for none, unknown or old.
+                let fresh = matches!(truth, Truth::Fresh(_));
+                let colour = if fresh && v != "none" { GOOD } else { WARN };
+                ui.label(RichText::new(v).monospace().color(colour));
+                ui.end_row();
+            }
+        });
 }
 
 fn gamepad(ui: &mut egui::Ui, app: &mut GroundApp) {

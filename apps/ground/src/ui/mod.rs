@@ -2,6 +2,7 @@
 //! state. Each frame: frames from the link into [`Telemetry`], keys and gamepad through
 //! [`KeyboardDriver`] and [`ManualControl`] to the link, then the panels.
 
+mod alert;
 mod charts;
 mod connection;
 mod drive;
@@ -18,14 +19,18 @@ use dima_groundlink::station::ManualChannel;
 use dima_groundlink::Command;
 use eframe::egui;
 
+use crate::alerts::{Alert, Alerts, Observation};
 use crate::channels::ChannelTable;
 use crate::cli::Cli;
 use crate::control::{ManualControl, ManualInputs};
+use crate::downlink::DownlinkHealth;
 use crate::gamepad::{stick_percent, GamepadInput, Gamepads};
 use crate::keys::KeyboardDriver;
 use crate::link::{LinkControl, LinkEvent, LinkHandle, LinkStatus};
-use crate::recording::Recorder;
+use crate::recording::{now_ns, LinkRecord, RecordEvent, Recorder};
+use crate::robot_view::Liveness;
 use crate::sim::{SimLaunch, SimRobot};
+use crate::sound::Sounder;
 use crate::telemetry::Telemetry;
 use crate::units::SensorCalibration;
 
@@ -43,6 +48,22 @@ struct ScreenshotPlan {
     requested: bool,
     result: ScreenshotResult,
 }
+
+/// `--state-screenshots DIR`: one screenshot per state of the banner and the controls.
+struct StateShots {
+    dir: PathBuf,
+    /// The state last seen, and when it was first seen.
+    state: Option<(String, Instant)>,
+    /// The state last saved.
+    saved: Option<String>,
+    /// Screenshots requested so far.
+    count: u32,
+    /// The state of the frame last drawn: the screenshot, taken later, is named after it.
+    drawn: Arc<Mutex<String>>,
+}
+
+/// A state is saved once it has been drawn for this long (the frame shows it).
+const STATE_SETTLE: Duration = Duration::from_millis(400);
 
 /// The connection bar's editable state.
 struct ConnectionForm {
@@ -86,6 +107,12 @@ pub struct GroundApp {
     connection: ConnectionForm,
     setpoints: SetpointForm,
     screenshot: Option<ScreenshotPlan>,
+    state_shots: Option<StateShots>,
+    /// The alert state and the banner.
+    alerts: Alerts,
+    sounder: Sounder,
+    /// Whether the drive controls were live last frame (changes are recorded).
+    controls_live: Option<bool>,
     /// Set by SIGINT/SIGTERM: close the window (stopping the robot and closing the recording)
     /// instead of dying with the recording open.
     stop_requested: Arc<AtomicBool>,
@@ -160,6 +187,16 @@ impl GroundApp {
                 heading_deg: 0.0,
                 message: None,
             },
+            state_shots: cli.state_screenshots.clone().map(|dir| StateShots {
+                dir,
+                state: None,
+                saved: None,
+                count: 0,
+                drawn: Arc::default(),
+            }),
+            alerts: Alerts::default(),
+            sounder: Sounder::new(cli.mute),
+            controls_live: None,
             screenshot: cli.screenshot.clone().map(|path| ScreenshotPlan {
                 path,
                 after: Duration::from_secs_f64(cli.after),
@@ -201,6 +238,8 @@ impl GroundApp {
             }
         }
 
+        self.update_alerts(now);
+
         let keys = input::read_keys(ctx);
         let actions = self.keyboard.update(keys, now);
         self.revive_progress = actions.revive_progress;
@@ -224,6 +263,103 @@ impl GroundApp {
         for request in self.manual.update(&inputs) {
             self.link.send(request);
         }
+    }
+
+    /// The alerts from the link's status: raised ones sound (the most urgent) and are
+    /// recorded, as are changes of the drive controls' state.
+    fn update_alerts(&mut self, now: Instant) {
+        let report = self.status.fresh_report(now);
+        let observation = Observation {
+            reports_fresh: matches!(
+                self.status.downlink(now),
+                DownlinkHealth::Authentic | DownlinkHealth::V1NoReport
+            ),
+            mode: report.map(|r| r.mode),
+            cause: report.and_then(|r| r.failsafe_cause),
+            refusal: report.and_then(|r| r.revive_refusal),
+        };
+        let raised = self.alerts.update(&observation, now);
+        if let Some(first) = raised.first() {
+            self.sounder.play(first);
+        }
+        for alert in &raised {
+            self.record_event("alert", format!("{}: {}", alert.name(), alert.text()));
+        }
+        let liveness = Liveness::of(&self.status, now);
+        if self.controls_live != Some(liveness.is_live()) {
+            self.controls_live = Some(liveness.is_live());
+            let detail = liveness
+                .why_greyed()
+                .unwrap_or_else(|| "drive controls live".into());
+            self.record_event("controls", detail);
+        }
+    }
+
+    /// Records a station event on the link topic.
+    fn record_event(&self, event: &str, detail: String) {
+        if let Some(r) = &self.recorder {
+            let _ = r.sender().send(RecordEvent::Link(
+                now_ns(),
+                LinkRecord {
+                    event: event.into(),
+                    port: None,
+                    baud: None,
+                    detail: Some(detail),
+                },
+            ));
+        }
+    }
+
+    /// The banner's alert now.
+    fn banner(&self) -> Option<Alert> {
+        self.alerts.banner()
+    }
+
+    /// `--state-screenshots`: a screenshot once a new state of the banner and the controls
+    /// has been drawn for [`STATE_SETTLE`].
+    fn take_state_screenshots(&mut self, ctx: &egui::Context) {
+        let banner = self.banner().map_or("no-alert", |a| a.name());
+        let controls = if self.controls_live == Some(true) {
+            "live"
+        } else {
+            "greyed"
+        };
+        // The robot's reported throttle target too, so driving shows as its own state.
+        let throttle = self
+            .status
+            .robot
+            .and_then(|r| r.actuation)
+            .map_or("unknown".to_owned(), |a| format!("{}us", a.servo_us()[0]));
+        let Some(shots) = self.state_shots.as_mut() else {
+            return;
+        };
+        let now = Instant::now();
+        let state = format!("{banner}-{controls}-throttle-{throttle}");
+        state.clone_into(&mut shots.drawn.lock().unwrap_or_else(|e| e.into_inner()));
+        match &shots.state {
+            Some((s, _)) if *s == state => {}
+            _ => shots.state = Some((state.clone(), now)),
+        }
+        let Some((state, since)) = &shots.state else {
+            return;
+        };
+        if shots.saved.as_ref() == Some(state) || now.duration_since(*since) < STATE_SETTLE {
+            return;
+        }
+        shots.saved = Some(state.clone());
+        shots.count += 1;
+        let (dir, count, drawn) = (shots.dir.clone(), shots.count, shots.drawn.clone());
+        let _ = std::fs::create_dir_all(&dir);
+        ctx.request_screenshot(move |image| {
+            // Named after the state of the frame it shows (it may have changed since the
+            // request).
+            let state = drawn.lock().unwrap_or_else(|e| e.into_inner()).clone();
+            let path = dir.join(format!("{count:02}-{state}.png"));
+            match save_png(&path, &image) {
+                Ok(()) => eprintln!("dima-ground: state screenshot {}", path.display()),
+                Err(e) => eprintln!("dima-ground: state screenshot failed: {e}"),
+            }
+        });
     }
 
     fn take_screenshot_when_due(&mut self, ctx: &egui::Context) {
@@ -311,11 +447,13 @@ impl eframe::App for GroundApp {
         let ctx = ui.ctx().clone();
         self.logic(&ctx);
         connection::top_bar(ui, self);
+        alert::banner(ui, self);
         status::bottom_bar(ui, self);
         drive::left_panel(ui, self);
         status::right_panel(ui, self);
         egui::CentralPanel::default().show(ui, |ui| charts::plots(ui, &self.telemetry));
         drive::revive_confirmation(&ctx, self);
+        self.take_state_screenshots(&ctx);
         self.take_screenshot_when_due(&ctx);
         if self.stop_requested.load(Ordering::Relaxed) {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);

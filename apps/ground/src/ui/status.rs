@@ -191,6 +191,28 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
                 RichText::new(format!("{:.2}", s.frames_per_s)),
             );
             row(ui, "display frames", RichText::new(s.frames_in.to_string()));
+            if s.authenticated {
+                let l = &s.loss;
+                let pct =
+                    |f: Option<f64>| f.map_or("-".to_owned(), |f| format!("{:.0} %", 100.0 * f));
+                let colour = match l.recent_fraction() {
+                    Some(f) if f > 0.2 => BAD,
+                    Some(f) if f > 0.0 => WARN,
+                    _ => GOOD,
+                };
+                row(
+                    ui,
+                    "downlink loss (sequence gaps)",
+                    RichText::new(format!(
+                        "{} recent, {} total ({} lost of {})",
+                        pct(l.recent_fraction()),
+                        pct(l.total_fraction()),
+                        l.lost,
+                        l.lost + l.received
+                    ))
+                    .color(colour),
+                );
+            }
             let bad = |n: u64| RichText::new(n.to_string()).color(if n > 0 { WARN } else { GOOD });
             if s.authenticated {
                 row(ui, "frames rejected (bad tag)", bad(s.bad_tag));

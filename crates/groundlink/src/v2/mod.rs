@@ -11,6 +11,11 @@
 //!   mode, failsafe cause and last revive refusal, session id, downlink sequence number, the
 //!   sequence number of the last accepted command (the acknowledgement), [`Health`] counters,
 //!   the version 1 display payload (sensor values and GNSS), and the tag.
+//! - [`DisplayFrameV3`] (robot -> ground station, 156 bytes): start token `A5 46`, the fields
+//!   of a display frame v2, then what the robot does ([`Actuation`]): the servo targets it
+//!   commanded, the AUTO setpoints in force or none, its speed and heading estimates, the speed
+//!   error and the configured controller kinds. [`DownlinkDecoder`] finds both versions in one
+//!   stream.
 //! - [`CommandGate`]: the robot's side of the command link. It holds the key, the session id and
 //!   the last accepted sequence number, and accepts a command only when its tag is valid, its
 //!   session is current and its sequence number is newer than the last accepted one. A kill
@@ -60,6 +65,7 @@ use crate::display::DisplayError;
 mod command;
 mod decoder;
 mod display;
+mod display_v3;
 mod gate;
 mod scanner;
 
@@ -68,6 +74,10 @@ pub use decoder::{AuthenticFrame, FrameDecoder, StreamStats};
 pub use display::{
     DisplayDecoder, DisplayFrame, DisplayStats, FailsafeCause, Health, ReviveRefusal, RobotMode,
     DISPLAY_FRAME_LEN, DISPLAY_START,
+};
+pub use display_v3::{
+    Actuation, ControllerCode, DisplayFrameV3, DisplayV3Decoder, Downlink, DownlinkDecoder,
+    DISPLAY_V3_FRAME_LEN, DISPLAY_V3_START,
 };
 pub use gate::{CommandGate, GateStats, Rejection};
 

@@ -114,8 +114,14 @@ pub struct Snapshot {
     pub cause: Option<FailsafeCause>,
     /// Why the last revive was refused, until a revive succeeds.
     pub refusal: Option<ReviveRefusal>,
-    /// Outputs.
+    /// Outputs: the servo targets the step commanded this cycle.
     pub targets: ServoTargets,
+    /// Manual values and AUTO setpoints in force after the cycle.
+    pub setpoints: Setpoints,
+    /// Estimated ground speed, mm/s (`None`: no valid estimate).
+    pub speed_mm_s: Option<f32>,
+    /// Estimated heading, degrees clockwise from north (`None`: no valid estimate).
+    pub heading_deg: Option<f32>,
     /// The loop's counters.
     pub counters: Counters,
     /// Monotonic time of this snapshot.
@@ -130,6 +136,9 @@ impl Default for Snapshot {
             cause: None,
             refusal: None,
             targets: ServoTargets::default(),
+            setpoints: Setpoints::default(),
+            speed_mm_s: None,
+            heading_deg: None,
             counters: Counters::default(),
             time_ns: 0,
         }

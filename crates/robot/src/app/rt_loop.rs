@@ -530,6 +530,9 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             cause: self.last_cause,
             refusal: self.last_refusal,
             targets: record.outputs.targets,
+            setpoints: record.setpoints,
+            speed_mm_s: record.outputs.estimate.speed_mm_s.map(|m| m.value),
+            heading_deg: record.outputs.estimate.heading_deg.map(|m| m.value),
             counters: record.counters,
             time_ns: record.tick.wake_ns,
         });

@@ -322,7 +322,16 @@ fn telemetry_settings(config: &Config, security: LinkSecurity) -> TelemetrySetti
         reopen_interval: Duration::from_millis(u64::from(config.xbee.reopen_interval_ms)),
         priority: config.realtime.telemetry_priority,
         security,
+        controllers: controller_codes(&config.control),
     }
+}
+
+/// The configured controller kinds, throttle, steering, tail, as display frames v3 carry them.
+pub fn controller_codes(
+    control: &dima_core::config::ControlConfig,
+) -> [dima_groundlink::v2::ControllerCode; 3] {
+    dima_core::control::Channel::ALL
+        .map(|ch| dima_groundlink::v2::ControllerCode::from_name(&control.channel(ch).kind))
 }
 
 /// Starts the realtime thread; it reports its setup on the returned channel before the
