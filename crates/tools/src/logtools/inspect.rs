@@ -3,8 +3,8 @@
 //! project's own resynchronising decoders; counts of errors and skipped bytes go to stderr.
 //!
 //! The ground link's frames are version 1 (10-byte commands, 68-byte display frames) without
-//! a key, and version 2 (28-byte commands, 126-byte display frames, authenticated: the
-//! default link) with `--key-file`: each tag is verified, and a frame whose tag does not
+//! a key, and the authenticated link (the default: 28-byte commands; 126-byte display frames
+//! v2 and the 156-byte display frames v3 the robot sends) with `--key-file`: each tag is verified, and a frame whose tag does not
 //! match (forged, corrupt, another key) is a line `{"error": "bad tag"}`.
 
 use std::io::Write;
@@ -21,7 +21,7 @@ pub enum Link {
     Sensor,
     /// Ground station -> robot: command frames (v1: 10 bytes; v2 with --key-file: 28 bytes).
     Command,
-    /// Robot -> ground station: display frames (v1: 68 bytes; v2 with --key-file: 126 bytes).
+    /// Robot -> ground station: display frames (v1: 68 bytes; with --key-file v2: 126 bytes and v3: 156 bytes).
     Display,
 }
 
@@ -169,6 +169,25 @@ fn v2_display_json(f: &v2::DisplayFrame) -> Value {
     })
 }
 
+/// A display frame v3: the version 2 fields and what the robot does (outputs in µs, the
+/// setpoints and estimates in SI units, `null` where the robot has none).
+fn v3_display_json(f: &v2::DisplayFrameV3) -> Value {
+    let a = &f.actuation;
+    let scaled = |v: Option<i32>, per_unit: f64| v.map(|v| f64::from(v) / per_unit);
+    let mut json = v2_display_json(&f.status);
+    json["version"] = json!(3);
+    json["actuation"] = json!({
+        "servo_us": a.servo_us(),
+        "speed_setpoint_m_s": scaled(a.speed_setpoint_mm_s, 1e3),
+        "heading_setpoint_deg": scaled(a.heading_setpoint_deg_e5, 1e5),
+        "speed_estimate_m_s": scaled(a.speed_estimate_mm_s, 1e3),
+        "heading_estimate_deg": scaled(a.heading_estimate_deg_e5, 1e5),
+        "speed_error_m_s": scaled(a.speed_error_mm_s, 1e3),
+        "controllers": a.controllers.map(|c| c.name().unwrap_or("unknown")),
+    });
+    json
+}
+
 /// Decodes the version 2 (authenticated) frames of `link` in `bytes` under `key`, one JSON
 /// line per frame into `out`, and one `{"error": ...}` line per rejected candidate (`"bad
 /// tag"`: the tag does not match). The sensor link has no version 2: `InvalidInput`.
@@ -208,10 +227,11 @@ pub fn inspect_authenticated(
             d.stats()
         }
         Link::Display => {
-            let mut d = v2::DisplayDecoder::new(key.clone());
+            let mut d = v2::DownlinkDecoder::new(key.clone());
             for result in d.feed(bytes) {
                 let line = match result {
-                    Ok(f) => v2_display_json(&f),
+                    Ok(v2::Downlink::V2(f)) => v2_display_json(&f),
+                    Ok(v2::Downlink::V3(f)) => v3_display_json(&f),
                     Err(e) => error_json(&e),
                 };
                 writeln!(out, "{line}")?;
@@ -233,8 +253,16 @@ pub fn v2_candidates(link: Link, bytes: &[u8]) -> usize {
     let (start, len) = match link {
         Link::Sensor => return 0,
         Link::Command => (v2::COMMAND_START, v2::COMMAND_FRAME_LEN),
-        Link::Display => (v2::DISPLAY_START, v2::DISPLAY_FRAME_LEN),
+        Link::Display => {
+            return candidates(bytes, v2::DISPLAY_START, v2::DISPLAY_FRAME_LEN)
+                + candidates(bytes, v2::DISPLAY_V3_START, v2::DISPLAY_V3_FRAME_LEN)
+        }
     };
+    candidates(bytes, start, len)
+}
+
+/// Occurrences of `start` followed by the length byte `len` in `bytes`.
+fn candidates(bytes: &[u8], start: [u8; 2], len: usize) -> usize {
     bytes
         .windows(3)
         .filter(|w| w[..2] == start && usize::from(w[2]) == len)
@@ -359,5 +387,28 @@ mod tests {
         assert_eq!(first["sensors"]["gspeed_mm_s"], 2_500);
         assert!(text.lines().nth(1).unwrap().contains("bad tag"), "{text}");
         assert!(inspect_authenticated(Link::Sensor, &display, &key, &mut Vec::new()).is_err());
+
+        // Display frames v3 (what the robot sends): also its outputs and setpoints, `null`
+        // where it has none.
+        let v3 = v2::DisplayFrameV3 {
+            status: frame,
+            actuation: v2::Actuation {
+                servo_quarter_us: [6_000, 6_240, 6_000],
+                speed_setpoint_mm_s: Some(1_500),
+                ..v2::Actuation::default()
+            },
+        };
+        let capture = v3.encode(&key);
+        assert_eq!(v2_candidates(Link::Display, &capture), 1);
+        let mut out = Vec::new();
+        let stats = inspect_authenticated(Link::Display, &capture, &key, &mut out).unwrap();
+        assert_eq!((stats.frames, stats.bad_tag), (1, 0), "{stats:?}");
+        let line: Value =
+            serde_json::from_slice(out.split(|&b| b == b'\n').next().unwrap()).unwrap();
+        assert_eq!(line["version"], 3);
+        assert_eq!(line["seq"], 9);
+        assert_eq!(line["actuation"]["servo_us"], json!([1500, 1560, 1500]));
+        assert_eq!(line["actuation"]["speed_setpoint_m_s"], 1.5);
+        assert_eq!(line["actuation"]["heading_setpoint_deg"], Value::Null);
     }
 }

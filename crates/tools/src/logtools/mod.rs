@@ -133,8 +133,8 @@ pub struct InspectArgs {
     pub link: inspect::Link,
     /// The capture (default: stdin).
     pub file: Option<PathBuf>,
-    /// Decode and verify version 2 (authenticated) command or display frames with this link
-    /// key file (from `dima keygen`; the default link); without it, version 1 frames.
+    /// Decode and verify authenticated command frames (v2) or display frames (v2 and v3) with
+    /// this link key file (from `dima keygen`; the default link); without it, version 1 frames.
     #[arg(long, value_name = "KEY")]
     pub key_file: Option<PathBuf>,
 }
@@ -449,7 +449,7 @@ fn run_inspect(args: InspectArgs) -> anyhow::Result<ExitCode> {
     let v2 = inspect::v2_candidates(args.link, &bytes);
     if v2 > 0 {
         eprintln!(
-            "the capture holds {v2} version 2 (authenticated) frame start{}: decode them with \
+            "the capture holds {v2} authenticated (version 2 or 3) frame start{}: decode them with \
              --key-file KEY",
             if v2 == 1 { "" } else { "s" }
         );
