@@ -501,6 +501,17 @@ mod app {
         }
     }
 
+    /// Between interrupts. On the board the core spins (as RTIC's default idle does); under
+    /// QEMU it waits for the next interrupt, so the emulator does not take a whole host core
+    /// while the firmware has nothing to do.
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        loop {
+            #[cfg(feature = "qemu")]
+            cortex_m::asm::wfi();
+        }
+    }
+
     /// A request edge: start the answer and return.
     #[task(binds = EXTI15_10, priority = 3, local = [request_pin], shared = [link, latest])]
     fn request(cx: request::Context) {
