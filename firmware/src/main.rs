@@ -505,6 +505,8 @@ mod app {
     /// QEMU it waits for the next interrupt, so the emulator does not take a whole host core
     /// while the firmware has nothing to do.
     #[idle]
+    // The board's spin is RTIC's own default idle, kept as it was.
+    #[cfg_attr(not(feature = "qemu"), allow(clippy::empty_loop))]
     fn idle(_: idle::Context) -> ! {
         loop {
             #[cfg(feature = "qemu")]

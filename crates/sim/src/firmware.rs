@@ -52,7 +52,7 @@ const BOOT_TIMEOUT: Duration = Duration::from_secs(30);
 /// How long the firmware is asked for packets before the application starts, their answers
 /// dropped: QEMU translates the guest's code the first time it runs, which makes the first
 /// answers of a fresh emulator several milliseconds late.
-const WARM_UP: Duration = Duration::from_millis(1500);
+pub const WARM_UP: Duration = Duration::from_millis(1500);
 /// Bytes the relay collects before a paced write (the Rust board's writes go in 16-byte
 /// chunks too).
 const RELAY_CHUNK: usize = 16;
