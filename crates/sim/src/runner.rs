@@ -708,6 +708,7 @@ impl<'a> SimRun<'a> {
                 self.start_wall_ns,
                 app.counters.packet_crc_errors,
                 s.ber > 0.0 || s.drop_rate > 0.0 || s.insert_rate > 0.0,
+                o.bounded_evidence,
             ));
         }
         let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
