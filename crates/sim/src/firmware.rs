@@ -29,7 +29,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
-use dima_sensorboard::{INFO_PIECE_LEN, PACKET_LEN};
+use dima_sensorboard::{GNSS_FRAME_LEN, INFO_PIECE_LEN, PACKET_LEN};
 
 use crate::board::{
     BoardConfig, BoardSim, SensorFaultState, BMM150_TRIM, DATASHEET_BMP280_CALIBRATION,
@@ -461,7 +461,7 @@ impl Feeder {
         if self.board.gnss_epochs() > self.gnss_epochs {
             self.gnss_epochs = self.board.gnss_epochs();
             if let Some(gnss) = &mut self.gnss {
-                if gnss.write_all(&packet[28..]).is_ok() {
+                if gnss.write_all(&packet[28..28 + GNSS_FRAME_LEN]).is_ok() {
                     self.firmware.gnss_frames.fetch_add(1, Ordering::Relaxed);
                 }
             }
@@ -836,7 +836,8 @@ fn note(sum: &AtomicU64, max: &AtomicU64, since: Instant) {
 /// (`log_path`, the last file of the run): every logged packet's sensor registers are ones
 /// the model fed (each die's, byte for byte), the accelerometer's following the model in time
 /// (fed within 0.5 s of the packet's log time);
-/// the board's health record shows all four dies present with no SPI error; no CRC error
+/// the board's health record shows all four dies present with no SPI error, no magnetometer
+/// time-out and no GNSS byte outside a valid frame; no CRC error
 /// (unless `link_faults` damage the sensor link on purpose). With `bounded` evidence (a soak:
 /// no register sets kept) the register check is skipped.
 pub fn firmware_checks(
@@ -871,7 +872,7 @@ pub fn firmware_checks(
         }),
     ));
     checks.push((
-        "firmware: the health record shows all four sensors present".to_owned(),
+        "firmware: the health record shows all four sensors present and no SPI, magnetometer or GNSS error".to_owned(),
         Some(health_all_present(&runs)),
     ));
     checks.push((
@@ -882,7 +883,8 @@ pub fn firmware_checks(
 }
 
 /// The last info record: status bits 0..=3 set (accelerometer, gyroscope, magnetometer,
-/// BMP280 found at boot), no SPI error on any die.
+/// BMP280 found at boot), no SPI error on any die, no magnetometer time-out, every GNSS byte
+/// in a valid NAV-PVT frame.
 fn health_all_present(runs: &[dima_log::LoggedRun]) -> Result<(), String> {
     let info = runs
         .iter()
@@ -896,6 +898,15 @@ fn health_all_present(runs: &[dima_log::LoggedRun]) -> Result<(), String> {
     }
     if errors.iter().any(|&e| e != 0) {
         return Err(format!("SPI errors per die {errors:?}"));
+    }
+    if h.mag_timeout_errors != 0 {
+        return Err(format!("{} magnetometer time-outs", h.mag_timeout_errors));
+    }
+    if h.gnss_bytes_dropped != 0 || h.gnss_frame_errors != 0 {
+        return Err(format!(
+            "GNSS: {} bytes dropped, {} bad frames",
+            h.gnss_bytes_dropped, h.gnss_frame_errors
+        ));
     }
     Ok(())
 }
