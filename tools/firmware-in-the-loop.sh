@@ -5,7 +5,8 @@
 #
 # The run passes when every scenario check holds and, with the firmware in the loop, every
 # logged packet is byte-identical to one the emulated firmware sent, there is no CRC error,
-# the board's last health record shows all four sensor dies and no SPI error, and every logged
+# the board's last health record shows all four sensor dies and no SPI error, magnetometer
+# time-out or GNSS byte outside a valid frame, and every logged
 # packet's sensor registers are ones the vehicle model fed (see crates/sim/src/firmware.rs).
 #
 # The loop runs at 50 Hz. QEMU answers a request in about 2 ms on average on a busy 2-core
