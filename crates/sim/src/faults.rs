@@ -737,4 +737,29 @@ mod tests {
         assert!((700..1_300).contains(&s.bytes_dropped), "{s:?}");
         assert!((700..1_300).contains(&s.bytes_inserted), "{s:?}");
     }
+
+    #[test]
+    fn a_frame_mangled_in_parts_goes_out_as_if_whole() {
+        let mut spec = FaultSpec::default();
+        for setting in ["ber=0.01", "drop=0.01", "insert=0.01"] {
+            spec.set(setting).unwrap();
+        }
+        let frame: Vec<u8> = (0..=255u8).cycle().take(2_000).collect();
+        let mut whole = FaultInjector::new(spec.clone(), SimRng::new(3));
+        let mut parts = FaultInjector::new(spec, SimRng::new(3));
+        for _ in 0..20 {
+            let mut a = Vec::new();
+            let intact_a = whole.mangle(&frame, &mut a);
+            let mut b = Vec::new();
+            let mut intact_b = true;
+            for part in frame.chunks(7) {
+                intact_b &= parts.mangle_part(part, &mut b);
+            }
+            parts.end_frame(intact_b);
+            assert_eq!(a, b);
+            assert_eq!(intact_a, intact_b);
+        }
+        assert_eq!(whole.stats(), parts.stats());
+        assert!(whole.stats().bits_flipped > 0);
+    }
 }
