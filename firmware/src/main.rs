@@ -16,7 +16,9 @@
 //! - `status_led` (software task): the status LED pattern on PD12. The board's wiring names no
 //!   LED pin; PD12 is the STM32F4-Discovery's green LED.
 //!
-//! Under the `qemu` feature `host_byte` (USART3 receive) stands in for the request edge.
+//! Under the `qemu` feature `host_byte` (USART3 receive) stands in for the request edge, and
+//! the USART2 handler in `sensor_images` updates the sensor dies' register images the host
+//! feeds (outside the RTIC app, so that the board build's interrupt set-up stays as it is).
 //!
 //! The decisions live in the host-tested `dima-firmware-logic` crate; this file wires them to
 //! the peripherals.
@@ -30,6 +32,8 @@ mod hw_crc;
 mod link;
 mod panic;
 mod reset_record;
+#[cfg(feature = "qemu")]
+mod sensor_images;
 mod sensors;
 mod setup;
 
@@ -494,6 +498,19 @@ mod app {
             link,
             gnss_latest: GnssLatest::NONE,
             gnss_in: GnssIn::new(gnss_rx, gnss_replies),
+        }
+    }
+
+    /// Between interrupts. On the board the core spins (as RTIC's default idle does); under
+    /// QEMU it waits for the next interrupt, so the emulator does not take a whole host core
+    /// while the firmware has nothing to do.
+    #[idle]
+    // The board's spin is RTIC's own default idle, kept as it was.
+    #[cfg_attr(not(feature = "qemu"), allow(clippy::empty_loop))]
+    fn idle(_: idle::Context) -> ! {
+        loop {
+            #[cfg(feature = "qemu")]
+            cortex_m::asm::wfi();
         }
     }
 

@@ -127,8 +127,31 @@ pub fn request_line(
 pub fn sample_timer(tim2: TIM2, rcc: &mut Rcc) -> Result<CounterHz<TIM2>, timer::Error> {
     let mut timer = tim2.counter_hz(rcc);
     timer.start(SAMPLE_TIMER_REQUEST_HZ.Hz())?;
+    #[cfg(feature = "qemu")]
+    align_emulated_timer();
     timer.listen(Event::Update);
     Ok(timer)
+}
+
+/// Emulator twin only: QEMU's timer model (`stm32f2xx_timer`, QEMU 7.2) schedules each
+/// update at `now + (ARR + offset)` ticks, where `offset` is the emulator's time, in timer
+/// ticks, of the last write to CNT, PSC or EGR: a timer started `t` after reset interrupts
+/// every `t` + one period, so the longer `init` takes (it waits for the host's sensor
+/// images), the slower the sampling tick. Writing CNT with the emulator's current time in
+/// ticks makes that offset zero and the period the one asked for. TIM5, never written, counts
+/// the emulator's nanoseconds since reset (prescaler 1 at reset); good for the first 4.29 s.
+#[cfg(feature = "qemu")]
+fn align_emulated_timer() {
+    // SAFETY: reads of TIM5_CNT (unused by the firmware) and TIM2_PSC, and a write of TIM2_CNT
+    // right after the HAL started TIM2, in `init` (interrupts off); the count it writes only
+    // moves the next update of an emulated timer.
+    #[allow(unsafe_code)]
+    unsafe {
+        let now_ns = (*pac::TIM5::ptr()).cnt().read().bits();
+        let tim2 = &*pac::TIM2::ptr();
+        let prescaler = tim2.psc().read().bits() + 1;
+        tim2.cnt().write(|w| w.bits(now_ns / prescaler));
+    }
 }
 
 /// The rate asked of the HAL for the sampling timer: the sampling rate itself.

@@ -70,6 +70,11 @@ pub struct SimArgs {
     /// `[foxglove] listen`), e.g. 127.0.0.1:8765: in Foxglove, open ws://IP:PORT.
     #[arg(long, value_name = "IP:PORT")]
     pub foxglove: Option<String>,
+    /// Run the sensor board's own firmware instead of the simulated board: its `qemu` build
+    /// (`cd firmware && cargo build --profile qemu --features qemu`; the ELF, or the firmware
+    /// directory) under qemu-system-arm, fed by the same vehicle model.
+    #[arg(long, value_name = "ELF")]
+    pub firmware: Option<PathBuf>,
 }
 
 impl SimArgs {
@@ -117,6 +122,7 @@ impl SimArgs {
         o.realtime = self.realtime;
         o.key_file = self.key_file.clone();
         o.foxglove = self.foxglove.clone();
+        o.firmware = self.firmware.clone();
         o.status = if self.quiet {
             StatusMode::Quiet
         } else if self.plain {

@@ -313,7 +313,7 @@ impl BoardWorker {
 }
 
 /// SCHED_FIFO for the calling thread when permitted (ignored otherwise).
-fn set_fifo(priority: i32) -> std::io::Result<()> {
+pub(crate) fn set_fifo(priority: i32) -> std::io::Result<()> {
     let param = nix::libc::sched_param {
         sched_priority: priority,
     };

@@ -513,9 +513,19 @@ impl FaultInjector {
     /// out unchanged.
     pub fn mangle(&mut self, frame: &[u8], out: &mut Vec<u8>) -> bool {
         out.clear();
+        let intact = self.mangle_part(frame, out);
+        self.end_frame(intact);
+        intact
+    }
+
+    /// Appends `part` of a frame to `out` with bit errors, drops and insertions, as
+    /// [`FaultInjector::mangle`] does for a whole frame (the same draws in the same order), and
+    /// returns whether it went out unchanged; the frame is counted by
+    /// [`FaultInjector::end_frame`]. For frames relayed as their bytes arrive.
+    pub fn mangle_part(&mut self, part: &[u8], out: &mut Vec<u8>) -> bool {
         let before = self.stats;
         let s = &self.spec;
-        for &byte in frame {
+        for &byte in part {
             if self.rng.chance(s.insert_rate) {
                 out.push(self.rng.next_u64() as u8);
                 self.stats.bytes_inserted += 1;
@@ -535,14 +545,18 @@ impl FaultInjector {
             }
             out.push(b);
         }
-        self.stats.frames += 1;
-        let intact = self.stats.bits_flipped == before.bits_flipped
+        self.stats.bits_flipped == before.bits_flipped
             && self.stats.bytes_dropped == before.bytes_dropped
-            && self.stats.bytes_inserted == before.bytes_inserted;
+            && self.stats.bytes_inserted == before.bytes_inserted
+    }
+
+    /// Counts a frame whose parts went through [`FaultInjector::mangle_part`]; `intact` when
+    /// every part went out unchanged.
+    pub fn end_frame(&mut self, intact: bool) {
+        self.stats.frames += 1;
         if intact {
             self.stats.intact += 1;
         }
-        intact
     }
 
     /// The delay before this frame goes out.
@@ -722,5 +736,30 @@ mod tests {
         let s = inj.stats();
         assert!((700..1_300).contains(&s.bytes_dropped), "{s:?}");
         assert!((700..1_300).contains(&s.bytes_inserted), "{s:?}");
+    }
+
+    #[test]
+    fn a_frame_mangled_in_parts_goes_out_as_if_whole() {
+        let mut spec = FaultSpec::default();
+        for setting in ["ber=0.01", "drop=0.01", "insert=0.01"] {
+            spec.set(setting).unwrap();
+        }
+        let frame: Vec<u8> = (0..=255u8).cycle().take(2_000).collect();
+        let mut whole = FaultInjector::new(spec.clone(), SimRng::new(3));
+        let mut parts = FaultInjector::new(spec, SimRng::new(3));
+        for _ in 0..20 {
+            let mut a = Vec::new();
+            let intact_a = whole.mangle(&frame, &mut a);
+            let mut b = Vec::new();
+            let mut intact_b = true;
+            for part in frame.chunks(7) {
+                intact_b &= parts.mangle_part(part, &mut b);
+            }
+            parts.end_frame(intact_b);
+            assert_eq!(a, b);
+            assert_eq!(intact_a, intact_b);
+        }
+        assert_eq!(whole.stats(), parts.stats());
+        assert!(whole.stats().bits_flipped > 0);
     }
 }

@@ -10,6 +10,8 @@
 //! - [`devices`]: the device threads on their [`pty`]s: the board, a Maestro that decodes
 //!   commands with `pololu-maestro` and drives the model, a scripted ground station (or a relay
 //!   to a GUI's pty);
+//! - [`firmware`]: `dima sim --firmware`: the board's real firmware (its `qemu` build) under
+//!   `qemu-system-arm` in place of [`board`], fed by the same model;
 //! - [`faults`]: bit errors, drops, insertions, delay, jitter, silence and disconnects per link;
 //! - [`scenario`]: scripts and the checks a run must pass, judged on the outputs at the Maestro,
 //!   the model, and the application's MCAP log ([`logcheck`]);
@@ -47,6 +49,7 @@ pub mod cli;
 pub mod devices;
 pub mod dst;
 pub mod faults;
+pub mod firmware;
 pub mod logcheck;
 pub mod model;
 pub mod pty;

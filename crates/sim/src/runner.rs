@@ -29,6 +29,9 @@ use crate::devices::{
     GroundProtocol, GroundStats, LinkPort, MaestroStats,
 };
 use crate::faults::{AppFaults, FaultWindow, Faults, LoopBusy};
+use crate::firmware::{
+    boot_firmware, firmware_checks, spawn_firmware_board, BootedFirmware, FirmwareStats,
+};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
 use crate::pty::{LinePace, SimPty};
@@ -155,6 +158,9 @@ pub struct SimOptions {
     /// Where the simulated robot serves its live view (`[foxglove] listen`); `None`: the
     /// configuration's.
     pub foxglove: Option<String>,
+    /// The sensor board's firmware (its `qemu` build, an ELF) to run under `qemu-system-arm`
+    /// in place of the simulated board ([`crate::firmware`]); `None`: the Rust board.
+    pub firmware: Option<PathBuf>,
 }
 
 impl SimOptions {
@@ -180,6 +186,7 @@ impl SimOptions {
             random_faults: Vec::new(),
             bounded_evidence: false,
             foxglove: None,
+            firmware: None,
         }
     }
 
@@ -284,6 +291,8 @@ pub struct SimReport {
     pub evidence_bounded: bool,
     /// The random fault windows of a soak.
     pub random_faults: usize,
+    /// With `--firmware`: what the emulated firmware was fed and sent, one line.
+    pub firmware: Option<String>,
 }
 
 impl SimReport {
@@ -313,6 +322,10 @@ impl SimReport {
             d.ground_frames,
             d.displays,
         );
+        if let Some(line) = &self.firmware {
+            s.push_str(line);
+            s.push('\n');
+        }
         if self.evidence_bounded {
             s.push_str(&format!(
                 "soak: {} fault windows, {} failsafe(s), {} revive(s), {} cycles, {} missed periods, {} log records dropped\n",
@@ -385,13 +398,32 @@ fn describe(check: &crate::scenario::Check) -> String {
     }
 }
 
+/// The random stream of the sensor board (the Rust board's or the firmware's feeder).
+const BOARD_STREAM: u64 = 10;
+
 /// Runs the scenario with the application started by `app` on the calling thread.
 pub fn run_simulation<F>(options: &SimOptions, app: F) -> anyhow::Result<SimReport>
 where
     F: FnOnce(AppLaunch) -> anyhow::Result<AppOutcome>,
 {
-    let (run, config, key) = SimRun::prepare(options)?;
-    let devices = run.start_devices(&config, key)?;
+    // The firmware boots first: the simulation's clock starts once it is ready.
+    let firmware = match &options.firmware {
+        Some(elf) => Some(
+            boot_firmware(
+                &crate::firmware::qemu_elf(elf),
+                options.board,
+                &SimRng::new(options.seed).fork(BOARD_STREAM),
+                &World::new(options.vehicle, options.scenario.start_heading_deg),
+            )
+            .context("the sensor board's firmware under QEMU")?,
+        ),
+        None => None,
+    };
+    let (mut run, config, key) = SimRun::prepare(options)?;
+    if let Some(booted) = &firmware {
+        run.firmware_stats = booted.stats.clone();
+    }
+    let devices = run.start_devices(&config, key, firmware)?;
     let monitor = run.start_monitor()?;
     let outcome = app(run.launch(config));
     let ran_s = run.world.now_s();
@@ -411,6 +443,8 @@ struct SimRun<'a> {
     /// Set when the monitor ended the run at its length (not a signal).
     ended_by_runner: Arc<AtomicBool>,
     board_stats: Arc<BoardStats>,
+    /// What the firmware board was fed and sent (with `--firmware`).
+    firmware_stats: Arc<FirmwareStats>,
     maestro_stats: Arc<MaestroStats>,
     ground_stats: Arc<GroundStats>,
     app_status: Arc<AppStatus>,
@@ -457,6 +491,7 @@ impl<'a> SimRun<'a> {
                 counts_only: o.bounded_evidence,
                 ..BoardStats::default()
             }),
+            firmware_stats: Arc::new(FirmwareStats::default()),
             maestro_stats: Arc::new(MaestroStats {
                 safe_transitions_only: o.bounded_evidence.then(|| outputs.safe().pulse_us),
                 ..MaestroStats::default()
@@ -478,23 +513,39 @@ impl<'a> SimRun<'a> {
         &self,
         config: &Config,
         key: Option<LinkKey>,
+        firmware: Option<BootedFirmware>,
     ) -> anyhow::Result<Vec<JoinHandle<()>>> {
         let o = self.o;
         let rng = SimRng::new(o.seed);
-        let board = spawn_board(
-            self.world.clone(),
-            self.line.clone(),
-            LinkPort::open(&o.run_dir.join("sensor")).context("sensor-board pty")?,
-            BoardSetup {
-                config: o.board,
-                link_faults: o.faults.sensor.clone(),
-                sensor_faults: o.faults.sensors.clone(),
-                pace: LinePace::new(config.sensor.baud, bits_per_byte(config.sensor.stop_bits)),
-            },
-            rng.fork(10),
-            self.board_stats.clone(),
-            self.stop_devices.clone(),
-        )?;
+        let setup = BoardSetup {
+            config: o.board,
+            link_faults: o.faults.sensor.clone(),
+            sensor_faults: o.faults.sensors.clone(),
+            pace: LinePace::new(config.sensor.baud, bits_per_byte(config.sensor.stop_bits)),
+        };
+        let port = LinkPort::open(&o.run_dir.join("sensor")).context("sensor-board pty")?;
+        let mut threads = match firmware {
+            Some(booted) => spawn_firmware_board(
+                booted,
+                self.world.clone(),
+                self.line.clone(),
+                port,
+                setup,
+                rng.fork(BOARD_STREAM),
+                self.board_stats.clone(),
+                Duration::from_secs_f64(1.0 / f64::from(o.loop_rate_hz.max(1))),
+                self.stop_devices.clone(),
+            )?,
+            None => vec![spawn_board(
+                self.world.clone(),
+                self.line.clone(),
+                port,
+                setup,
+                rng.fork(BOARD_STREAM),
+                self.board_stats.clone(),
+                self.stop_devices.clone(),
+            )?],
+        };
         let maestro = spawn_maestro(
             self.world.clone(),
             LinkPort::open(&o.run_dir.join("maestro")).context("Maestro pty")?,
@@ -505,7 +556,8 @@ impl<'a> SimRun<'a> {
             self.stop_devices.clone(),
         )?;
         let ground = self.start_ground(config, key, &rng)?;
-        Ok(vec![board, maestro, ground])
+        threads.extend([maestro, ground]);
+        Ok(threads)
     }
 
     /// Starts the ground side of the radio link: a relay to a second pty for a GUI, or the
@@ -627,7 +679,7 @@ impl<'a> SimRun<'a> {
             complete: !interrupted && ran_s + 0.5 >= o.scenario.duration_s,
             period_s: 1.0 / f64::from(o.loop_rate_hz.max(1)),
         };
-        let checks: Vec<(String, Option<Result<(), String>>)> = if o.ground_pty {
+        let mut checks: Vec<(String, Option<Result<(), String>>)> = if o.ground_pty {
             Vec::new()
         } else {
             o.scenario
@@ -636,6 +688,29 @@ impl<'a> SimRun<'a> {
                 .map(|c| (describe(c), evaluate(c, &evidence)))
                 .collect()
         };
+        if let (Some(_), Some(path)) = (&o.firmware, &app.log_path) {
+            checks.push((
+                "firmware: every logged packet is one the emulated firmware sent".to_owned(),
+                (!o.bounded_evidence).then(|| {
+                    if logged_intact > 0 && false_accepts == 0 {
+                        Ok(())
+                    } else {
+                        Err(format!(
+                            "{logged_intact} logged packets sent by it, {false_accepts} not"
+                        ))
+                    }
+                }),
+            ));
+            let s = &o.faults.sensor;
+            checks.extend(firmware_checks(
+                path,
+                &self.firmware_stats,
+                self.start_wall_ns,
+                app.counters.packet_crc_errors,
+                s.ber > 0.0 || s.drop_rate > 0.0 || s.insert_rate > 0.0,
+                o.bounded_evidence,
+            ));
+        }
         let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
         Ok(SimReport {
             safe_us: self.safe_us,
@@ -652,6 +727,10 @@ impl<'a> SimRun<'a> {
             revives: self.app_status.revives.load(Ordering::Relaxed),
             evidence_bounded: o.bounded_evidence,
             random_faults: o.random_faults.len(),
+            firmware: o
+                .firmware
+                .as_ref()
+                .map(|_| self.firmware_stats.summary(logged_intact)),
         })
     }
 

@@ -23,6 +23,8 @@
 //!   asks for (never above the sensors' 10 MHz);
 //! - [`uart_errors`]: overrun, framing and noise errors of the GNSS UART, from its status
 //!   register;
+//! - [`sensor_image`]: the `qemu` build's sensor dies, register images a host feeds over a
+//!   UART;
 //! - [`sensors`]: the four sensor dies behind embedded-hal `SpiDevice`s, brought up and read
 //!   through the workspace's BMX055 and BMP280 drivers (tested here against a simulated
 //!   register file).
@@ -40,6 +42,7 @@ pub mod link;
 pub mod request;
 pub mod reset_record;
 pub mod schedule;
+pub mod sensor_image;
 pub mod sensors;
 pub mod spi_clock;
 pub mod supervisor;
