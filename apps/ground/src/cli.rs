@@ -37,6 +37,12 @@ pub struct Cli {
     /// Stop the simulated robot after this many seconds (with --sim; default: at exit).
     #[arg(long, value_name = "SECONDS", requires = "sim")]
     pub sim_duration: Option<f64>,
+    /// With --sim: the sensor board is the board's own firmware under QEMU (its emulator
+    /// build, `cargo build --profile qemu --features qemu` in firmware/, or that directory),
+    /// as `dima sim --firmware` runs it; needs `qemu-system-arm`. QEMU keeps up with a 50 Hz
+    /// loop on a busy machine: set `loop_rate_hz` in --robot-config.
+    #[arg(long, value_name = "ELF", requires = "sim")]
+    pub firmware: Option<PathBuf>,
     /// The robot's configuration (`dima`'s TOML): its channel table gives the pulse widths
     /// shown, and with --sim the simulated robot runs with it. Default: `dima`'s defaults.
     #[arg(long, value_name = "FILE")]

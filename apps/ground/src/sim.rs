@@ -36,6 +36,8 @@ pub struct SimLaunch {
     pub duration_s: Option<f64>,
     /// The link key file to use (None: a fresh key in the run directory).
     pub key_file: Option<PathBuf>,
+    /// The firmware's emulator build to run as the sensor board (None: the Rust board).
+    pub firmware: Option<PathBuf>,
 }
 
 /// The running simulated robot.
@@ -72,6 +74,9 @@ impl SimRobot {
         }
         if let Some(d) = launch.duration_s {
             command.arg("--duration").arg(d.to_string());
+        }
+        if let Some(elf) = &launch.firmware {
+            command.arg("--firmware").arg(elf);
         }
         let child = command
             .spawn()

@@ -430,6 +430,7 @@ fn start_sim(cli: &Cli) -> anyhow::Result<Option<SimRobot>> {
         robot_config: cli.robot_config.clone(),
         duration_s: cli.sim_duration,
         key_file: cli.key_file.clone(),
+        firmware: cli.firmware.clone(),
     })?))
 }
 
