@@ -5,9 +5,11 @@
 //!   the car marker and the heading arrow as screen geometry;
 //! - [`scale`]: the scale bar's round length;
 //! - [`tiles`]: offline tiles from a `z/x/y.png` directory, decoded, and a bounded cache;
+//! - [`origin`]: the first fix, or the revive point once known;
 //! - [`setpoint`]: the heading setpoint the map draws.
 
 pub mod mercator;
+pub mod origin;
 pub mod scale;
 pub mod setpoint;
 pub mod tiles;

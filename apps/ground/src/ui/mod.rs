@@ -6,6 +6,7 @@ mod charts;
 mod connection;
 mod drive;
 mod input;
+mod map;
 mod status;
 
 use std::path::PathBuf;
@@ -85,6 +86,7 @@ pub struct GroundApp {
     telemetry: Telemetry,
     connection: ConnectionForm,
     setpoints: SetpointForm,
+    map: map::MapPanel,
     screenshot: Option<ScreenshotPlan>,
     /// Set by SIGINT/SIGTERM: close the window (stopping the robot and closing the recording)
     /// instead of dying with the recording open.
@@ -160,6 +162,7 @@ impl GroundApp {
                 heading_deg: 0.0,
                 message: None,
             },
+            map: map::MapPanel::new(cli.panel, cli.map_tiles.clone()),
             screenshot: cli.screenshot.clone().map(|path| ScreenshotPlan {
                 path,
                 after: Duration::from_secs_f64(cli.after),
@@ -314,7 +317,7 @@ impl eframe::App for GroundApp {
         status::bottom_bar(ui, self);
         drive::left_panel(ui, self);
         status::right_panel(ui, self);
-        egui::CentralPanel::default().show(ui, |ui| charts::plots(ui, &self.telemetry));
+        egui::CentralPanel::default().show(ui, |ui| map::central_panel(ui, self));
         drive::revive_confirmation(&ctx, self);
         self.take_screenshot_when_due(&ctx);
         if self.stop_requested.load(Ordering::Relaxed) {
