@@ -5,6 +5,8 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use super::mercator;
+
 /// One tile: zoom, column, row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct TileKey {
@@ -76,6 +78,35 @@ pub fn decode_png(bytes: &[u8]) -> Result<Rgba, String> {
 pub fn load_tile(dir: &Path, key: TileKey) -> Option<Rgba> {
     let bytes = std::fs::read(key.path(dir)).ok()?;
     decode_png(&bytes).ok()
+}
+
+/// The zooms `dir` has tiles for (its subdirectories named by a zoom, 0 to
+/// [`mercator::MAX_ZOOM`]), ascending; empty when it cannot be read.
+pub fn available_zooms(dir: &Path) -> Vec<u8> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut zooms: Vec<u8> = entries
+        .filter_map(Result::ok)
+        .filter(|e| e.path().is_dir())
+        .filter_map(|e| e.file_name().to_str()?.parse::<u8>().ok())
+        .filter(|&z| z <= mercator::MAX_ZOOM)
+        .collect();
+    zooms.sort_unstable();
+    zooms.dedup();
+    zooms
+}
+
+/// The zoom to draw when `fit` fits the view best and `available` (ascending) are the zooms
+/// there are tiles for: `fit` itself, else the closest coarser one (its tiles drawn larger),
+/// else the closest finer one; `None` without tiles.
+pub fn choose_zoom(fit: u8, available: &[u8]) -> Option<u8> {
+    available
+        .iter()
+        .rev()
+        .find(|&&z| z <= fit)
+        .or_else(|| available.iter().find(|&&z| z > fit))
+        .copied()
 }
 
 /// A cache of at most `capacity` entries that forgets the least recently used first.
@@ -187,6 +218,26 @@ mod tests {
         .unwrap();
         assert_eq!(load_tile(&dir, key).unwrap().pixels, [9, 8, 7, 255]);
         assert!(load_tile(&dir, TileKey { y: 157_504, ..key }).is_none());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_zoom_drawn_is_the_fitting_one_else_the_closest_coarser() {
+        let available = [15, 17, 18];
+        assert_eq!(choose_zoom(18, &available), Some(18));
+        assert_eq!(choose_zoom(19, &available), Some(18));
+        assert_eq!(choose_zoom(16, &available), Some(15));
+        assert_eq!(choose_zoom(12, &available), Some(15), "only finer ones");
+        assert_eq!(choose_zoom(12, &[]), None);
+
+        let dir = std::env::temp_dir().join(format!("dima-ground-zooms-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        for sub in ["18", "3", "17", "notes", "40"] {
+            std::fs::create_dir_all(dir.join(sub)).unwrap();
+        }
+        std::fs::write(dir.join("5"), b"a file, not a zoom").unwrap();
+        assert_eq!(available_zooms(&dir), [3, 17, 18]);
+        assert!(available_zooms(&dir.join("missing")).is_empty());
         let _ = std::fs::remove_dir_all(&dir);
     }
 

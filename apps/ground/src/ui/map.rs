@@ -12,7 +12,7 @@ use crate::map::mercator;
 use crate::map::origin::{MapOrigin, OriginKind};
 use crate::map::scale::{scale_bar_m, scale_label};
 use crate::map::setpoint::heading_setpoint_deg;
-use crate::map::tiles::{load_tile, BoundedCache, TileKey};
+use crate::map::tiles::{available_zooms, choose_zoom, load_tile, BoundedCache, TileKey};
 use crate::map::view::{self, local_to_lat_lon, MapView};
 use crate::plots::{local_en_m, HEADING_MIN_SPEED_M_S};
 
@@ -43,6 +43,8 @@ pub struct MapPanel {
     follow: bool,
     origin: MapOrigin,
     tiles_dir: Option<PathBuf>,
+    /// The zooms the tile directory has, ascending (read at start).
+    tile_zooms: Vec<u8>,
     /// Decoded tiles; `None` for a tile that is missing or unreadable.
     tiles: BoundedCache<Option<egui::TextureHandle>>,
 }
@@ -55,6 +57,10 @@ impl MapPanel {
             view: MapView::default(),
             follow: true,
             origin: MapOrigin::default(),
+            tile_zooms: tiles_dir
+                .as_deref()
+                .map(available_zooms)
+                .unwrap_or_default(),
             tiles_dir,
             tiles: BoundedCache::new(TILE_CACHE),
         }
@@ -229,7 +235,10 @@ fn draw_tiles(
     origin: (f64, f64),
     dir: &std::path::Path,
 ) -> String {
-    let zoom = mercator::zoom_for(panel.view.metres_per_px, origin.0, mercator::MAX_ZOOM);
+    let fit = mercator::zoom_for(panel.view.metres_per_px, origin.0, mercator::MAX_ZOOM);
+    let Some(zoom) = choose_zoom(fit, &panel.tile_zooms) else {
+        return format!("no tiles in {} (ZOOM/X/Y.png)", dir.display());
+    };
     let Some(range) = view::tiles_in_view(origin, panel.view.bounds(rect), zoom) else {
         return format!("tiles: zoom {zoom} needs too many; zoom in");
     };
