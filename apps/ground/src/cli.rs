@@ -80,9 +80,27 @@ pub struct Cli {
     /// (`NN-<alert>-<controls>-throttle-<µs>.png`, once the change is drawn).
     #[arg(long, value_name = "DIR")]
     pub state_screenshots: Option<PathBuf>,
+    /// Offline map tiles for the Map panel: a directory in the slippy-map layout
+    /// `ZOOM/X/Y.png` (Web Mercator, 256 pixels, as tile servers and map downloaders write
+    /// them). Read from the disk only; the station never fetches tiles. Missing tiles are
+    /// not drawn.
+    #[arg(long, value_name = "DIR")]
+    pub map_tiles: Option<PathBuf>,
+    /// The panel shown in the middle of the window at start (switch with its tabs).
+    #[arg(long, value_enum, default_value_t = Panel::Plots, value_name = "PANEL")]
+    pub panel: Panel,
     /// Window size in logical pixels, WIDTHxHEIGHT.
     #[arg(long, default_value = "1400x900", value_name = "WxH", value_parser = parse_size)]
     pub window_size: (f32, f32),
+}
+
+/// The panels of the middle of the window.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Panel {
+    /// Sensor and GNSS plots.
+    Plots,
+    /// The track and the car on a metre grid, over offline map tiles when given.
+    Map,
 }
 
 fn parse_size(text: &str) -> Result<(f32, f32), String> {
@@ -126,6 +144,11 @@ impl Cli {
                 "--sim: this dima-ground was built without the simulator (cargo feature `sim`)"
             );
         }
+        if let Some(dir) = &self.map_tiles {
+            if !dir.is_dir() {
+                anyhow::bail!("--map-tiles {}: not a directory", dir.display());
+            }
+        }
         if let Some(d) = self.sim_duration {
             if !(d.is_finite() && d > 0.0) {
                 anyhow::bail!("--sim-duration must be a positive number of seconds");
@@ -149,6 +172,7 @@ mod tests {
         assert_eq!(c.log_dir, PathBuf::from("./dima-ground-logs"));
         assert_eq!(c.key_step, 20);
         assert_eq!(c.window_size, (1400.0, 900.0));
+        assert_eq!((c.map_tiles.clone(), c.panel), (None, Panel::Plots));
         c.validate().unwrap();
 
         let c = Cli::try_parse_from([
@@ -165,6 +189,24 @@ mod tests {
         assert!(c.sim);
         assert_eq!(c.after, 7.0);
         assert_eq!(c.window_size, (800.0, 600.0));
+
+        let tiles = std::env::temp_dir();
+        let c = Cli::try_parse_from([
+            "dima-ground",
+            "--map-tiles",
+            tiles.to_str().unwrap(),
+            "--panel",
+            "map",
+        ])
+        .unwrap();
+        assert_eq!(
+            (c.map_tiles.clone(), c.panel),
+            (Some(tiles.clone()), Panel::Map)
+        );
+        c.validate().unwrap();
+        let missing = Cli::try_parse_from(["dima-ground", "--map-tiles", "/no/such/tiles"]);
+        assert!(missing.unwrap().validate().is_err());
+        assert!(Cli::try_parse_from(["dima-ground", "--panel", "radar"]).is_err());
 
         let c = Cli::try_parse_from(["dima-ground", "--key-file", "/etc/dima/link.key"]).unwrap();
         assert_eq!(c.key_file, Some(PathBuf::from("/etc/dima/link.key")));

@@ -17,6 +17,8 @@
 //!   calibration when it is known;
 //! - [`telemetry`]: the latest display frame in physical units and its history;
 //! - [`plots`]: time-series buffers and the GNSS track in local metres;
+//! - [`map`]: the map panel's geometry: Web Mercator tiles, the metre grid on the screen,
+//!   the scale bar, offline tiles and their cache, the heading setpoint drawn;
 //! - [`downlink`]: what the station can say about the robot's reports (authentic, or why
 //!   not: a wrong key, a v1 station and a v2 robot, silence), as a pure function;
 //! - [`robot_view`]: what the station shows as the robot's state: its reported outputs and
@@ -39,6 +41,7 @@ pub mod downlink;
 pub mod gamepad;
 pub mod keys;
 pub mod link;
+pub mod map;
 pub mod plots;
 pub mod recording;
 pub mod robot_view;

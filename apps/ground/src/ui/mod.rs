@@ -7,6 +7,7 @@ mod charts;
 mod connection;
 mod drive;
 mod input;
+mod map;
 mod status;
 
 use std::path::PathBuf;
@@ -106,6 +107,7 @@ pub struct GroundApp {
     telemetry: Telemetry,
     connection: ConnectionForm,
     setpoints: SetpointForm,
+    map: map::MapPanel,
     screenshot: Option<ScreenshotPlan>,
     state_shots: Option<StateShots>,
     /// The alert state and the banner.
@@ -197,6 +199,7 @@ impl GroundApp {
             alerts: Alerts::default(),
             sounder: Sounder::new(cli.mute),
             controls_live: None,
+            map: map::MapPanel::new(cli.panel, cli.map_tiles.clone()),
             screenshot: cli.screenshot.clone().map(|path| ScreenshotPlan {
                 path,
                 after: Duration::from_secs_f64(cli.after),
@@ -452,7 +455,7 @@ impl eframe::App for GroundApp {
         status::bottom_bar(ui, self);
         drive::left_panel(ui, self);
         status::right_panel(ui, self);
-        egui::CentralPanel::default().show(ui, |ui| charts::plots(ui, &self.telemetry));
+        egui::CentralPanel::default().show(ui, |ui| map::central_panel(ui, self));
         drive::revive_confirmation(&ctx, self);
         self.take_state_screenshots(&ctx);
         self.take_screenshot_when_due(&ctx);
