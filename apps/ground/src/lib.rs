@@ -30,6 +30,7 @@ pub mod cli;
 pub mod control;
 pub mod downlink;
 pub mod gamepad;
+pub mod joystick;
 pub mod keys;
 pub mod link;
 pub mod plots;
