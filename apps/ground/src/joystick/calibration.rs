@@ -9,7 +9,8 @@
 //! 3. [`CalibrationStep::Done`]: [`CalibrationFlow::apply`] writes the measured centre and
 //!    ends into the channels' calibration (dead zone, inversion and expo are kept).
 //!
-//! The gamepad disconnecting at any step fails the flow ([`CalibrationStep::Failed`]); it
+//! The flow waits for a gamepad before its first sample; the gamepad disconnecting after that
+//! fails the flow ([`CalibrationStep::Failed`]); it
 //! starts again with [`CalibrationFlow::restart`].
 
 use std::time::Duration;
@@ -160,6 +161,10 @@ impl CalibrationFlow {
             return;
         }
         let Some(axes) = axes else {
+            if self.step == CalibrationStep::MoveToEnds && self.travel.iter().all(Option::is_none) {
+                // Nothing measured yet: still waiting for a gamepad.
+                return;
+            }
             self.step = CalibrationStep::Failed(
                 "the gamepad was disconnected: connect it and start again".to_owned(),
             );

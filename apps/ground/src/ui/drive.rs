@@ -5,7 +5,7 @@ use dima_groundlink::station::ManualChannel;
 use dima_groundlink::{Command, Percent};
 use eframe::egui::{self, Color32, RichText};
 
-use super::connection::{BAD, GOOD, WARN};
+use super::connection::{BAD, GOOD};
 use super::GroundApp;
 use crate::control::Source;
 use crate::keys::REVIVE_HOLD;
@@ -188,23 +188,7 @@ fn setpoints(ui: &mut egui::Ui, app: &mut GroundApp) {
 }
 
 fn gamepad(ui: &mut egui::Ui, app: &mut GroundApp) {
-    ui.heading("Gamepad");
-    match (&app.gamepad.name, app.gamepads.unavailable()) {
-        (_, Some(why)) => {
-            ui.label(RichText::new(format!("unavailable: {why}")).color(WARN));
-        }
-        (Some(name), None) => {
-            ui.label(
-                RichText::new(format!(
-                    "{name}: left stick throttle, right stick steering, A/× kill"
-                ))
-                .color(GOOD),
-            );
-        }
-        (None, None) => {
-            ui.label("none connected (left stick throttle, right stick steering, A/× kill)");
-        }
-    }
+    super::joystick::gamepad_section(ui, &mut app.joystick);
 }
 
 fn keys_legend(ui: &mut egui::Ui, app: &GroundApp) {
