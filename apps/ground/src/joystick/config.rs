@@ -542,6 +542,58 @@ mod tests {
         assert_eq!((none.config, none.path), (JoystickConfig::default(), None));
     }
 
+    /// The complete example of the station's README.
+    fn readme_example() -> &'static str {
+        let readme = include_str!("../../README.md");
+        let start = readme
+            .find("```toml\n# dima-ground joystick configuration")
+            .expect("the README has the joystick example")
+            + "```toml\n".len();
+        let len = readme[start..].find("```").expect("the example ends");
+        &readme[start..start + len]
+    }
+
+    #[test]
+    fn the_readme_example_parses_and_names_every_key() {
+        let text = readme_example();
+        let c = JoystickConfig::from_toml(text, "README.md").unwrap();
+        let defaults = JoystickConfig::default();
+        assert_eq!(c.kill_button, defaults.kill_button);
+        assert_eq!(c.throttle, defaults.throttle);
+        assert_eq!(c.steering.expo, 0.3);
+        assert_eq!(c.steering.axis, defaults.steering.axis);
+        assert_eq!(c.tail.axis, Some(StickAxis::RightStickY));
+        assert_eq!(
+            AxisCalibration {
+                axis: None,
+                ..c.tail
+            },
+            defaults.tail
+        );
+        // Complete: every key of every section is in it.
+        for key in ["kill_button", "[throttle]", "[steering]", "[tail]"] {
+            assert!(text.contains(key), "{key}");
+        }
+        for key in [
+            "axis",
+            "centre",
+            "min",
+            "max",
+            "dead_zone",
+            "invert",
+            "expo",
+        ] {
+            assert_eq!(text.matches(&format!("\n{key} = ")).count(), 3, "{key}");
+        }
+        // Every axis and button name the example lists is one the file accepts.
+        for axis in StickAxis::ALL {
+            assert!(text.contains(axis.name()), "{axis}");
+        }
+        for button in PadButton::ALL {
+            assert!(text.contains(button.name()), "{button}");
+        }
+    }
+
     #[test]
     fn the_default_path_follows_xdg() {
         let p = |x: Option<&str>, h: Option<&str>| {
