@@ -62,12 +62,12 @@ impl Default for JoystickConfig {
 #[derive(Debug, thiserror::Error)]
 pub enum JoystickConfigError {
     /// The file cannot be read.
-    #[error("{}: cannot read the joystick configuration: {source}", path.display())]
+    #[error("{}: cannot read the joystick configuration: {error}", path.display())]
     Read {
         /// The file.
         path: PathBuf,
-        /// Why.
-        source: io::Error,
+        /// Why (part of the message).
+        error: io::Error,
     },
     /// Not TOML, an unknown key, or a value of the wrong type (the message names the key and
     /// shows the line).
@@ -89,12 +89,12 @@ pub enum JoystickConfigError {
         reason: String,
     },
     /// The file cannot be written.
-    #[error("{}: cannot write the joystick configuration: {source}", path.display())]
+    #[error("{}: cannot write the joystick configuration: {error}", path.display())]
     Write {
         /// The file.
         path: PathBuf,
-        /// Why.
-        source: io::Error,
+        /// Why (part of the message).
+        error: io::Error,
     },
 }
 
@@ -185,15 +185,15 @@ pub fn load(
             note: format!("defaults (no {})", path.display()),
             path: Some(path),
         }),
-        Err(source) => Err(JoystickConfigError::Read { path, source }),
+        Err(error) => Err(JoystickConfigError::Read { path, error }),
     }
 }
 
 /// Reads and checks one file.
 pub fn read(path: &Path) -> Result<JoystickConfig, JoystickConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| JoystickConfigError::Read {
+    let text = std::fs::read_to_string(path).map_err(|error| JoystickConfigError::Read {
         path: path.to_owned(),
-        source,
+        error,
     })?;
     JoystickConfig::from_toml(&text, &path.display().to_string())
 }
@@ -321,9 +321,9 @@ impl JoystickConfig {
     /// Writes [`JoystickConfig::to_toml`] to `path` (creating its directory), through a
     /// temporary file renamed over it, so a crash never leaves half a file.
     pub fn save(&self, path: &Path) -> Result<(), JoystickConfigError> {
-        let write_error = |source| JoystickConfigError::Write {
+        let write_error = |error| JoystickConfigError::Write {
             path: path.to_owned(),
-            source,
+            error,
         };
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(write_error)?;
