@@ -279,6 +279,22 @@ impl CalibrationFlow {
     }
 }
 
+/// What the window's Save writes: the measured calibration applied to `draft` once the flow
+/// is done, else `draft` as it is (settings only: axes, inversion, dead zone, expo, kill
+/// button); checked as the file reader checks it (`origin` names the file in the error).
+pub fn to_save(
+    flow: &CalibrationFlow,
+    draft: &JoystickConfig,
+    origin: &str,
+) -> Result<JoystickConfig, String> {
+    let config = match flow.step() {
+        CalibrationStep::Done => flow.apply(draft)?,
+        _ => *draft,
+    };
+    config.validate(origin).map_err(|e| e.to_string())?;
+    Ok(config)
+}
+
 /// The axes `config`'s channels use.
 fn used_axes(config: &JoystickConfig) -> impl Iterator<Item = StickAxis> + '_ {
     ManualChannel::ALL
@@ -426,5 +442,29 @@ mod tests {
     fn apply_before_the_end_is_refused() {
         let flow = CalibrationFlow::new();
         assert!(flow.apply(&JoystickConfig::default()).is_err());
+    }
+
+    #[test]
+    fn save_writes_the_measurement_or_only_the_settings_and_checks_them() {
+        let mut draft = JoystickConfig::default();
+        draft.throttle.expo = 0.5;
+        let mut flow = CalibrationFlow::new();
+        // Before the measurement: the settings, the old calibration kept.
+        assert_eq!(to_save(&flow, &draft, "g.toml"), Ok(draft));
+        let t = feed(
+            &mut flow,
+            &[sticks(-0.9, -0.8), sticks(0.9, 0.8)],
+            Duration::ZERO,
+        );
+        flow.next(&draft).unwrap();
+        feed(&mut flow, &[sticks(0.1, 0.0); 60], t);
+        let saved = to_save(&flow, &draft, "g.toml").unwrap();
+        assert_eq!((saved.throttle.min, saved.throttle.max), (-0.9, 0.9));
+        assert!((saved.throttle.centre - 0.1).abs() < 1e-6);
+        assert_eq!(saved.throttle.expo, 0.5);
+        // Two channels on one axis: refused, naming the key and the file.
+        draft.tail.axis = Some(StickAxis::RightStickX);
+        let e = to_save(&flow, &draft, "g.toml").unwrap_err();
+        assert!(e.contains("g.toml") && e.contains("tail.axis"), "{e}");
     }
 }

@@ -12,7 +12,7 @@ use eframe::egui::{self, RichText};
 
 use super::connection::{BAD, GOOD, WARN};
 use crate::gamepad::{GamepadDriver, GamepadInput, Gamepads, PadStatus};
-use crate::joystick::calibration::{MIN_TRAVEL, STILL_TIME};
+use crate::joystick::calibration::{to_save, MIN_TRAVEL, STILL_TIME};
 use crate::joystick::config::{LoadedConfig, MAX_DEAD_ZONE};
 use crate::joystick::{
     AxesSample, AxisCalibration, CalibrationFlow, CalibrationStep, JoystickConfig, PadButton,
@@ -336,18 +336,10 @@ fn save_row(
             None => ui.small("no configuration directory: start with --config FILE"),
         };
         if let (true, Some(path)) = (button.clicked(), path) {
-            let config = if measured {
-                window.flow.apply(&window.draft)
-            } else {
-                Ok(window.draft)
-            };
             let origin = path.display().to_string();
-            match config.and_then(|c| {
-                c.validate(&origin)
-                    .and_then(|()| c.save(path))
-                    .map(|()| c)
-                    .map_err(|e| e.to_string())
-            }) {
+            match to_save(&window.flow, &window.draft, &origin)
+                .and_then(|c| c.save(path).map(|()| c).map_err(|e| e.to_string()))
+            {
                 Ok(c) => saved = Some((c, format!("{origin} (saved)"))),
                 Err(e) => window.message = Some(e),
             }
