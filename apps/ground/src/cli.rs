@@ -5,6 +5,9 @@ use std::path::PathBuf;
 use clap::Parser;
 use dima_groundlink::v2::LinkKey;
 
+use crate::joystick::config::{default_path, LoadedConfig};
+use crate::joystick::JoystickConfigError;
+
 /// The DIMA ground station: drive the robot, kill and revive it, watch its sensors and GNSS,
 /// and record the session.
 ///
@@ -61,6 +64,16 @@ pub struct Cli {
     #[arg(long, default_value_t = 20, value_name = "PERCENT",
           value_parser = clap::value_parser!(u8).range(1..=50))]
     pub key_step: u8,
+    /// The station's joystick configuration (TOML: which gamepad axis drives throttle,
+    /// steering and tail, their calibration, dead zone, inversion and expo, the kill button).
+    /// It must exist and be valid. Default: `$XDG_CONFIG_HOME/dima/ground.toml` (or
+    /// `~/.config/dima/ground.toml`) if it exists, else the documented defaults; the
+    /// calibration window saves there.
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Open the "Calibrate joystick" window at start.
+    #[arg(long)]
+    pub calibrate_joystick: bool,
     /// Render the running window to this PNG after --after seconds, then exit 0.
     #[arg(long, value_name = "FILE")]
     pub screenshot: Option<PathBuf>,
@@ -131,6 +144,13 @@ impl Cli {
         })
     }
 
+    /// The joystick configuration: `--config FILE`, else the default file if it exists, else
+    /// the defaults. A file that is missing (with `--config`), unreadable or invalid is an
+    /// error naming the file and the key: the station does not start on it.
+    pub fn joystick_config(&self) -> Result<LoadedConfig, JoystickConfigError> {
+        crate::joystick::config::load(self.config.as_deref(), default_path())
+    }
+
     /// Checks what clap cannot.
     pub fn validate(&self) -> anyhow::Result<()> {
         if !(self.after.is_finite() && self.after >= 0.0) {
@@ -173,6 +193,8 @@ mod tests {
         assert_eq!(c.key_step, 20);
         assert_eq!(c.window_size, (1400.0, 900.0));
         assert_eq!((c.map_tiles.clone(), c.panel), (None, Panel::Plots));
+        assert_eq!(c.config, None);
+        assert!(!c.calibrate_joystick);
         c.validate().unwrap();
 
         let c = Cli::try_parse_from([
@@ -239,6 +261,35 @@ mod tests {
             .link_key()
             .unwrap();
         assert_eq!(v1, (None, "not authenticated (v1)".to_owned()));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn config_names_the_joystick_file_and_a_bad_one_is_refused() {
+        let dir = std::env::temp_dir().join(format!("dima-ground-config-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("ground.toml");
+        std::fs::write(
+            &path,
+            "kill_button = \"Start\"\n[tail]\naxis = \"RightStickY\"\n",
+        )
+        .unwrap();
+        let cli = Cli::try_parse_from(["dima-ground", "--config", path.to_str().unwrap()]).unwrap();
+        let loaded = cli.joystick_config().unwrap();
+        assert_eq!(loaded.config.kill_button, crate::joystick::PadButton::Start);
+        assert_eq!(loaded.path, Some(path.clone()));
+        std::fs::write(&path, "[steering]\nexpo = 2.0\n").unwrap();
+        let error = cli.joystick_config().unwrap_err().to_string();
+        assert!(error.contains("steering.expo"), "{error}");
+        assert!(error.contains(path.to_str().unwrap()), "{error}");
+        std::fs::remove_file(&path).unwrap();
+        assert!(
+            cli.joystick_config().is_err(),
+            "a missing --config file is an error"
+        );
+        let c = Cli::try_parse_from(["dima-ground", "--calibrate-joystick"]).unwrap();
+        assert!(c.calibrate_joystick);
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -12,6 +12,8 @@
 //!   pure function of the keys held and the time;
 //! - [`control`]: keys, gamepad and sliders merged into what the link holds and sends;
 //! - [`gamepad`]: sticks and a kill button through `gilrs`;
+//! - [`joystick`]: the gamepad's axes, calibration, dead zone, inversion, expo and kill
+//!   button, their file, and the calibration flow;
 //! - [`channels`]: percent to pulse width from the robot's channel table;
 //! - [`units`]: display-frame values in physical units, compensated with the sensor board's
 //!   calibration when it is known;
@@ -39,6 +41,7 @@ pub mod cli;
 pub mod control;
 pub mod downlink;
 pub mod gamepad;
+pub mod joystick;
 pub mod keys;
 pub mod link;
 pub mod map;

@@ -227,23 +227,7 @@ fn robot_setpoints(ui: &mut egui::Ui, app: &GroundApp) {
 }
 
 fn gamepad(ui: &mut egui::Ui, app: &mut GroundApp) {
-    ui.heading("Gamepad");
-    match (&app.gamepad.name, app.gamepads.unavailable()) {
-        (_, Some(why)) => {
-            ui.label(RichText::new(format!("unavailable: {why}")).color(WARN));
-        }
-        (Some(name), None) => {
-            ui.label(
-                RichText::new(format!(
-                    "{name}: left stick throttle, right stick steering, A/× kill"
-                ))
-                .color(GOOD),
-            );
-        }
-        (None, None) => {
-            ui.label("none connected (left stick throttle, right stick steering, A/× kill)");
-        }
-    }
+    super::joystick::gamepad_section(ui, &mut app.joystick);
 }
 
 fn keys_legend(ui: &mut egui::Ui, app: &GroundApp) {

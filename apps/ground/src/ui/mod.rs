@@ -7,6 +7,7 @@ mod charts;
 mod connection;
 mod drive;
 mod input;
+mod joystick;
 mod map;
 mod status;
 
@@ -25,7 +26,6 @@ use crate::channels::ChannelTable;
 use crate::cli::Cli;
 use crate::control::{ManualControl, ManualInputs};
 use crate::downlink::DownlinkHealth;
-use crate::gamepad::{stick_percent, GamepadInput, Gamepads};
 use crate::keys::KeyboardDriver;
 use crate::link::{LinkControl, LinkEvent, LinkHandle, LinkStatus};
 use crate::recording::{now_ns, LinkRecord, RecordEvent, Recorder};
@@ -98,8 +98,7 @@ pub struct GroundApp {
     manual: ManualControl,
     /// The link's count of dropped manual values last acted on.
     seen_cancellations: u64,
-    gamepads: Gamepads,
-    gamepad: GamepadInput,
+    joystick: joystick::JoystickState,
     revive_progress: f32,
     confirm_revive: bool,
     /// Sliders being dragged in the last frame, with their value.
@@ -125,6 +124,7 @@ impl GroundApp {
     fn new(cli: &Cli, screenshot_result: ScreenshotResult) -> anyhow::Result<GroundApp> {
         // A key given on the command line is checked before anything starts.
         let (mut key, mut link_note) = cli.link_key()?;
+        let joystick = cli.joystick_config()?;
         let (table, table_source) = channel_table(cli)?;
         let calibration = sensor_calibration(cli)?;
         let (recorder, recording_note) = start_recorder(cli)?;
@@ -172,8 +172,7 @@ impl GroundApp {
             seen_cancellations: 0,
             table,
             table_source,
-            gamepads: Gamepads::new(),
-            gamepad: GamepadInput::default(),
+            joystick: joystick::JoystickState::new(joystick, cli.calibrate_joystick),
             revive_progress: 0.0,
             confirm_revive: false,
             slider_dragged: [None; 3],
@@ -246,21 +245,17 @@ impl GroundApp {
         let keys = input::read_keys(ctx);
         let actions = self.keyboard.update(keys, now);
         self.revive_progress = actions.revive_progress;
-        self.gamepad = self.gamepads.poll();
-        if actions.kill || self.gamepad.kill {
+        let neutral = ManualChannel::ALL.map(|c| self.manual.neutral(c));
+        let gamepad = self.joystick.poll(neutral, now - self.started).clone();
+        if actions.kill || gamepad.kill {
             self.kill();
         }
         if actions.revive {
             self.revive();
         }
-        let stick = |v: Option<f32>, c| v.and_then(|v| stick_percent(v, self.manual.neutral(c)));
         let inputs = ManualInputs {
             keys: actions.axes,
-            gamepad: [
-                stick(self.gamepad.throttle, ManualChannel::Throttle),
-                stick(self.gamepad.steering, ManualChannel::Steering),
-                None,
-            ],
+            gamepad: gamepad.sticks,
             slider_dragged: self.slider_dragged,
         };
         for request in self.manual.update(&inputs) {
@@ -458,6 +453,7 @@ impl eframe::App for GroundApp {
         egui::CentralPanel::default().show(ui, |ui| map::central_panel(ui, self));
         drive::revive_confirmation(&ctx, self);
         self.take_state_screenshots(&ctx);
+        joystick::calibration_window(&ctx, &mut self.joystick);
         self.take_screenshot_when_due(&ctx);
         if self.stop_requested.load(Ordering::Relaxed) {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
