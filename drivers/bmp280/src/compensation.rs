@@ -164,6 +164,8 @@ impl Measurement {
 /// Compensates one raw sample with the integer formulas (temperature 32-bit, pressure 64-bit).
 ///
 /// Fails with [`DeviceError::InvalidCalibration`] where the datasheet guards a division by zero.
+/// It compensates any raw values, the registers' reset value included; the driver's reads check
+/// [`RawSample::holds_no_conversion`] first (see [`DeviceError::NoConversion`]).
 pub fn compensate(cal: &Calibration, raw: RawSample) -> Result<Measurement, DeviceError> {
     let t_fine = t_fine(cal, raw.adc_t);
     let pressure_q24_8 =
