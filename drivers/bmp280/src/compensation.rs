@@ -8,9 +8,11 @@
 //! meaningless number instead of a panic. The one division the datasheet guards (divisor zero)
 //! returns `None` here.
 //!
-//! [`inverse`] goes the other way for simulators: from a temperature and pressure to the raw
-//! values that compensate closest to them.
+//! `inverse` (feature `sim`) goes the other way for simulators: from a temperature and
+//! pressure to the raw values that compensate closest to them.
 
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod inverse;
 
 use crate::calibration::Calibration;

@@ -25,8 +25,8 @@
 //!   [`RawSample::to_register_bytes`] convert).
 //! - [`compensation`]: the datasheet formulas as pure functions (integer temperature in 0.01 °C,
 //!   64-bit pressure in Q24.8 Pa, the 32-bit pressure variant, `f32` helpers), for hosts that
-//!   receive raw samples and the [`Calibration`] bytes; [`compensation::inverse`] finds the raw
-//!   values for a temperature and pressure, for simulators.
+//!   receive raw samples and the [`Calibration`] bytes; `compensation::inverse` (feature `sim`)
+//!   finds the raw values for a temperature and pressure, for simulators.
 //! - [`Error`] with the bus error and device errors, `Display`, `core::error::Error`;
 //!   `defmt::Format` with the `defmt` feature.
 //! - Feature `async`: `Bmp280Async`, the same driver on embedded-hal-async, generated from the

@@ -12,7 +12,6 @@ use crate::interface::{RegisterInterface, SpiInterface};
 #[cfg(feature = "async")]
 use crate::mag::AsyncMagnetometer;
 use crate::mag::{MagConfig, MagOpMode, MagPacketWords, MagTrim, Magnetometer};
-use crate::packet::ImuPacketWords;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
 #[cfg(feature = "async")]
@@ -69,13 +68,6 @@ pub struct ImuSample {
     /// `true` if `mag` was measured since the previous `sample` call; `false` if the
     /// measurement is still running and `mag` repeats the previous one.
     pub mag_fresh: bool,
-}
-
-impl ImuSample {
-    /// The packet words of this sample.
-    pub const fn packet_words(&self) -> ImuPacketWords {
-        ImuPacketWords::from_raw(&self.accel, &self.gyro, self.mag)
-    }
 }
 
 crate::blocking_and_async! {

@@ -4,6 +4,8 @@
 //! [`Magnetometer::power_on`] (or [`Magnetometer::init`]) before anything else.
 
 pub mod compensation;
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod inverse;
 pub(crate) mod register;
 mod trim;
@@ -13,6 +15,7 @@ pub use compensation::{
     compensate, compensate_f32, compensate_x, compensate_x_f32, compensate_y, compensate_y_f32,
     compensate_z, compensate_z_f32, OVERFLOW_OUTPUT, OVERFLOW_OUTPUT_F32,
 };
+#[cfg(feature = "sim")]
 pub use inverse::{raw_x_for_ut, raw_y_for_ut, raw_z_for_ut};
 pub use trim::{MagTrim, TRIM_BURST_1, TRIM_BURST_2, TRIM_BURST_3};
 pub use types::*;
