@@ -100,6 +100,12 @@ crate::blocking_and_async! {
         pub const fn config(&self) -> Config {
             self.config
         }
+
+        /// Gives the interface back (what [`Bmp280::new`] was given; a driver made with
+        /// `new_spi` or `new_i2c` gives the bus back with `release`).
+        pub fn into_interface(self) -> IFACE {
+            self.iface
+        }
     }
 }
 

@@ -428,3 +428,10 @@ fn soft_reset_alone() {
     delay.done();
     bmp.release().done();
 }
+
+#[test]
+fn into_interface_gives_back_what_new_was_given() {
+    let bmp = Bmp280::new(bosch_bmp280::SpiInterface::new(Mock::<u8>::new(&[])));
+    let mut spi: Mock<u8> = bmp.into_interface().release();
+    spi.done();
+}

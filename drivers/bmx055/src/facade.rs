@@ -97,6 +97,11 @@ crate::blocking_and_async! {
                 Magnetometer::new_spi(mag),
             )
         }
+
+        /// Gives the three SPI devices back (what [`new_spi`](Self::new_spi) was given).
+        pub fn release(self) -> (ASPI, GSPI, MSPI) {
+            (self.accel.release(), self.gyro.release(), self.mag.release())
+        }
     }
 }
 
@@ -112,8 +117,9 @@ crate::blocking_and_async! {
             }
         }
 
-        /// Give the three drivers back.
-        pub fn release(self) -> (Accelerometer<AI>, Gyroscope<GI>, Magnetometer<MI>) {
+        /// Gives the three drivers back (what [`new`](Self::new) was given; a facade made with
+        /// `new_spi` gives the three SPI devices back with `release`).
+        pub fn into_drivers(self) -> (Accelerometer<AI>, Gyroscope<GI>, Magnetometer<MI>) {
             (self.accel, self.gyro, self.mag)
         }
     }

@@ -64,7 +64,7 @@
 //! let mg = raw.mg(accel.range());
 //! assert_eq!(raw.words.z, 0x4000); // the packet word, status bits masked
 //! assert!((mg.z - 1000.0).abs() < 1.0);
-//! # accel.release().release().done();
+//! # accel.release().done();
 //! # Ok::<(), bosch_bmx055::Error<embedded_hal::spi::ErrorKind>>(())
 //! ```
 //!

@@ -204,9 +204,9 @@ where
     /// Gives the four SPI devices back (accelerometer, gyroscope, magnetometer, BMP280).
     pub fn release(self) -> (A, G, M, B) {
         (
-            self.accel.release().release(),
-            self.gyro.release().release(),
-            self.mag.release().release(),
+            self.accel.release(),
+            self.gyro.release(),
+            self.mag.release(),
             self.baro.release(),
         )
     }
