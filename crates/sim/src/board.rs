@@ -2,7 +2,7 @@
 //! the project's own codecs.
 //!
 //! - accelerometer, gyroscope and magnetometer words from physical values with bias and noise
-//!   ([`bosch_bmx055::packet_words_from_physical`], magnetometer through the inverse
+//!   ([`dima_sensorboard::imu::packet_words_from_physical`], magnetometer through the inverse
 //!   of Bosch's trim compensation);
 //! - BMP280 raw values through the inverse of the datasheet compensation for a real
 //!   calibration set (the datasheet's own example device);
@@ -18,7 +18,7 @@ use bosch_bmx055::accel::AccelRange;
 use bosch_bmx055::gyro::GyroRange;
 use bosch_bmx055::mag::MagTrim;
 use bosch_bmx055::Xyz;
-use bosch_bmx055::{packet_words_from_physical, ImuPhysical};
+use dima_sensorboard::imu::{packet_words_from_physical, ImuPhysical};
 use dima_sensorboard::{
     BoardFaults, BoardHealth, InfoFrame, InfoPieceCycle, PacketBuilder, SensorStatus, Stm32Crc,
     GNSS_FRAME_LEN, INFO_GAP_MS, INFO_PIECE_LEN, INFO_SNAPSHOT_MS, PACKET_LEN,
@@ -494,7 +494,9 @@ mod tests {
         assert!((pa - 101_181.0).abs() < 5.0, "{pa}");
         // Magnetometer through the real trim compensation: heading east, field north 9.7 µT
         // shows on the left axis (y), east component -4.7 µT on x, 23.1 µT up on z.
-        let m = bosch_bmx055::ImuPacketWords::from_le_bytes(a.packet[2..22].try_into().unwrap());
+        let m = dima_sensorboard::imu::ImuPacketWords::from_le_bytes(
+            a.packet[2..22].try_into().unwrap(),
+        );
         let ut = bosch_bmx055::mag::compensate_f32(&m.mag_raw(), &b.trim);
         assert!((ut.x + 4.7).abs() < 1.5, "{ut:?}");
         assert!((ut.y - 9.7).abs() < 1.5, "{ut:?}");

@@ -4,7 +4,7 @@
 //! cargo run -p bosch-bmp280 --example linux -- i2c /dev/i2c-1 0x76
 //! cargo run -p bosch-bmp280 --example linux -- spi /dev/spidev0.0
 //! ```
-//! Prints one compensated sample (and its raw register bytes) about every 100 ms in the DIMA
+//! Prints one compensated sample (and its raw register bytes) about every 100 ms in the default
 //! configuration, then one forced measurement.
 
 use std::error::Error as StdError;
@@ -51,6 +51,8 @@ where
     println!("found {chip:?}, calibration {:?}", bmp.calibration());
 
     bmp.configure(Config::default())?;
+    // The first conversion ends up to 5.5 ms after `configure`; later ones every 6 ms.
+    bmp.measure_when_ready(&mut delay)?;
     for _ in 0..10 {
         thread::sleep(Duration::from_millis(100));
         let m = bmp.measure()?;

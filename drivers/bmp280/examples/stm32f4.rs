@@ -45,7 +45,11 @@ fn main() -> ! {
 
     let mut bmp = Bmp280::new_spi(spi);
     // Normal mode, x1/x1, 0.5 ms standby: a new sample about every 6 ms.
-    let ready = bmp.init(&mut delay).is_ok() && bmp.configure(Config::default()).is_ok();
+    // `measure_when_ready` waits for the first conversion (up to 5.5 ms after `configure`);
+    // before it the data registers hold their reset value, which `measure` refuses.
+    let ready = bmp.init(&mut delay).is_ok()
+        && bmp.configure(Config::default()).is_ok()
+        && bmp.measure_when_ready(&mut delay).is_ok();
     let mut latest_raw = [0u8; 6];
     let mut latest_centi_celsius = 0;
     loop {

@@ -8,9 +8,11 @@
 //! meaningless number instead of a panic. The one division the datasheet guards (divisor zero)
 //! returns `None` here.
 //!
-//! [`inverse`] goes the other way for simulators: from a temperature and pressure to the raw
-//! values that compensate closest to them.
+//! `inverse` (feature `sim`) goes the other way for simulators: from a temperature and
+//! pressure to the raw values that compensate closest to them.
 
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod inverse;
 
 use crate::calibration::Calibration;
@@ -164,6 +166,8 @@ impl Measurement {
 /// Compensates one raw sample with the integer formulas (temperature 32-bit, pressure 64-bit).
 ///
 /// Fails with [`DeviceError::InvalidCalibration`] where the datasheet guards a division by zero.
+/// It compensates any raw values, the registers' reset value included; the driver's reads check
+/// [`RawSample::holds_no_conversion`] first (see [`DeviceError::NoConversion`]).
 pub fn compensate(cal: &Calibration, raw: RawSample) -> Result<Measurement, DeviceError> {
     let t_fine = t_fine(cal, raw.adc_t);
     let pressure_q24_8 =

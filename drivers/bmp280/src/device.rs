@@ -100,6 +100,12 @@ crate::blocking_and_async! {
         pub const fn config(&self) -> Config {
             self.config
         }
+
+        /// Gives the interface back (what [`Bmp280::new`] was given; a driver made with
+        /// `new_spi` or `new_i2c` gives the bus back with `release`).
+        pub fn into_interface(self) -> IFACE {
+            self.iface
+        }
     }
 }
 
@@ -194,7 +200,8 @@ crate::blocking_and_async! {
 
         /// Polls a forced measurement: `WouldBlock` while it runs, else the compensated
         /// sample. Fails with [`DeviceError::NotCalibrated`] before reading anything if the calibration is
-        /// unknown.
+        /// unknown, and with [`DeviceError::NoConversion`] if no measurement has ever ended (the
+        /// data registers hold their reset value).
         ///
         /// Each poll reads `status` and `ctrl_meas` in one burst; the measurement runs while
         /// `measuring` (status bit 3) is set or the mode bits still read forced (the device returns
@@ -208,7 +215,7 @@ crate::blocking_and_async! {
                 .calibration
                 .ok_or(Error::Device(DeviceError::NotCalibrated))?;
             let raw = self.poll_forced_raw().await?;
-            Ok(compensation::compensate(&calibration, raw).map_err(Error::from)?)
+            Ok(compensate_conversion(&calibration, raw).map_err(Error::from)?)
         }
 
         /// Polls a forced measurement for the raw values only (no calibration needed).
@@ -262,12 +269,39 @@ crate::blocking_and_async! {
 
         /// Reads the latest sample and compensates it (normal mode, or after a finished forced
         /// measurement). The result keeps the raw values.
+        ///
+        /// Fails with [`DeviceError::NoConversion`] while the data registers still hold their
+        /// reset value: straight after [`Bmp280::configure`] (the first conversion ends up to
+        /// [`Config::measurement_time_max_us`] later, about 5.5 ms with [`Config::default`]) or
+        /// in sleep mode. [`Bmp280::measure_when_ready`] waits for the first conversion instead.
         pub async fn measure(&mut self) -> Result<Measurement, Error<E>> {
             let calibration = self
                 .calibration
                 .ok_or(Error::Device(DeviceError::NotCalibrated))?;
             let raw = self.read_raw().await?;
-            Ok(compensation::compensate(&calibration, raw)?)
+            Ok(compensate_conversion(&calibration, raw)?)
+        }
+
+        /// [`Bmp280::measure`], waiting for the first conversion: while the data registers hold
+        /// their reset value it waits 0.5 ms and reads again, until the configured maximum
+        /// measurement time plus 2 ms has passed ([`DeviceError::Timeout`] after that). Once a
+        /// conversion has ended it costs one read, like [`Bmp280::measure`]. In sleep mode no
+        /// conversion comes, so it fails at once with [`DeviceError::NoConversion`].
+        pub async fn measure_when_ready(
+            &mut self,
+            delay: &mut impl DelayNs,
+        ) -> Result<Measurement, Error<E>> {
+            for _ in 0..sequence::first_conversion_polls(&self.config) {
+                match self.measure().await {
+                    Err(Error::Device(DeviceError::NoConversion))
+                        if !matches!(self.config.mode, PowerMode::Sleep) =>
+                    {
+                        delay.delay_us(sequence::FORCED_POLL_INTERVAL_US).await
+                    }
+                    other => return other,
+                }
+            }
+            Err(DeviceError::Timeout.into())
         }
 
         async fn wait_nvm_copy(&mut self, delay: &mut impl DelayNs) -> Result<(), Error<E>> {
@@ -300,4 +334,15 @@ crate::blocking_and_async! {
                 .map_err(Error::Comm)
         }
     }
+}
+
+/// Compensates `raw`, unless the data registers it came from hold no conversion yet.
+fn compensate_conversion(
+    calibration: &Calibration,
+    raw: RawSample,
+) -> Result<Measurement, DeviceError> {
+    if raw.holds_no_conversion() {
+        return Err(DeviceError::NoConversion);
+    }
+    compensation::compensate(calibration, raw)
 }

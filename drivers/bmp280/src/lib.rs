@@ -17,14 +17,16 @@
 //!   (`nb`, `WouldBlock` while `status.measuring` is set or `ctrl_meas` still reads forced
 //!   mode), or [`Bmp280::measure_forced`] with a
 //!   borrowed delay and a deadline.
-//! - Normal mode: [`Bmp280::measure`] (one burst read, compensated, raw values kept),
+//! - Normal mode: [`Bmp280::measure`] (one burst read, compensated, raw values kept; an error,
+//!   [`DeviceError::NoConversion`], while the data registers still hold their reset value) and
+//!   [`Bmp280::measure_when_ready`] (waits for the first conversion after `configure`),
 //!   [`Bmp280::read_raw`] and [`Bmp280::read_raw_bytes`] (the register bytes, for a board that
 //!   forwards raw samples; [`RawSample::from_register_bytes`] and
 //!   [`RawSample::to_register_bytes`] convert).
 //! - [`compensation`]: the datasheet formulas as pure functions (integer temperature in 0.01 °C,
 //!   64-bit pressure in Q24.8 Pa, the 32-bit pressure variant, `f32` helpers), for hosts that
-//!   receive raw samples and the [`Calibration`] bytes; [`compensation::inverse`] finds the raw
-//!   values for a temperature and pressure, for simulators.
+//!   receive raw samples and the [`Calibration`] bytes; `compensation::inverse` (feature `sim`)
+//!   finds the raw values for a temperature and pressure, for simulators.
 //! - [`Error`] with the bus error and device errors, `Display`, `core::error::Error`;
 //!   `defmt::Format` with the `defmt` feature.
 //! - Feature `async`: `Bmp280Async`, the same driver on embedded-hal-async, generated from the
@@ -55,7 +57,9 @@
 //! let mut bmp = Bmp280::new_spi(spi);
 //! bmp.init(&mut delay)?;
 //! bmp.configure(Config::default())?; // normal mode, x1/x1, t_sb 0.5 ms, filter off
-//! let m = bmp.measure()?;
+//! // Waits for the first conversion (up to 5.5 ms after `configure`); `measure()` reads the
+//! // latest one afterwards and refuses registers that hold no conversion yet.
+//! let m = bmp.measure_when_ready(&mut delay)?;
 //! assert_eq!(m.temperature_centi_celsius, 2508); // 25.08 °C
 //! assert_eq!(m.pressure_pa(), 100_653);
 //! assert_eq!(m.raw.to_register_bytes(), [0x65, 0x5A, 0xC0, 0x7E, 0xED, 0x00]);

@@ -80,4 +80,17 @@ impl RawSample {
     pub const fn temperature_skipped(&self) -> bool {
         self.adc_t == ADC_SKIPPED
     }
+
+    /// True when both data registers hold their reset value 0x80000: no conversion has ended
+    /// since power-on or soft reset (the first one ends the maximum measurement time after
+    /// [`Bmp280::configure`](crate::Bmp280::configure) starts normal or forced mode), or both
+    /// measurements are configured as skipped.
+    ///
+    /// A real conversion never sets both registers to 0x80000 at once (with the datasheet
+    /// calibration that pair would mean 26.46 °C at 82 044 Pa, and the next conversion differs
+    /// in its noise), except with pressure oversampling `Skip`, where the pressure register keeps
+    /// 0x80000 and a temperature conversion of exactly 0x80000 is reported as no conversion.
+    pub const fn holds_no_conversion(&self) -> bool {
+        self.adc_p == ADC_SKIPPED && self.adc_t == ADC_SKIPPED
+    }
 }

@@ -65,6 +65,13 @@ pub const fn forced_busy(status: u8, ctrl_meas: u8) -> bool {
     measuring(status) || matches!(PowerMode::from_bits(ctrl_meas), PowerMode::Forced)
 }
 
+/// Number of data-register reads, one every [`FORCED_POLL_INTERVAL_US`], that cover the first
+/// conversion after `config` was applied: its maximum measurement time plus
+/// [`FORCED_TIMEOUT_MARGIN_US`].
+pub const fn first_conversion_polls(config: &Config) -> u32 {
+    (config.measurement_time_max_us() + FORCED_TIMEOUT_MARGIN_US) / FORCED_POLL_INTERVAL_US + 1
+}
+
 /// Number of `measuring` polls after waiting the typical time, so that the total wait covers the
 /// maximum time plus [`FORCED_TIMEOUT_MARGIN_US`].
 pub const fn forced_polls(config: &Config) -> u32 {

@@ -85,9 +85,16 @@ pub enum DeviceError {
     /// The calibration makes the pressure formula divide by zero (`dig_P1` = 0): the NVM copy
     /// was not read correctly.
     InvalidCalibration,
-    /// The device did not finish in the time the datasheet allows (NVM copy after reset, or a
-    /// forced measurement).
+    /// The device did not finish in the time the datasheet allows (NVM copy after reset, a
+    /// forced measurement, or the first conversion after [`Bmp280::configure`](crate::Bmp280::configure)).
     Timeout,
+    /// The data registers still hold their reset value 0x80000 (see
+    /// [`RawSample::holds_no_conversion`](crate::RawSample::holds_no_conversion)): no conversion
+    /// has ended yet. After [`Bmp280::configure`](crate::Bmp280::configure) the first one takes
+    /// up to [`Config::measurement_time_max_us`](crate::Config::measurement_time_max_us) (about
+    /// 5.5 ms with the default configuration); in sleep mode none comes.
+    /// [`Bmp280::measure_when_ready`](crate::Bmp280::measure_when_ready) waits for it.
+    NoConversion,
 }
 
 impl fmt::Display for DeviceError {
@@ -107,6 +114,9 @@ impl fmt::Display for DeviceError {
                 f.write_str("BMP280 calibration invalid: pressure formula would divide by zero")
             }
             DeviceError::Timeout => f.write_str("BMP280 did not finish within the datasheet time"),
+            DeviceError::NoConversion => f.write_str(
+                "BMP280 data registers hold their reset value: no conversion has finished yet (measure too soon after configure, or sleep mode)",
+            ),
         }
     }
 }

@@ -147,3 +147,32 @@ fn spi_start_then_poll_forced() {
     delay.done();
     bmp.release().done();
 }
+
+#[test]
+fn measure_right_after_configure_waits_for_the_first_conversion() {
+    let reset = [0x80, 0x00, 0x00, 0x80, 0x00, 0x00];
+    let expectations = [
+        spi_init(),
+        spi_write(0x74, 0x24),
+        spi_write(0x75, 0x00),
+        spi_write(0x74, 0x27),
+        spi_read(0xF7, &reset),
+        spi_read(0xF7, &reset),
+        spi_read(0xF7, &DATASHEET_DATA_BYTES),
+    ]
+    .concat();
+    let mut bmp = Bmp280Async::new_spi(SpiMock::new(&expectations));
+    let mut delay = CheckedDelay::new(&[D::async_delay_us(2000), D::async_delay_us(500)]);
+    block_on(async {
+        bmp.init(&mut delay).await.unwrap();
+        bmp.configure(Config::default()).await.unwrap();
+        assert_eq!(
+            bmp.measure().await,
+            Err(Error::Device(DeviceError::NoConversion))
+        );
+        let m = bmp.measure_when_ready(&mut delay).await.unwrap();
+        assert_eq!(m.temperature_centi_celsius, DATASHEET_T_CENTI);
+    });
+    delay.done();
+    bmp.release().done();
+}

@@ -48,7 +48,7 @@ fn bme280_is_rejected_unless_accepted() {
 }
 
 #[test]
-fn dima_preset_writes_plain_register_addresses() {
+fn default_config_writes_plain_register_addresses() {
     let a = I2C_ADDR_HIGH;
     let expectations = [
         i2c_write(a, 0xF4, 0x24),

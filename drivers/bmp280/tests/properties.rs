@@ -3,6 +3,8 @@
 
 mod common;
 
+// The inverse compensation is the simulator's, behind the `sim` feature.
+#[cfg(feature = "sim")]
 use bosch_bmp280::compensation::inverse::*;
 use bosch_bmp280::compensation::*;
 use bosch_bmp280::{Calibration, Config, RawSample};
@@ -49,6 +51,7 @@ proptest! {
         let _ = compensate(&cal, RawSample { adc_p, adc_t });
     }
 
+    #[cfg(feature = "sim")]
     #[test]
     fn inverse_never_panics(cal in any_calibration(), centi in any::<i32>(), pa in any::<u32>(), c in any::<f32>(), p in any::<f32>()) {
         let raw = raw_for_centi_celsius_pascal(&cal, centi, pa);
@@ -99,6 +102,7 @@ proptest! {
         prop_assert_eq!(Config::from_registers(c.ctrl_meas(), c.config_register()), c);
     }
 
+    #[cfg(feature = "sim")]
     #[test]
     fn inverse_temperature_lands_within_one_step(cal in real_calibration(), centi in -4000i32..=8500) {
         let adc_t = adc_t_for_centi_celsius(&cal, centi);
@@ -107,6 +111,7 @@ proptest! {
         prop_assert!(i64::from(got).abs_diff(i64::from(centi)) <= step.max(1), "{} -> {} (step {})", centi, got, step);
     }
 
+    #[cfg(feature = "sim")]
     #[test]
     fn inverse_temperature_f32_lands_within_one_step(cal in real_calibration(), celsius in -40.0f32..=85.0) {
         let adc_t = adc_t_for_celsius_f32(&cal, celsius);
@@ -116,6 +121,7 @@ proptest! {
         prop_assert!(got.abs_diff(target) <= step.max(1), "{} -> t_fine {} (step {})", celsius, got, step);
     }
 
+    #[cfg(feature = "sim")]
     #[test]
     fn inverse_pressure_lands_within_one_step(cal in real_calibration(), centi in -4000i32..=8500, pa in 30_000u32..=110_000) {
         let raw = raw_for_centi_celsius_pascal(&cal, centi, pa);
@@ -130,6 +136,7 @@ proptest! {
         prop_assert!(u64::from(got).abs_diff(target) <= step, "{} -> {} (step {})", target, got, step);
     }
 
+    #[cfg(feature = "sim")]
     #[test]
     fn inverse_f32_lands_within_one_step(cal in real_calibration(), celsius in -40.0f32..=85.0, pa in 30_000.0f32..=110_000.0) {
         let raw = raw_for_celsius_pascal_f32(&cal, celsius, pa);
@@ -141,6 +148,7 @@ proptest! {
         prop_assert!(i64::from(m.pressure_q24_8).abs_diff(target) <= step, "{} -> {} (step {})", target, m.pressure_q24_8, step);
     }
 
+    #[cfg(feature = "sim")]
     #[test]
     fn inverse_of_a_compensated_sample_compensates_the_same(cal in real_calibration(), adc_t in 300_000u32..=700_000, adc_p in 100_000u32..=700_000) {
         let m = compensate(&cal, RawSample { adc_p, adc_t }).unwrap();
@@ -152,6 +160,7 @@ proptest! {
 }
 
 /// The larger output change between `x` and its two neighbours: one "LSB step" of the formula.
+#[cfg(feature = "sim")]
 fn local_step(x: u32, f: impl Fn(u32) -> i64) -> u64 {
     let here = f(x);
     let below = if x > 0 { f(x - 1).abs_diff(here) } else { 0 };
@@ -163,6 +172,7 @@ fn local_step(x: u32, f: impl Fn(u32) -> i64) -> u64 {
     below.max(above)
 }
 
+#[cfg(feature = "sim")]
 #[test]
 fn realistic_range_is_inside_the_20_bit_range() {
     // -40 °C / 300 hPa and 85 °C / 1100 hPa must not clamp to an end of the ADC range.

@@ -146,7 +146,7 @@ fn a_calibration_that_divides_by_zero_is_rejected() {
 }
 
 #[test]
-fn dima_preset_is_three_exact_writes() {
+fn default_config_is_three_exact_writes() {
     // ctrl_meas with sleep mode (x1/x1 = 0x24), config 0x00 (t_sb 0.5 ms, filter off, 4-wire),
     // then ctrl_meas 0x27 (x1/x1, normal). Register 0xF4 -> 0x74, 0xF5 -> 0x75 on SPI.
     let expectations = [
@@ -403,7 +403,7 @@ fn forced_start_keeps_the_configured_oversampling() {
 
 #[test]
 fn a_forced_start_from_normal_mode_is_reported_by_config() {
-    // DIMA preset (normal, x1/x1: 0x27), then one forced measurement with the same
+    // The default configuration (normal, x1/x1: 0x27), then one forced measurement with the same
     // oversampling (0x25): the device sleeps afterwards, and `config()` must not claim normal.
     let expectations = [
         spi_write(0x74, 0x24),
@@ -427,4 +427,11 @@ fn soft_reset_alone() {
     bmp.soft_reset(&mut delay).unwrap();
     delay.done();
     bmp.release().done();
+}
+
+#[test]
+fn into_interface_gives_back_what_new_was_given() {
+    let bmp = Bmp280::new(bosch_bmp280::SpiInterface::new(Mock::<u8>::new(&[])));
+    let mut spi: Mock<u8> = bmp.into_interface().release();
+    spi.done();
 }

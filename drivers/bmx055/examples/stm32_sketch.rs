@@ -6,10 +6,10 @@
 //! `CriticalSectionDevice`, since RTIC resources must be `Send`), with chip selects PE7
 //! (accelerometer), PE8 (gyroscope) and PE9 (magnetometer). At boot the firmware calls
 //! `Bmx055::init(&mut delay, &IMU_CONFIG)` and sends the returned trim to the host;
-//! a timer task then calls [`fill_packet`] into the back buffer of its double buffer.
+//! a timer task then calls [`sample_words`] and hands the words to its packet format (the DIMA
+//! board: `dima_sensorboard::imu::ImuPacketWords::from_sample`).
 
-use bosch_bmx055::{Bmx055, Bmx055Config, Error};
-use bosch_bmx055::{PACKET_LEN, PACKET_OFFSET};
+use bosch_bmx055::{Bmx055, Bmx055Config, Error, ImuSample};
 use embedded_hal::spi::SpiDevice;
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::spi::{Mock, Transaction as T};
@@ -20,7 +20,6 @@ type Imu<A, G, M> = Bmx055<
     bosch_bmx055::SpiInterface<M>,
 >;
 
-/// Timer task body: sample the three dies (no waiting) and write packet bytes 2..=21.
 /// ±2 g / 1000 Hz, ±2000 °/s / 2000 Hz with the 230 Hz filter, magnetometer low-power preset
 /// in forced mode.
 const IMU_CONFIG: Bmx055Config = Bmx055Config {
@@ -37,16 +36,15 @@ const IMU_CONFIG: Bmx055Config = Bmx055Config {
     mag: bosch_bmx055::mag::MagConfig::forced(bosch_bmx055::mag::MagPreset::LowPower),
 };
 
-fn fill_packet<A, G, M, E>(imu: &mut Imu<A, G, M>, packet: &mut [u8; 132]) -> Result<bool, Error<E>>
+/// Timer task body: sample the three dies (no waiting); the words are left-justified with the
+/// status bits masked, as a packet carries them.
+fn sample_words<A, G, M, E>(imu: &mut Imu<A, G, M>) -> Result<ImuSample, Error<E>>
 where
     A: SpiDevice<Error = E>,
     G: SpiDevice<Error = E>,
     M: SpiDevice<Error = E>,
 {
-    let sample = imu.sample()?;
-    packet[PACKET_OFFSET..PACKET_OFFSET + PACKET_LEN]
-        .copy_from_slice(&sample.packet_words().to_le_bytes());
-    Ok(sample.mag_fresh)
+    imu.sample()
 }
 
 fn w(reg: u8, v: u8) -> [T<u8>; 3] {
@@ -103,11 +101,10 @@ fn main() {
     let (mut a, mut g, mut m) = (Mock::new(&acc), Mock::new(&gyro), Mock::new(&mag));
     let mut imu = Bmx055::new_spi(a.clone(), g.clone(), m.clone());
     let trim = imu.init(&mut NoopDelay, &IMU_CONFIG).expect("init");
-    let mut packet = [0u8; 132];
-    let fresh = fill_packet(&mut imu, &mut packet).expect("sample");
+    let sample = sample_words(&mut imu).expect("sample");
     println!(
-        "trim {trim:?}\nfresh mag: {fresh}\nbytes 2..22: {:02X?}",
-        &packet[2..22]
+        "trim {trim:?}\nfresh mag: {}\naccel {:?} gyro {:?} mag {:?}",
+        sample.mag_fresh, sample.accel.words, sample.gyro.words, sample.mag
     );
     a.done();
     g.done();

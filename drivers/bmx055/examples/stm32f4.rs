@@ -13,7 +13,7 @@ use core::cell::RefCell;
 use bosch_bmx055::accel::{AccelBandwidth, AccelConfig};
 use bosch_bmx055::gyro::{GyroBandwidth, GyroConfig};
 use bosch_bmx055::mag::{MagConfig, MagPreset};
-use bosch_bmx055::{Bmx055, Bmx055Config};
+use bosch_bmx055::{Bmx055, Bmx055Config, ImuSample};
 use cortex_m_rt::entry;
 use embedded_hal::delay::DelayNs;
 use embedded_hal_bus::spi::{NoDelay, RefCellDevice};
@@ -60,14 +60,14 @@ fn main() -> ! {
         mag: MagConfig::forced(MagPreset::LowPower),
     };
     let ready = imu.init(&mut delay, &config).is_ok();
-    let mut packet_bytes = [0u8; 20];
+    let mut latest = ImuSample::default();
     loop {
         if ready {
             if let Ok(sample) = imu.sample() {
-                packet_bytes = sample.packet_words().to_le_bytes();
+                latest = sample; // raw words, left-justified with the status bits masked
             }
         }
-        let _ = packet_bytes;
+        let _ = latest;
         delay.delay_ms(1);
     }
 }

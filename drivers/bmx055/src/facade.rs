@@ -12,7 +12,6 @@ use crate::interface::{RegisterInterface, SpiInterface};
 #[cfg(feature = "async")]
 use crate::mag::AsyncMagnetometer;
 use crate::mag::{MagConfig, MagOpMode, MagPacketWords, MagTrim, Magnetometer};
-use crate::packet::ImuPacketWords;
 use crate::Error;
 use embedded_hal::delay::DelayNs;
 #[cfg(feature = "async")]
@@ -71,13 +70,6 @@ pub struct ImuSample {
     pub mag_fresh: bool,
 }
 
-impl ImuSample {
-    /// The packet words of this sample.
-    pub const fn packet_words(&self) -> ImuPacketWords {
-        ImuPacketWords::from_raw(&self.accel, &self.gyro, self.mag)
-    }
-}
-
 crate::blocking_and_async! {
     /// The BMX055 as one device: owns the three drivers.
     ///
@@ -105,6 +97,11 @@ crate::blocking_and_async! {
                 Magnetometer::new_spi(mag),
             )
         }
+
+        /// Gives the three SPI devices back (what [`new_spi`](Self::new_spi) was given).
+        pub fn release(self) -> (ASPI, GSPI, MSPI) {
+            (self.accel.release(), self.gyro.release(), self.mag.release())
+        }
     }
 }
 
@@ -120,8 +117,9 @@ crate::blocking_and_async! {
             }
         }
 
-        /// Give the three drivers back.
-        pub fn release(self) -> (Accelerometer<AI>, Gyroscope<GI>, Magnetometer<MI>) {
+        /// Gives the three drivers back (what [`new`](Self::new) was given; a facade made with
+        /// `new_spi` gives the three SPI devices back with `release`).
+        pub fn into_drivers(self) -> (Accelerometer<AI>, Gyroscope<GI>, Magnetometer<MI>) {
             (self.accel, self.gyro, self.mag)
         }
     }

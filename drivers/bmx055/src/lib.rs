@@ -34,9 +34,10 @@
 //!   ([`mag::compensate`] integer µT with -32768 for overflow, [`mag::compensate_f32`]),
 //!   reproducing C's narrowing casts with wrapping arithmetic: no input panics. Golden
 //!   vectors from Bosch's SensorAPI are in the tests.
-//! - The DIMA sensor-packet words ([`ImuPacketWords`]): left-justified, status bits masked,
-//!   in both directions, plus the simulator direction (physical values to raw words,
-//!   including a best-effort inverse of the magnetometer compensation, [`mag::raw_x_for_ut`] and its siblings).
+//! - Raw words in both directions: [`accel::accel_mg_to_word`] and
+//!   [`gyro::gyro_dps_to_word`] for physical values to words, and with the `sim` feature a
+//!   best-effort inverse of the magnetometer compensation (`mag::raw_x_for_ut` and its
+//!   siblings), for simulators.
 //! - `async` feature: `AsyncAccelerometer`, `AsyncGyroscope`, `AsyncMagnetometer` and
 //!   `AsyncBmx055` over embedded-hal-async, next to the blocking API and generated from the same
 //!   source (`maybe_async_cfg`), so the two cannot drift. `defmt` feature: `defmt::Format` on the
@@ -63,7 +64,7 @@
 //! let mg = raw.mg(accel.range());
 //! assert_eq!(raw.words.z, 0x4000); // the packet word, status bits masked
 //! assert!((mg.z - 1000.0).abs() < 1.0);
-//! # accel.release().release().done();
+//! # accel.release().done();
 //! # Ok::<(), bosch_bmx055::Error<embedded_hal::spi::ErrorKind>>(())
 //! ```
 //!
@@ -117,7 +118,6 @@ pub mod gyro;
 mod interface;
 pub mod mag;
 mod maths;
-mod packet;
 #[cfg(test)]
 mod register_tests;
 mod types;
@@ -129,9 +129,6 @@ pub use facade::{Bmx055, Bmx055Config, ImuSample};
 #[cfg(feature = "async")]
 pub use interface::AsyncRegisterInterface;
 pub use interface::{I2cInterface, RegisterInterface, SpiInterface};
-pub use packet::{
-    packet_words_from_physical, ImuPacketWords, ImuPhysical, PACKET_LEN, PACKET_OFFSET,
-};
 pub use types::{FifoData, FifoMode, FifoStatus, InterruptPin, PinConfig, Xyz};
 
 /// The README's code blocks, compiled (and run where they need no hardware) as doctests.

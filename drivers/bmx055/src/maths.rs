@@ -10,6 +10,7 @@ pub(crate) fn round(x: f32) -> f32 {
 }
 
 /// Absolute value (`f32::abs` is not in `core` on the minimum supported Rust).
+#[cfg(feature = "sim")]
 pub(crate) fn abs(x: f32) -> f32 {
     if x < 0.0 {
         -x

@@ -27,7 +27,7 @@ fn accel_at_0x19() {
     acc.init(&mut NoopDelay, &common::DIMA_ACCEL).unwrap();
     let raw = acc.read_raw().unwrap();
     assert_eq!(raw.counts(), Xyz::new(1024, 0, -1024));
-    acc.release().release();
+    acc.release();
     i2c.done();
 }
 

@@ -38,6 +38,11 @@ where
     pub fn new_serial(serial: S, model: M, framing: Framing) -> Self {
         Self::new(NbSerial::new(serial), model, framing)
     }
+
+    /// Gives the serial port back (what [`Maestro::new_serial`] was given).
+    pub fn release(self) -> S {
+        self.iface.release()
+    }
 }
 
 #[cfg(feature = "embedded-io")]
@@ -48,6 +53,11 @@ where
     /// A driver on an embedded-io 0.7 port, without limits.
     pub fn new_io(io: T, model: M, framing: Framing) -> Self {
         Self::new(crate::interface::IoSerial::new(io), model, framing)
+    }
+
+    /// Gives the port back (what [`Maestro::new_io`] was given).
+    pub fn release(self) -> T {
+        self.iface.release()
     }
 }
 
@@ -104,8 +114,9 @@ impl<I: WriteInterface, M: Model> Maestro<I, M> {
         &mut self.iface
     }
 
-    /// Give the transport back.
-    pub fn release(self) -> I {
+    /// Gives the transport back (what [`Maestro::new`] was given; a driver made with
+    /// `new_serial` or `new_io` gives the port back with `release`).
+    pub fn into_interface(self) -> I {
         self.iface
     }
 

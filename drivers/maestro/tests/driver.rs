@@ -392,3 +392,27 @@ fn flush_is_passed_through() {
     m.flush().unwrap();
     s.done();
 }
+
+#[test]
+fn release_gives_the_serial_port_back() {
+    let maestro = Maestro::new_serial(
+        Mock::new(&[Tx::write_many([0x84, 0x00, 0x70, 0x2E])]),
+        Micro6,
+        Framing::COMPACT,
+    );
+    let mut maestro = maestro;
+    maestro
+        .set_target(Channel::new::<Micro6>(0).unwrap(), QuarterMicros::NEUTRAL)
+        .unwrap();
+    // The port given to `new_serial`, not the interface wrapper.
+    let mut serial: Mock<u8> = maestro.release();
+    serial.done();
+}
+
+#[test]
+fn into_interface_gives_back_what_new_was_given() {
+    let iface = pololu_maestro::NbSerial::new(Mock::new(&[]));
+    let maestro = Maestro::new(iface, Micro6, Framing::COMPACT);
+    let mut serial = maestro.into_interface().release();
+    serial.done();
+}

@@ -87,7 +87,7 @@ fn set_targets_is_a_single_write() {
     let t = QuarterMicros::from_micros;
     m.set_targets(&[(ch(0), t(1500).unwrap()), (ch(1), t(1840).unwrap())])
         .unwrap();
-    let p = m.release().release();
+    let p = m.release();
     assert_eq!(p.writes, 1);
     assert_eq!(p.written, [0x84, 0x00, 0x70, 0x2E, 0x84, 0x01, 0x40, 0x39]);
 }
@@ -96,7 +96,7 @@ fn set_targets_is_a_single_write() {
 fn partial_writes_are_continued() {
     let mut m = Maestro::new_io(port(3, &[]), Mini12, Framing::COMPACT);
     m.set_target(ch(2), QuarterMicros::NEUTRAL).unwrap();
-    let p = m.release().release();
+    let p = m.release();
     assert_eq!(p.written, [0x84, 0x02, 0x70, 0x2E]);
     assert_eq!(p.writes, 2);
 }
@@ -133,5 +133,5 @@ fn query_round_trip() {
         m.get_position(ch(5), &mut PollBudget(3)).unwrap().get(),
         6000
     );
-    assert_eq!(m.release().release().written, [0x90, 0x05]);
+    assert_eq!(m.release().written, [0x90, 0x05]);
 }

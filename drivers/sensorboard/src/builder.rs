@@ -2,6 +2,7 @@
 
 use crate::crc::SensorCrc;
 use crate::gnss::GNSS_FRAME_LEN;
+use crate::imu::{ImuPacketWords, IMU_LEN, IMU_OFFSET};
 use crate::packet::{
     encode_adc20, ACCEL_OFFSET, ACCEL_RANGE, CRC_OFFSET, GNSS_OFFSET, GYRO_OFFSET, MAG_OFFSET,
     MAG_XY_RANGE, MAG_Z_RANGE, PACKET_CRC_COVERED, PACKET_LEN, PACKET_START, PRESSURE_OFFSET,
@@ -69,6 +70,13 @@ impl PacketBuilder {
             *lsb &= 0xF0;
         }
         self.bytes[ACCEL_OFFSET..ACCEL_OFFSET + 6].copy_from_slice(&masked);
+        self
+    }
+
+    /// The accelerometer, gyroscope and magnetometer words at once (packet bytes 2..=21), as
+    /// [`ImuPacketWords::to_le_bytes`] lays them out.
+    pub fn imu_words(&mut self, words: &ImuPacketWords) -> &mut Self {
+        self.bytes[IMU_OFFSET..IMU_OFFSET + IMU_LEN].copy_from_slice(&words.to_le_bytes());
         self
     }
 

@@ -30,6 +30,9 @@
 //!   and an embedded-hal-nb serial [`Read`] (works with linux-embedded-hal's `Serial` and
 //!   `CdevPin`): [`SensorBoard::request`], [`SensorBoard::end_request`],
 //!   [`SensorBoard::poll`]. It never sleeps.
+//! - The BMX055 part of the packet as words ([`imu::ImuPacketWords`]: left-justified, status
+//!   bits masked, both directions, built from a `bosch-bmx055` sample), and with the `sim`
+//!   feature the simulator direction from physical values.
 //! - Physical units for the configured ranges in [`units`] (kept out of the decoder).
 //! - `defmt` feature: `defmt::Format` for the public types.
 //!
@@ -72,6 +75,7 @@ mod builder;
 mod crc;
 mod driver;
 mod gnss;
+pub mod imu;
 mod info;
 mod packet;
 mod piece;

@@ -2,10 +2,15 @@
 //!
 //! The packet carries raw counts; these helpers apply the scale factors of the BMX055 ranges
 //! the firmware sets (accelerometer ±2 g, gyroscope ±2000 °/s). They are separate from the
-//! decoder so a board configured differently only needs different factors.
+//! decoder so a board configured differently only needs different factors. The accelerometer
+//! scale is the BMX055 driver's ([`AccelRange::mg_per_count`]), so a count means the same here
+//! and there.
 
-/// Accelerometer sensitivity at ±2 g: 0.98 mg per count (BMX055 datasheet).
-pub const ACCEL_MG_PER_COUNT_2G: f32 = 0.98;
+use bosch_bmx055::accel::{accel_count_to_mg, AccelRange};
+
+/// Accelerometer sensitivity at ±2 g: 1000 / 1024 = 0.9765625 mg per count, the BMX055
+/// driver's [`AccelRange::G2`] scale (the datasheet's table rounds it to 0.98).
+pub const ACCEL_MG_PER_COUNT_2G: f32 = AccelRange::G2.mg_per_count();
 
 /// Gyroscope sensitivity at ±2000 °/s: 16.4 counts per °/s (BMX055 datasheet), i.e.
 /// 1/16.4 °/s per count.
@@ -17,7 +22,7 @@ pub const STANDARD_GRAVITY: f32 = 9.806_65;
 /// Accelerometer count at ±2 g to milli-g.
 #[must_use]
 pub fn accel_mg_2g(count: i16) -> f32 {
-    f32::from(count) * ACCEL_MG_PER_COUNT_2G
+    accel_count_to_mg(count, AccelRange::G2)
 }
 
 /// Accelerometer count at ±2 g to m/s².
@@ -48,10 +53,12 @@ mod tests {
 
     #[test]
     fn accelerometer_scale() {
-        // BMX055 datasheet: ±2 g range, 0.98 mg/LSB.
-        assert!(close(accel_mg_2g(1000), 980.0));
-        assert!(close(accel_mg_2g(-2048), -2007.04));
-        assert!(close(accel_m_s2_2g(1000), 0.98 * 9.806_65));
+        // BMX055 datasheet: ±2 g range, 1024 LSB/g (0.98 mg/LSB rounded).
+        assert!(close(accel_mg_2g(1024), 1000.0));
+        assert!(close(accel_mg_2g(-2048), -2000.0));
+        assert!(close(accel_m_s2_2g(1024), 9.806_65));
+        // The rounded table value is the exact one within its last digit.
+        assert!((ACCEL_MG_PER_COUNT_2G - 0.98).abs() <= 0.005);
     }
 
     #[test]

@@ -14,7 +14,7 @@
 //!
 //! AT command mode is guarded so it can never corrupt the data stream: the guard times
 //! (`GT`) are respected, data written while the module is (or may still be) in command mode is
-//! refused with [`Error::CommandModeActive`] instead of being sent as AT text, and the
+//! refused with [`DeviceError::CommandModeActive`] instead of being sent as AT text, and the
 //! command-mode timeout (`CT`) is tracked on both sides. It runs either
 //!
 //! - driven by the caller's clock: [`XBee::start_command_mode`],
@@ -111,7 +111,7 @@ pub use nb;
 pub use setting_types::{
     ApiMode, BaudRate, PowerLevel, Role, MAX_CHANNEL, MAX_NODE_IDENTIFIER_LEN, MIN_CHANNEL,
 };
-pub use types::{Address16, Address64, ApiEscaping, Error, FrameError};
+pub use types::{Address16, Address64, ApiEscaping, DeviceError, Error, FrameError};
 pub use xbee::{
     Api, CommandOutcome, CommandSession, CommandTiming, Mode, Transparent, XBee,
     DEFAULT_WRITE_POLLS_PER_BYTE, MAX_AT_PARAMETER_LEN, POLL_STEP_US,

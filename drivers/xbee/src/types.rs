@@ -96,12 +96,11 @@ impl fmt::Display for FrameError {
 
 impl core::error::Error for FrameError {}
 
-/// Errors of the driver. `E` is the serial port's error type.
+/// Failures of the module or of the driver's protocol, independent of the serial port;
+/// [`Error::Device`] carries them.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub enum Error<E> {
-    /// The serial port failed.
-    Comm(E),
+pub enum DeviceError {
     /// Data was written while the module is (or may still be) in command mode. It was not sent:
     /// the module would have read it as AT command text. Wait for the driver to report
     /// transparent mode again.
@@ -124,16 +123,9 @@ pub enum Error<E> {
     Frame(FrameError),
 }
 
-impl<E> From<FrameError> for Error<E> {
-    fn from(e: FrameError) -> Self {
-        Self::Frame(e)
-    }
-}
-
-impl<E: fmt::Debug> fmt::Display for Error<E> {
+impl fmt::Display for DeviceError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Comm(e) => write!(f, "XBee serial port error: {e:?}"),
             Self::CommandModeActive => {
                 f.write_str("XBee is in command mode: data not sent, wait for transparent mode")
             }
@@ -150,7 +142,56 @@ impl<E: fmt::Debug> fmt::Display for Error<E> {
     }
 }
 
-impl<E: fmt::Debug> core::error::Error for Error<E> {}
+impl core::error::Error for DeviceError {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            Self::Frame(e) => Some(e),
+            _ => None,
+        }
+    }
+}
+
+/// Errors of the driver: the serial port's error `E`, or a [`DeviceError`] nested whole (the
+/// shape of every driver crate of this project: `Comm` for the bus, `Device` for the rest,
+/// `Device(DeviceError::Timeout)` for a deadline).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Error<E> {
+    /// The serial port failed.
+    Comm(E),
+    /// The module, or the driver's protocol with it, failed.
+    Device(DeviceError),
+}
+
+impl<E> From<DeviceError> for Error<E> {
+    fn from(e: DeviceError) -> Self {
+        Self::Device(e)
+    }
+}
+
+impl<E> From<FrameError> for Error<E> {
+    fn from(e: FrameError) -> Self {
+        Self::Device(DeviceError::Frame(e))
+    }
+}
+
+impl<E: fmt::Debug> fmt::Display for Error<E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Comm(e) => write!(f, "XBee serial port error: {e:?}"),
+            Self::Device(e) => fmt::Display::fmt(e, f),
+        }
+    }
+}
+
+impl<E: fmt::Debug> core::error::Error for Error<E> {
+    fn source(&self) -> Option<&(dyn core::error::Error + 'static)> {
+        match self {
+            Self::Comm(_) => None,
+            Self::Device(e) => Some(e),
+        }
+    }
+}
 
 impl<E: embedded_hal_nb::serial::Error> embedded_hal_nb::serial::Error for Error<E> {
     fn kind(&self) -> embedded_hal_nb::serial::ErrorKind {
@@ -165,8 +206,8 @@ impl<E: embedded_hal_nb::serial::Error> embedded_hal_nb::serial::Error for Error
 impl<E: fmt::Debug> embedded_io::Error for Error<E> {
     fn kind(&self) -> embedded_io::ErrorKind {
         match self {
-            Self::Timeout => embedded_io::ErrorKind::TimedOut,
-            Self::InvalidInput => embedded_io::ErrorKind::InvalidInput,
+            Self::Device(DeviceError::Timeout) => embedded_io::ErrorKind::TimedOut,
+            Self::Device(DeviceError::InvalidInput) => embedded_io::ErrorKind::InvalidInput,
             _ => embedded_io::ErrorKind::Other,
         }
     }

@@ -2,6 +2,7 @@
 
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
 use xbee_driver::encode_raw;
+use xbee_driver::DeviceError;
 use xbee_driver::{frame_type, Api, ExplicitAddressing, RemoteAtCommand};
 use xbee_driver::{
     Address16, Address64, ApiEscaping, AtCommand, Error, Frame, FrameError, ModemStatus, Parameter,
@@ -40,7 +41,7 @@ fn at_parameter_longer_than_the_limit_is_refused_before_io() {
     let long = [0u8; 33];
     assert_eq!(
         api.send_at_command(AtCommand::NI, Parameter::Text(&long)),
-        Err(Error::InvalidInput)
+        Err(Error::Device(DeviceError::InvalidInput))
     );
     api.release().done();
 }
@@ -70,10 +71,12 @@ fn known_frame_with_invalid_length_is_reported() {
     let mut api: XBee<_, Api> = XBee::new_api(serial, ApiEscaping::Unescaped);
     assert_eq!(
         api.poll_frame(),
-        Err(nb::Error::Other(Error::Frame(FrameError::InvalidLength {
-            frame_type: 0x8B,
-            len: 2
-        })))
+        Err(nb::Error::Other(Error::Device(DeviceError::Frame(
+            FrameError::InvalidLength {
+                frame_type: 0x8B,
+                len: 2
+            }
+        ))))
     );
     api.release().done();
 }
@@ -198,7 +201,7 @@ fn a_port_that_never_takes_a_byte_times_out_instead_of_hanging() {
         XBee::new_api(serial, ApiEscaping::Escaped).with_write_polls_per_byte(3);
     assert_eq!(
         api.send_at_command(AtCommand::NI, Parameter::None),
-        Err(Error::Timeout)
+        Err(Error::Device(DeviceError::Timeout))
     );
     api.release().done();
 }
@@ -212,7 +215,7 @@ fn a_flush_that_never_completes_times_out() {
         .with_write_polls_per_byte(2);
     assert_eq!(
         api.send_at_command(AtCommand::NI, Parameter::None),
-        Err(Error::Timeout)
+        Err(Error::Device(DeviceError::Timeout))
     );
     api.release().done();
 }

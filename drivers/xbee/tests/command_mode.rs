@@ -4,6 +4,7 @@
 use embedded_hal_mock::eh1::delay::NoopDelay;
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
 use embedded_hal_nb::serial::{ErrorKind, Read, Write};
+use xbee_driver::DeviceError;
 use xbee_driver::{
     settings, ApiMode, BaudRate, CommandOutcome, CommandTiming, Error, Mode, PowerLevel, Role,
     Transparent,
@@ -105,7 +106,9 @@ fn caller_clocked_dialogue() {
     // Data written during the guard time is refused, not sent.
     assert_eq!(
         r.write(b'x'),
-        Err(nb::Error::Other(Error::CommandModeActive))
+        Err(nb::Error::Other(Error::Device(
+            DeviceError::CommandModeActive
+        )))
     );
     assert_eq!(r.poll(500), Err(nb::Error::WouldBlock));
     assert_eq!(r.poll(1000), Err(nb::Error::WouldBlock)); // +++ sent, waiting for OK
@@ -116,7 +119,7 @@ fn caller_clocked_dialogue() {
     assert_eq!(r.mode(), Mode::Busy);
     assert_eq!(
         r.start_command(&AtRequest::query(AtCommand::CH)),
-        Err(Error::Busy)
+        Err(Error::Device(DeviceError::Busy))
     );
     assert_eq!(r.poll(2010), Ok(CommandOutcome::Reply));
     assert_eq!(r.reply(), b"7FFF");
@@ -129,7 +132,9 @@ fn caller_clocked_dialogue() {
 
     assert_eq!(
         r.write(b'x'),
-        Err(nb::Error::Other(Error::CommandModeActive))
+        Err(nb::Error::Other(Error::Device(
+            DeviceError::CommandModeActive
+        )))
     );
     r.start_exit().unwrap();
     assert_eq!(r.poll(2040), Ok(CommandOutcome::Exited));
@@ -149,17 +154,27 @@ fn module_that_never_answers_times_out_and_data_waits_for_ct() {
     assert_eq!(r.poll(0), Err(nb::Error::WouldBlock));
     assert_eq!(r.poll(1000), Err(nb::Error::WouldBlock)); // +++ out at t = 1000
     assert_eq!(r.poll(2999), Err(nb::Error::WouldBlock)); // deadline is GT + reply timeout
-    assert_eq!(r.poll(3000), Err(nb::Error::Other(Error::Timeout)));
+    assert_eq!(
+        r.poll(3000),
+        Err(nb::Error::Other(Error::Device(DeviceError::Timeout)))
+    );
 
     // The module may have switched without us hearing OK: no data until CT has surely passed
     // (CT 10 s + 1 s margin after the +++), and no commands either.
     assert_eq!(r.mode(), Mode::Command);
     assert_eq!(
         r.write(b'x'),
-        Err(nb::Error::Other(Error::CommandModeActive))
+        Err(nb::Error::Other(Error::Device(
+            DeviceError::CommandModeActive
+        )))
     );
     r.start_command(&AtRequest::query(AtCommand::ID)).unwrap();
-    assert_eq!(r.poll(3001), Err(nb::Error::Other(Error::NotInCommandMode)));
+    assert_eq!(
+        r.poll(3001),
+        Err(nb::Error::Other(Error::Device(
+            DeviceError::NotInCommandMode
+        )))
+    );
     assert_eq!(r.poll(11_999), Ok(CommandOutcome::Idle));
     assert_eq!(r.poll(12_000), Ok(CommandOutcome::AutoExited));
     assert!(r.is_transparent());
@@ -181,7 +196,10 @@ fn command_that_is_never_answered_times_out() {
 
     r.start_command(&AtRequest::query(AtCommand::VR)).unwrap();
     assert_eq!(r.poll(1010), Err(nb::Error::WouldBlock));
-    assert_eq!(r.poll(2010), Err(nb::Error::Other(Error::Timeout)));
+    assert_eq!(
+        r.poll(2010),
+        Err(nb::Error::Other(Error::Device(DeviceError::Timeout)))
+    );
     assert_eq!(r.mode(), Mode::Command);
 
     r.start_command(&AtRequest::query(AtCommand::HV)).unwrap();
@@ -203,7 +221,10 @@ fn error_reply_is_an_error_and_command_mode_stays_open() {
 
     r.start_command(&settings::set_channel(0x1A).unwrap())
         .unwrap();
-    assert_eq!(r.poll(1100), Err(nb::Error::Other(Error::AtError)));
+    assert_eq!(
+        r.poll(1100),
+        Err(nb::Error::Other(Error::Device(DeviceError::AtError)))
+    );
     assert_eq!(r.reply(), b"ERROR");
     assert_eq!(r.mode(), Mode::Command);
     // A hand-made CN is an exit too.
@@ -235,7 +256,9 @@ fn ct_expiry_is_tracked_on_both_sides() {
     r.start_command(&AtRequest::query(AtCommand::AP)).unwrap();
     assert_eq!(
         r.poll(9_999 + 9_000),
-        Err(nb::Error::Other(Error::NotInCommandMode))
+        Err(nb::Error::Other(Error::Device(
+            DeviceError::NotInCommandMode
+        )))
     );
     // Data only once CT has surely run out: 9999 + 10 000 + 1000.
     assert_eq!(r.poll(20_998), Ok(CommandOutcome::Idle));
@@ -288,12 +311,18 @@ fn invalid_requests_are_refused_before_any_io() {
     let mut r = radio(&enter_ok());
     assert_eq!(
         r.start_command(&AtRequest::query(AtCommand::ID)),
-        Err(Error::NotInCommandMode)
+        Err(Error::Device(DeviceError::NotInCommandMode))
     );
-    assert_eq!(r.start_exit(), Err(Error::NotInCommandMode));
+    assert_eq!(
+        r.start_exit(),
+        Err(Error::Device(DeviceError::NotInCommandMode))
+    );
     enter_with_clock(&mut r);
     let bad = AtRequest::set(AtCommand::NI, xbee_driver::Parameter::Text(b"A,B"));
-    assert_eq!(r.start_command(&bad), Err(Error::InvalidInput));
+    assert_eq!(
+        r.start_command(&bad),
+        Err(Error::Device(DeviceError::InvalidInput))
+    );
     r.release().done();
 }
 
@@ -375,10 +404,15 @@ fn blocking_entry_against_a_silent_module_times_out() {
     expected.push(Transaction::write(b'x'));
     let mut r = radio(&expected);
     let mut delay = NoopDelay::new();
-    assert!(matches!(r.command_mode(&mut delay), Err(Error::Timeout)));
+    assert!(matches!(
+        r.command_mode(&mut delay),
+        Err(Error::Device(DeviceError::Timeout))
+    ));
     assert_eq!(
         r.write(b'x'),
-        Err(nb::Error::Other(Error::CommandModeActive))
+        Err(nb::Error::Other(Error::Device(
+            DeviceError::CommandModeActive
+        )))
     );
     // Waits out CT without touching the port, then data flows.
     r.wait_until_transparent(&mut delay).unwrap();
@@ -397,8 +431,14 @@ fn blocking_command_answered_error_then_session_dropped_leaves() {
     let mut delay = NoopDelay::new();
     {
         let mut s = r.command_mode(&mut delay).unwrap();
-        assert_eq!(s.set_channel(0x1A), Err(Error::AtError));
-        assert_eq!(s.set_channel(0x1B), Err(Error::InvalidInput)); // refused, nothing sent
+        assert_eq!(
+            s.set_channel(0x1A),
+            Err(Error::Device(DeviceError::AtError))
+        );
+        assert_eq!(
+            s.set_channel(0x1B),
+            Err(Error::Device(DeviceError::InvalidInput))
+        ); // refused, nothing sent
     } // dropped: ATCN
     assert!(r.is_transparent());
     r.release().done();
@@ -414,7 +454,7 @@ fn blocking_command_never_answered_times_out() {
     let mut r = radio(&expected);
     let mut delay = NoopDelay::new();
     let mut s = r.command_mode(&mut delay).unwrap();
-    assert_eq!(s.power_level(), Err(Error::Timeout));
+    assert_eq!(s.power_level(), Err(Error::Device(DeviceError::Timeout)));
     // Forget the session so that dropping it does not send ATCN to the silent mock.
     core::mem::forget(s);
     r.release().done();
@@ -444,10 +484,16 @@ fn blocking_session_refuses_commands_after_half_the_ct_window() {
     {
         let mut s = r.command_mode(&mut delay).unwrap();
         for _ in 0..5 {
-            assert_eq!(s.firmware_version(), Err(Error::Timeout)); // sent at 10, 20, ..., 50 ms
+            assert_eq!(
+                s.firmware_version(),
+                Err(Error::Device(DeviceError::Timeout))
+            ); // sent at 10, 20, ..., 50 ms
         }
         // At 60 ms, 50 ms after the last accepted command: refused, nothing sent.
-        assert_eq!(s.firmware_version(), Err(Error::NotInCommandMode));
+        assert_eq!(
+            s.firmware_version(),
+            Err(Error::Device(DeviceError::NotInCommandMode))
+        );
     } // dropped: too late for ATCN, waits until CT has surely passed instead
     assert!(r.is_transparent());
     r.release().done();

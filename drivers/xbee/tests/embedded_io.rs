@@ -2,6 +2,7 @@
 #![cfg(feature = "embedded-io")]
 
 use embedded_hal_mock::eh1::serial::{Mock as SerialMock, Transaction};
+use xbee_driver::DeviceError;
 use xbee_driver::{Error, XBee};
 
 #[test]
@@ -39,11 +40,11 @@ fn command_mode_refuses_instead_of_blocking() {
     let mut buf = [0u8; 4];
     assert_eq!(
         embedded_io::Read::read(&mut radio, &mut buf),
-        Err(Error::CommandModeActive)
+        Err(Error::Device(DeviceError::CommandModeActive))
     );
     assert_eq!(
         embedded_io::Write::write(&mut radio, b"data"),
-        Err(Error::CommandModeActive)
+        Err(Error::Device(DeviceError::CommandModeActive))
     );
     radio.release().done();
 }

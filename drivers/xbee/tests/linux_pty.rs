@@ -13,6 +13,7 @@ use std::time::{Duration, Instant};
 use embedded_hal_nb::serial::Write;
 use linux_embedded_hal::serialport::{SerialPort, TTYPort};
 use linux_embedded_hal::{Delay, Serial};
+use xbee_driver::DeviceError;
 use xbee_driver::{CommandOutcome, CommandTiming, Error, Transparent, XBee};
 
 const GT: Duration = Duration::from_millis(100);
@@ -174,7 +175,9 @@ fn caller_clocked_session_keeps_the_radio_stream_clean() {
     // A control loop keeps writing while the radio is busy: refused, never sent.
     assert_eq!(
         radio.write(b'!'),
-        Err(nb::Error::Other(Error::CommandModeActive))
+        Err(nb::Error::Other(Error::Device(
+            DeviceError::CommandModeActive
+        )))
     );
     assert_eq!(poll_until_done(&mut radio), Ok(CommandOutcome::Entered));
     radio

@@ -12,7 +12,8 @@ use bosch_bmp280::{Bmp280, SpiInterface as BaroSpi};
 use bosch_bmx055::accel::{AccelRaw, Accelerometer};
 use bosch_bmx055::gyro::{GyroRaw, Gyroscope};
 use bosch_bmx055::mag::{MagPacketWords, Magnetometer};
-use bosch_bmx055::{ImuPacketWords, SpiInterface};
+use bosch_bmx055::SpiInterface;
+use dima_sensorboard::imu::ImuPacketWords;
 use dima_sensorboard::{PacketBuilder, SensorStatus};
 use embedded_hal::delay::DelayNs;
 use embedded_hal::spi::SpiDevice;
@@ -203,9 +204,9 @@ where
     /// Gives the four SPI devices back (accelerometer, gyroscope, magnetometer, BMP280).
     pub fn release(self) -> (A, G, M, B) {
         (
-            self.accel.release().release(),
-            self.gyro.release().release(),
-            self.mag.release().release(),
+            self.accel.release(),
+            self.gyro.release(),
+            self.mag.release(),
             self.baro.release(),
         )
     }

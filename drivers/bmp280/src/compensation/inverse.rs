@@ -6,6 +6,16 @@
 //! with `adc_T`, pressure falls with `adc_P`), so each search is a bisection over the 20-bit
 //! range: at most 20 steps of one formula evaluation each, with a fixed bound whatever the
 //! input. Targets outside the representable range give the nearest end of the range.
+//!
+//! ```
+//! use bosch_bmp280::{compensation, Calibration};
+//!
+//! let cal = Calibration::from_bytes(&Calibration::DATASHEET_EXAMPLE_BYTES);
+//! // Raw values that compensate to 21.50 °C and 95 000 Pa.
+//! let sample = compensation::inverse::raw_for_centi_celsius_pascal(&cal, 2150, 95_000);
+//! let m = compensation::compensate(&cal, sample).unwrap();
+//! assert_eq!((m.temperature_centi_celsius, m.pressure_pa()), (2150, 95_000));
+//! ```
 
 use super::{pressure_q24_8, t_fine, temperature_centi_celsius};
 use crate::calibration::Calibration;

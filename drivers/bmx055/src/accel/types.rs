@@ -10,14 +10,14 @@ pub const STANDARD_GRAVITY: f32 = 9.806_65;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum AccelRange {
-    /// ±2 g, 1024 LSB/g (0.98 mg/LSB).
+    /// ±2 g, 1024 LSB/g (0.9765625 mg/LSB; the datasheet's table rounds it to 0.98).
     #[default]
     G2 = 0x03,
-    /// ±4 g, 512 LSB/g.
+    /// ±4 g, 512 LSB/g (1.953125 mg/LSB; table 1.95).
     G4 = 0x05,
-    /// ±8 g, 256 LSB/g.
+    /// ±8 g, 256 LSB/g (3.90625 mg/LSB; table 3.91).
     G8 = 0x08,
-    /// ±16 g, 128 LSB/g.
+    /// ±16 g, 128 LSB/g (7.8125 mg/LSB; table 7.81).
     G16 = 0x0C,
 }
 
@@ -26,7 +26,8 @@ impl AccelRange {
     pub const fn bits(self) -> u8 {
         self as u8
     }
-    /// Sensitivity in counts (of the 12-bit value) per g, from the datasheet.
+    /// Sensitivity in counts (of the 12-bit value) per g, from the datasheet: the full scale
+    /// (2, 4, 8 or 16 g) over 2048 counts.
     pub const fn counts_per_g(self) -> f32 {
         match self {
             AccelRange::G2 => 1024.0,
@@ -35,8 +36,13 @@ impl AccelRange {
             AccelRange::G16 => 128.0,
         }
     }
-    /// Resolution in mg per count (0.9765625 mg at ±2 g; the datasheet rounds it to 0.98).
-    pub fn mg_per_count(self) -> f32 {
+    /// Resolution in mg per count: exactly `1000 / counts_per_g` (0.9765625 mg at ±2 g).
+    ///
+    /// This is the one accelerometer scale of the driver and of the DIMA sensor-board crate.
+    /// The exact sensitivity (full scale / 2048) is the truth: the datasheet's resolution table
+    /// (0.98, 1.95, 3.91, 7.81 mg/LSB) is this value rounded to two decimals. Scaling by the
+    /// rounded 0.98 would read 1024 counts as 1003.52 mg instead of 1 g.
+    pub const fn mg_per_count(self) -> f32 {
         1000.0 / self.counts_per_g()
     }
 }
@@ -240,7 +246,12 @@ impl AccelRaw {
 
 /// Packet word (left-justified 12-bit) to mg.
 pub fn accel_word_to_mg(word: i16, range: AccelRange) -> f32 {
-    f32::from(word >> 4) * range.mg_per_count()
+    accel_count_to_mg(word >> 4, range)
+}
+
+/// Signed 12-bit count (right-justified, -2048..=2047) to mg: `count * range.mg_per_count()`.
+pub fn accel_count_to_mg(count: i16, range: AccelRange) -> f32 {
+    f32::from(count) * range.mg_per_count()
 }
 
 /// mg to the packet's left-justified 12-bit word (the inverse of [`accel_word_to_mg`]):

@@ -55,6 +55,10 @@ crate::blocking_and_async! {
         pub fn new_spi(spi: SPI) -> Self {
             Self::new(SpiInterface::new(spi))
         }
+        /// Gives the SPI device back (what [`new_spi`](Self::new_spi) was given).
+        pub fn release(self) -> SPI {
+            self.iface.release()
+        }
     }
 }
 
@@ -63,6 +67,10 @@ crate::blocking_and_async! {
         /// Driver over I2C at the strapped address.
         pub fn new_i2c(i2c: I2C, address: GyroAddress) -> Self {
             Self::new(I2cInterface::new(i2c, address as u8))
+        }
+        /// Gives the I2C bus back (what [`new_i2c`](Self::new_i2c) was given).
+        pub fn release(self) -> I2C {
+            self.iface.release()
         }
     }
 }
@@ -77,8 +85,9 @@ crate::blocking_and_async! {
                 fifo_data: FifoData::Xyz,
             }
         }
-        /// Give the interface back.
-        pub fn release(self) -> IFACE {
+        /// Gives the interface back (what [`new`](Self::new) was given; drivers made with
+        /// `new_spi` or `new_i2c` give the bus back with `release`).
+        pub fn into_interface(self) -> IFACE {
             self.iface
         }
         /// The range used to scale samples (the last one written).

@@ -4,6 +4,8 @@
 //! [`Magnetometer::power_on`] (or [`Magnetometer::init`]) before anything else.
 
 pub mod compensation;
+#[cfg(feature = "sim")]
+#[cfg_attr(docsrs, doc(cfg(feature = "sim")))]
 pub mod inverse;
 pub(crate) mod register;
 mod trim;
@@ -13,6 +15,7 @@ pub use compensation::{
     compensate, compensate_f32, compensate_x, compensate_x_f32, compensate_y, compensate_y_f32,
     compensate_z, compensate_z_f32, OVERFLOW_OUTPUT, OVERFLOW_OUTPUT_F32,
 };
+#[cfg(feature = "sim")]
 pub use inverse::{raw_x_for_ut, raw_y_for_ut, raw_z_for_ut};
 pub use trim::{MagTrim, TRIM_BURST_1, TRIM_BURST_2, TRIM_BURST_3};
 pub use types::*;
@@ -88,6 +91,10 @@ crate::blocking_and_async! {
         pub fn new_spi(spi: SPI) -> Self {
             Self::new(SpiInterface::new(spi))
         }
+        /// Gives the SPI device back (what [`new_spi`](Self::new_spi) was given).
+        pub fn release(self) -> SPI {
+            self.iface.release()
+        }
     }
 }
 
@@ -96,6 +103,10 @@ crate::blocking_and_async! {
         /// Driver over I2C at the strapped address.
         pub fn new_i2c(i2c: I2C, address: MagAddress) -> Self {
             Self::new(I2cInterface::new(i2c, address as u8))
+        }
+        /// Gives the I2C bus back (what [`new_i2c`](Self::new_i2c) was given).
+        pub fn release(self) -> I2C {
+            self.iface.release()
         }
     }
 }
@@ -111,8 +122,9 @@ crate::blocking_and_async! {
                 config: MagConfig::forced(MagPreset::LowPower),
             }
         }
-        /// Give the interface back.
-        pub fn release(self) -> IFACE {
+        /// Gives the interface back (what [`new`](Self::new) was given; drivers made with
+        /// `new_spi` or `new_i2c` give the bus back with `release`).
+        pub fn into_interface(self) -> IFACE {
             self.iface
         }
         /// The trim in use.

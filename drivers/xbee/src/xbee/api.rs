@@ -8,14 +8,14 @@ use crate::at::{AtCommand, Parameter};
 use crate::codec::{write_frame, ByteSink, DecoderStats, FrameDecoder, WriteError};
 use crate::frame_id::FrameIdAllocator;
 use crate::frames::{AtCommandFrame, Frame, TransmitRequest};
-use crate::types::{Address16, Address64, ApiEscaping, Error, FrameError};
+use crate::types::{Address16, Address64, ApiEscaping, DeviceError, Error, FrameError};
 
 /// Longest binary AT parameter [`XBee::send_at_command`] carries (a 16-byte key, a 20-byte
 /// node identifier fit).
 pub const MAX_AT_PARAMETER_LEN: usize = 32;
 
 /// Default number of `WouldBlock` answers tolerated per written byte (and for the final
-/// flush) before [`XBee::send`] gives up with [`Error::Timeout`].
+/// flush) before [`XBee::send`] gives up with [`DeviceError::Timeout`].
 pub const DEFAULT_WRITE_POLLS_PER_BYTE: u32 = 1_000_000;
 
 /// Mode state of an [`XBee`] in API mode (`AP = 1` or `2`): the frame decoder with its
@@ -69,7 +69,7 @@ impl<S: Write<u8>> ByteSink for SerialSink<'_, S> {
 impl<E> From<SinkError<E>> for Error<E> {
     fn from(e: SinkError<E>) -> Self {
         match e {
-            SinkError::Timeout => Error::Timeout,
+            SinkError::Timeout => Error::Device(DeviceError::Timeout),
             SinkError::Comm(e) => Error::Comm(e),
         }
     }
@@ -104,7 +104,7 @@ impl<S, const N: usize> XBee<S, Api<N>> {
     }
 
     /// Sets how many `WouldBlock` answers a written byte (or the final flush) may get before
-    /// [`send`](XBee::send) gives up with [`Error::Timeout`] (at least 1; default
+    /// [`send`](XBee::send) gives up with [`DeviceError::Timeout`] (at least 1; default
     /// [`DEFAULT_WRITE_POLLS_PER_BYTE`]).
     pub fn with_write_polls_per_byte(mut self, polls: u32) -> Self {
         self.mode.write_polls_per_byte = polls.max(1);
@@ -128,7 +128,7 @@ where
 {
     /// Sends one frame and flushes, polling the port while it answers `WouldBlock`.
     ///
-    /// Fails with [`Error::Timeout`] if one byte (or the flush) is refused for the whole poll
+    /// Fails with [`DeviceError::Timeout`] if one byte (or the flush) is refused for the whole poll
     /// budget ([`with_write_polls_per_byte`](XBee::with_write_polls_per_byte)); the frame
     /// may then be partly sent, which the module drops by its length and checksum.
     pub fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error<E>> {
@@ -139,7 +139,7 @@ where
             polls,
         };
         write_frame(frame, escaping, &mut sink).map_err(|e| match e {
-            WriteError::TooLong => Error::Frame(FrameError::TooLong),
+            WriteError::TooLong => Error::Device(DeviceError::Frame(FrameError::TooLong)),
             WriteError::Sink(e) => Error::from(e),
         })?;
         Ok(poll_bounded(polls, || self.serial.flush())?)
@@ -155,7 +155,7 @@ where
         let mut bytes = [0u8; MAX_AT_PARAMETER_LEN];
         let len = parameter
             .to_api_bytes(&mut bytes)
-            .ok_or(Error::InvalidInput)?;
+            .ok_or(Error::Device(DeviceError::InvalidInput))?;
         let frame_id = self.next_frame_id();
         self.send(&Frame::AtCommand(AtCommandFrame {
             frame_id,
@@ -184,7 +184,7 @@ where
     ///
     /// Garbage, bad checksums and oversized frames are skipped and counted in
     /// [`stats`](Self::stats). A frame of a known type with an invalid length is returned as
-    /// [`Error::Frame`].
+    /// [`DeviceError::Frame`].
     pub fn poll_frame(&mut self) -> nb::Result<Frame<'_>, Error<E>> {
         if self.mode.decoder.next_buffered().is_none() {
             loop {
@@ -195,7 +195,7 @@ where
             }
         }
         match self.mode.decoder.frame() {
-            Some(raw) => raw.parse().map_err(|e| nb::Error::Other(Error::Frame(e))),
+            Some(raw) => raw.parse().map_err(|e| nb::Error::Other(Error::from(e))),
             None => Err(nb::Error::WouldBlock),
         }
     }

@@ -2,14 +2,14 @@
 //!
 //! [`Transparent`] forwards every byte while the module is in transparent mode. While it is in
 //! (or may still be in) AT command mode, writes are refused with
-//! [`Error::CommandModeActive`] instead of being sent as AT text, and reads return
+//! [`DeviceError::CommandModeActive`] instead of being sent as AT text, and reads return
 //! `WouldBlock` because the incoming bytes are the module's replies.
 
 use embedded_hal_nb::serial::{ErrorType, Read, Write};
 
 use super::XBee;
 use crate::at::MAX_LINE_LEN;
-use crate::types::Error;
+use crate::types::{DeviceError, Error};
 
 mod command;
 mod session;
@@ -231,10 +231,12 @@ impl<S: Read<u8>> Read<u8> for XBee<S, Transparent> {
 }
 
 impl<S: Write<u8>> Write<u8> for XBee<S, Transparent> {
-    /// Sends one byte; [`Error::CommandModeActive`] (not sent) outside transparent mode.
+    /// Sends one byte; [`DeviceError::CommandModeActive`] (not sent) outside transparent mode.
     fn write(&mut self, word: u8) -> nb::Result<(), Self::Error> {
         if self.mode.state != State::Transparent {
-            return Err(nb::Error::Other(Error::CommandModeActive));
+            return Err(nb::Error::Other(Error::Device(
+                DeviceError::CommandModeActive,
+            )));
         }
         self.serial.write(word).map_err(|e| e.map(Error::Comm))
     }
@@ -252,7 +254,7 @@ mod io {
 
     use super::XBee;
     use super::{Read, Transparent, Write};
-    use crate::types::Error;
+    use crate::types::{DeviceError, Error};
 
     impl<S: embedded_hal_nb::serial::ErrorType> embedded_io::ErrorType for XBee<S, Transparent> {
         type Error = Error<S::Error>;
@@ -260,14 +262,14 @@ mod io {
 
     impl<S: Read<u8>> embedded_io::Read for XBee<S, Transparent> {
         /// Blocks until one byte arrives, then returns it with any that are already waiting.
-        /// Outside transparent mode it returns [`Error::CommandModeActive`] instead of blocking.
+        /// Outside transparent mode it returns [`DeviceError::CommandModeActive`] instead of blocking.
         fn read(&mut self, buf: &mut [u8]) -> Result<usize, Self::Error> {
             let Some((first, rest)) = buf.split_first_mut() else {
                 return Ok(0);
             };
             *first = loop {
                 if !self.reads_pass_through() {
-                    return Err(Error::CommandModeActive);
+                    return Err(Error::Device(DeviceError::CommandModeActive));
                 }
                 match self.serial.read() {
                     Ok(b) => break b,
@@ -291,7 +293,7 @@ mod io {
     }
 
     impl<S: Write<u8>> embedded_io::Write for XBee<S, Transparent> {
-        /// Sends the whole buffer; [`Error::CommandModeActive`] outside transparent mode.
+        /// Sends the whole buffer; [`DeviceError::CommandModeActive`] outside transparent mode.
         fn write(&mut self, buf: &[u8]) -> Result<usize, Self::Error> {
             for &b in buf {
                 nb::block!(Write::write(self, b))?;

@@ -11,7 +11,7 @@ use embedded_hal_nb::serial::{Read, Write};
 
 use super::{State, Transparent};
 use crate::at::{format_line, is_error, is_ok, AtCommand, AtRequest};
-use crate::types::Error;
+use crate::types::{DeviceError, Error};
 use crate::xbee::XBee;
 
 /// `None`: the state changed, evaluate the new one in the same poll. `Some`: the poll's result.
@@ -48,7 +48,7 @@ where
         match self.mode.state {
             State::Transparent => self.go(State::EnterFlush),
             State::Ready => self.go(State::EnterWaitExit),
-            _ => return Err(Error::Busy),
+            _ => return Err(Error::Device(DeviceError::Busy)),
         }
         Ok(())
     }
@@ -65,13 +65,13 @@ where
         }
         match self.mode.state {
             State::Ready => {}
-            State::Transparent => return Err(Error::NotInCommandMode),
-            _ => return Err(Error::Busy),
+            State::Transparent => return Err(Error::Device(DeviceError::NotInCommandMode)),
+            _ => return Err(Error::Device(DeviceError::Busy)),
         }
         self.clear_line();
         let Some(n) = format_line(request, &mut self.mode.line) else {
             self.clear_line();
-            return Err(Error::InvalidInput);
+            return Err(Error::Device(DeviceError::InvalidInput));
         };
         self.mode.line_len = n;
         self.go(State::Sending {
@@ -86,19 +86,19 @@ where
     pub fn start_exit(&mut self) -> Result<(), Error<E>> {
         match self.mode.state {
             State::Ready => {}
-            State::Transparent => return Err(Error::NotInCommandMode),
-            _ => return Err(Error::Busy),
+            State::Transparent => return Err(Error::Device(DeviceError::NotInCommandMode)),
+            _ => return Err(Error::Device(DeviceError::Busy)),
         }
         self.clear_line();
         let n = format_line(&AtRequest::query(AtCommand::CN), &mut self.mode.line)
-            .ok_or(Error::InvalidInput)?;
+            .ok_or(Error::Device(DeviceError::InvalidInput))?;
         self.mode.line_len = n;
         self.go(State::Sending { pos: 0, exit: true });
         Ok(())
     }
 
     /// The last reply line, without its `\r` (valid after [`CommandOutcome::Reply`] and
-    /// [`Error::AtError`]).
+    /// [`DeviceError::AtError`]).
     pub fn reply(&self) -> &[u8] {
         match self.mode.state {
             State::Sending { .. } => &[],
@@ -186,7 +186,9 @@ where
                 Some(Err(nb::Error::WouldBlock))
             }
             // Nothing of the command sequence went out: still transparent.
-            Err(nb::Error::WouldBlock) => Some(self.fail(State::Transparent, Error::Timeout)),
+            Err(nb::Error::WouldBlock) => {
+                Some(self.fail(State::Transparent, Error::Device(DeviceError::Timeout)))
+            }
             Err(nb::Error::Other(e)) => Some(self.fail(State::Transparent, Error::Comm(e))),
         }
     }
@@ -221,7 +223,7 @@ where
             Err(nb::Error::WouldBlock) if elapsed < self.mode.timing.reply_timeout_ms => {
                 return Some(Err(nb::Error::WouldBlock))
             }
-            Err(nb::Error::WouldBlock) => Error::Timeout,
+            Err(nb::Error::WouldBlock) => Error::Device(DeviceError::Timeout),
             Err(nb::Error::Other(e)) => Error::Comm(e),
         };
         // Part of `+++` may be out: stay cautious until `CT` has passed.
@@ -256,7 +258,7 @@ where
             self.count_discarded(self.mode.line_len);
             self.clear_line();
             // The module may have switched without us hearing the `OK`.
-            return self.fail(State::Ready, Error::Timeout);
+            return self.fail(State::Ready, Error::Device(DeviceError::Timeout));
         }
         Err(nb::Error::WouldBlock)
     }
@@ -269,7 +271,7 @@ where
                     self.go(State::Leaving);
                     return None;
                 }
-                return Some(self.fail(State::Ready, Error::NotInCommandMode));
+                return Some(self.fail(State::Ready, Error::Device(DeviceError::NotInCommandMode)));
             }
             if self.mode.stale_input {
                 if let Err(e) = self.drain() {
@@ -297,7 +299,7 @@ where
             Err(nb::Error::WouldBlock) if elapsed < self.mode.timing.reply_timeout_ms => {
                 return Some(Err(nb::Error::WouldBlock))
             }
-            Err(nb::Error::WouldBlock) => Error::Timeout,
+            Err(nb::Error::WouldBlock) => Error::Device(DeviceError::Timeout),
             Err(nb::Error::Other(e)) => Error::Comm(e),
         };
         if pos > 0 {
@@ -321,17 +323,17 @@ where
         if elapsed >= self.mode.timing.reply_timeout_ms {
             // A late answer must not be taken for the next command's reply.
             self.mode.stale_input = true;
-            return self.fail(State::Ready, Error::Timeout);
+            return self.fail(State::Ready, Error::Device(DeviceError::Timeout));
         }
         Err(nb::Error::WouldBlock)
     }
 
     fn finish_reply(&mut self, exit: bool) -> nb::Result<CommandOutcome, Error<E>> {
         if self.mode.line_overflow {
-            return self.fail(State::Ready, Error::InvalidReply);
+            return self.fail(State::Ready, Error::Device(DeviceError::InvalidReply));
         }
         if is_error(self.reply()) {
-            return self.fail(State::Ready, Error::AtError);
+            return self.fail(State::Ready, Error::Device(DeviceError::AtError));
         }
         self.mode.confirmed_ms = Some(self.mode.input_ms);
         if exit {
@@ -339,7 +341,7 @@ where
                 self.go(State::Transparent);
                 return Ok(CommandOutcome::Exited);
             }
-            return self.fail(State::Ready, Error::InvalidReply);
+            return self.fail(State::Ready, Error::Device(DeviceError::InvalidReply));
         }
         self.go(State::Ready);
         Ok(CommandOutcome::Reply)

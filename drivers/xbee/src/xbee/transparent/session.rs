@@ -12,7 +12,7 @@ use super::Transparent;
 use crate::at::{AtCommand, AtRequest, Parameter};
 use crate::setting_types::{ApiMode, BaudRate, PowerLevel, Role};
 use crate::settings;
-use crate::types::{Address64, Error};
+use crate::types::{Address64, DeviceError, Error};
 use crate::xbee::XBee;
 
 /// Poll period of the blocking API, in µs: under one byte time at 9600 baud (1.04 ms), so a
@@ -27,7 +27,7 @@ where
     ///
     /// Calls on the returned session must follow each other without long pauses: time is
     /// counted from the delays only, and a command is refused with
-    /// [`Error::NotInCommandMode`] once half of `CT` minus the reply timeout (4.5 s by default)
+    /// [`DeviceError::NotInCommandMode`] once half of `CT` minus the reply timeout (4.5 s by default)
     /// has passed on that clock since the last accepted command, rather than risk it arriving
     /// after the module has left. Leave with [`CommandSession::exit`]; dropping the session
     /// leaves too, ignoring errors.
@@ -45,7 +45,7 @@ where
                 delay,
                 open: true,
             }),
-            _ => Err(Error::InvalidReply),
+            _ => Err(Error::Device(DeviceError::InvalidReply)),
         }
     }
 
@@ -106,7 +106,7 @@ where
         self.xbee.start_command(request)?;
         match self.xbee.run(self.delay)? {
             CommandOutcome::Reply => Ok(self.xbee.reply()),
-            _ => Err(Error::InvalidReply),
+            _ => Err(Error::Device(DeviceError::InvalidReply)),
         }
     }
 
@@ -115,14 +115,14 @@ where
         if crate::at::is_ok(self.send(request)?) {
             Ok(())
         } else {
-            Err(Error::InvalidReply)
+            Err(Error::Device(DeviceError::InvalidReply))
         }
     }
 
     /// Queries a numeric setting.
     pub fn query_number(&mut self, command: AtCommand) -> Result<u64, Error<E>> {
         let reply = self.send(&AtRequest::query(command))?;
-        settings::parse_number(reply).ok_or(Error::InvalidReply)
+        settings::parse_number(reply).ok_or(Error::Device(DeviceError::InvalidReply))
     }
 
     fn query_with<T>(
@@ -131,7 +131,7 @@ where
         parse: fn(&[u8]) -> Option<T>,
     ) -> Result<T, Error<E>> {
         let reply = self.send(&AtRequest::query(command))?;
-        parse(reply).ok_or(Error::InvalidReply)
+        parse(reply).ok_or(Error::Device(DeviceError::InvalidReply))
     }
 
     /// PAN id (`ID`).
@@ -149,20 +149,24 @@ where
     }
     /// Sets the operating channel (`CH`, 0x0B to 0x1A; not on Zigbee firmware).
     pub fn set_channel(&mut self, channel: u8) -> Result<(), Error<E>> {
-        let request = settings::set_channel(channel).ok_or(Error::InvalidInput)?;
+        let request =
+            settings::set_channel(channel).ok_or(Error::Device(DeviceError::InvalidInput))?;
         self.set(&request)
     }
 
     /// Node identifier (`NI`), copied into `out`; returns its length.
     pub fn node_identifier(&mut self, out: &mut [u8]) -> Result<usize, Error<E>> {
         let reply = self.send(&AtRequest::query(AtCommand::NI))?;
-        let slot = out.get_mut(..reply.len()).ok_or(Error::InvalidInput)?;
+        let slot = out
+            .get_mut(..reply.len())
+            .ok_or(Error::Device(DeviceError::InvalidInput))?;
         slot.copy_from_slice(reply);
         Ok(reply.len())
     }
     /// Sets the node identifier (`NI`, up to 20 printable characters).
     pub fn set_node_identifier(&mut self, name: &str) -> Result<(), Error<E>> {
-        let request = settings::set_node_identifier(name).ok_or(Error::InvalidInput)?;
+        let request =
+            settings::set_node_identifier(name).ok_or(Error::Device(DeviceError::InvalidInput))?;
         self.set(&request)
     }
 
@@ -221,19 +225,19 @@ where
     /// Firmware version (`VR`), as the module prints it in hexadecimal (e.g. 0x100D).
     pub fn firmware_version(&mut self) -> Result<u32, Error<E>> {
         let v = self.query_number(AtCommand::VR)?;
-        u32::try_from(v).map_err(|_| Error::InvalidReply)
+        u32::try_from(v).map_err(|_| Error::Device(DeviceError::InvalidReply))
     }
     /// Hardware version (`HV`).
     pub fn hardware_version(&mut self) -> Result<u32, Error<E>> {
         let v = self.query_number(AtCommand::HV)?;
-        u32::try_from(v).map_err(|_| Error::InvalidReply)
+        u32::try_from(v).map_err(|_| Error::Device(DeviceError::InvalidReply))
     }
     /// The module's 64-bit address (`SH`, `SL`).
     pub fn serial_number(&mut self) -> Result<Address64, Error<E>> {
         let high = self.query_number(AtCommand::SH)?;
         let low = self.query_number(AtCommand::SL)?;
         if high > u64::from(u32::MAX) || low > u64::from(u32::MAX) {
-            return Err(Error::InvalidReply);
+            return Err(Error::Device(DeviceError::InvalidReply));
         }
         Ok(Address64((high << 32) | low))
     }
@@ -269,7 +273,7 @@ where
         self.xbee.start_exit()?;
         match self.xbee.run(self.delay)? {
             CommandOutcome::Exited => Ok(()),
-            _ => Err(Error::InvalidReply),
+            _ => Err(Error::Device(DeviceError::InvalidReply)),
         }
     }
 }
