@@ -4,6 +4,7 @@
 //! (feature `tools`). `cargo build -p dima --no-default-features` builds the robot alone.
 
 mod cli;
+mod config_check;
 
 use std::io::{IsTerminal, Write};
 use std::process::ExitCode;
@@ -12,7 +13,6 @@ use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::Context;
 use clap::Parser;
 use cli::{Cli, Command};
 use dima_robot::app;
@@ -92,8 +92,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Log(_) | Command::Inspect(_) => unreachable!("handled in main"),
         Command::Config(args) => {
             if let Some(path) = args.check {
-                let config = config::load(&path)?;
-                let text = toml::to_string(&config).context("serialising the configuration")?;
+                let text = config_check::check(&path)?;
                 std::io::stdout().write_all(text.as_bytes())?;
             } else if args.print_default {
                 std::io::stdout().write_all(DEFAULT_TOML.as_bytes())?;
