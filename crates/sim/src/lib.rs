@@ -47,6 +47,7 @@ pub mod cli;
 pub mod devices;
 pub mod dst;
 pub mod faults;
+pub mod host_load;
 pub mod logcheck;
 pub mod model;
 pub mod pty;

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use dima_core::config::Config;
-use dima_core::{FailsafeCause, Mode};
+use dima_core::{FailsafeCause, Mode, ReviveRefusal};
 use dima_log::schema::{CycleMessage, Event};
 use dima_log::LoggedRun;
 
@@ -19,6 +19,8 @@ pub struct StateChange {
     pub mode: Mode,
     /// Failsafe cause, if any.
     pub cause: Option<FailsafeCause>,
+    /// Why a revive was refused in the cycle, if one was.
+    pub refused: Option<ReviveRefusal>,
     /// What happened in the cycle.
     pub events: Vec<Event>,
 }
@@ -59,6 +61,8 @@ pub struct LogSummary {
     pub attachments: BTreeSet<String>,
     /// The configuration that ran, from the `dima` metadata record.
     pub config: Option<Config>,
+    /// The loop's realtime setup report as text (metadata `rt_setup`), if logged.
+    pub rt_setup: Option<String>,
 }
 
 impl LogSummary {
@@ -102,6 +106,7 @@ impl LogSummary {
                 t_ns: s.t_ns,
                 mode: s.msg.mode,
                 cause: s.msg.cause,
+                refused: s.msg.refused,
                 events: s.msg.events,
             }));
         self.cycles
@@ -111,6 +116,9 @@ impl LogSummary {
         self.attachments.extend(run.attachments);
         if self.config.is_none() {
             self.config = run.config;
+        }
+        if self.rt_setup.is_none() {
+            self.rt_setup = run.rt_setup;
         }
     }
 
@@ -207,6 +215,7 @@ mod tests {
             t_ns,
             mode,
             cause,
+            refused: None,
             events: vec![Event::ModeChanged],
         }
     }

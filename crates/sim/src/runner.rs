@@ -29,6 +29,7 @@ use crate::devices::{
     GroundProtocol, GroundStats, LinkPort, MaestroStats,
 };
 use crate::faults::{AppFaults, FaultWindow, Faults, LoopBusy};
+use crate::host_load::{host_overload_hint, HostLoad};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
 use crate::pty::{LinePace, SimPty};
@@ -284,6 +285,9 @@ pub struct SimReport {
     pub evidence_bounded: bool,
     /// The random fault windows of a soak.
     pub random_faults: usize,
+    /// When the loop's own `Overrun` protection tripped or refused revives: that the host
+    /// was too busy, what the log saw and the ways out ([`host_overload_hint`]).
+    pub host_hint: Option<String>,
 }
 
 impl SimReport {
@@ -637,6 +641,12 @@ impl<'a> SimRun<'a> {
                 .collect()
         };
         let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
+        let host_hint = log
+            .as_ref()
+            .map(|l| {
+                HostLoad::from_log(l, o.loop_rate_hz, o.realtime, o.faults.loop_busy.is_some())
+            })
+            .and_then(|load| host_overload_hint(&load));
         Ok(SimReport {
             safe_us: self.safe_us,
             passed,
@@ -652,6 +662,7 @@ impl<'a> SimRun<'a> {
             revives: self.app_status.revives.load(Ordering::Relaxed),
             evidence_bounded: o.bounded_evidence,
             random_faults: o.random_faults.len(),
+            host_hint,
         })
     }
 
