@@ -6,7 +6,7 @@
 mod cli;
 mod config_check;
 
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::process::ExitCode;
 
 use std::sync::atomic::AtomicBool;
@@ -15,8 +15,8 @@ use std::time::Duration;
 
 use clap::Parser;
 use cli::{Cli, Command};
-use dima_robot::app;
 use dima_robot::config::{self, DEFAULT_TOML};
+use dima_robot::{app, terminal};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -31,8 +31,8 @@ fn main() -> ExitCode {
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
         )
         .with_writer(std::io::stderr)
-        // Colour codes only for a terminal, never into files and pipes.
-        .with_ansi(std::io::stderr().is_terminal())
+        // Colour codes only for a terminal, never into files and pipes, and not with NO_COLOR.
+        .with_ansi(terminal::stderr_colour())
         .init();
     let command = match cli.command {
         #[cfg(feature = "sim")]
@@ -48,7 +48,7 @@ fn main() -> ExitCode {
     match run(command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            tracing::error!("{error:#}");
+            terminal::report_fatal(&error);
             ExitCode::FAILURE
         }
     }
@@ -67,7 +67,7 @@ fn quiet_by_default(command: &Command) -> bool {
 #[cfg(feature = "tools")]
 fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
     result.unwrap_or_else(|error| {
-        eprintln!("error: {error:#}");
+        terminal::report_fatal(&error);
         ExitCode::FAILURE
     })
 }

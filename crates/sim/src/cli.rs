@@ -148,7 +148,7 @@ where
     let options = match args.options() {
         Ok(o) => o,
         Err(e) => {
-            eprintln!("dima sim: {e:#}");
+            dima_robot::terminal::report_fatal(&e);
             return ExitCode::from(2);
         }
     };
@@ -168,7 +168,7 @@ where
     }
     match run_simulation(&options, app) {
         Err(e) => {
-            eprintln!("dima sim: {e:#}");
+            dima_robot::terminal::report_fatal(&e);
             ExitCode::from(2)
         }
         Ok(report) => {
