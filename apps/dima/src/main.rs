@@ -30,7 +30,8 @@ fn main() -> ExitCode {
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
         )
-        .with_writer(std::io::stderr)
+        // Log lines clear `dima sim`'s status line and draw it again below them.
+        .with_writer(terminal::StderrBelowStatus::default)
         // Colour codes only for a terminal, never into files and pipes, and not with NO_COLOR.
         .with_ansi(terminal::stderr_colour())
         .init();
