@@ -432,15 +432,18 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// Starts a recording in `dir` (created if missing), named `dima-ground-<unix seconds>.mcap`.
+    /// Starts a recording in `dir` (created if missing), named by the UTC time it started as
+    /// the robot's logs are: `dima-ground-YYYYMMDDTHHMMSSZ.mcap`
+    /// ([`dima_log::naming::ground_session_name`]); a second session within the same second
+    /// gets `-1`, `-2`, ...
     pub fn start(dir: &Path) -> anyhow::Result<Recorder> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("recording: cannot create {}", dir.display()))?;
-        let secs = now_ns() / 1_000_000_000;
-        let mut path = dir.join(format!("dima-ground-{secs}.mcap"));
+        let first = dir.join(dima_log::naming::ground_session_name(SystemTime::now()));
+        let mut path = first.clone();
         let mut n = 1;
         while path.exists() {
-            path = dir.join(format!("dima-ground-{secs}-{n}.mcap"));
+            path = dima_log::naming::numbered_name(&first, n);
             n += 1;
         }
         let file = SessionFile::create(&path)?;
@@ -519,6 +522,31 @@ fn write_loop(mut file: SessionFile, events: Receiver<RecordEvent>) -> anyhow::R
 mod tests {
     use super::*;
     use dima_groundlink::Percent;
+
+    #[test]
+    fn a_session_is_named_like_the_robots_logs_by_its_utc_start() {
+        let dir = std::env::temp_dir().join(format!("dima-ground-name-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let before = SystemTime::now();
+        let recorder = Recorder::start(&dir).unwrap();
+        let after = SystemTime::now();
+        let name = recorder
+            .path()
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        // `dima-ground-` and the name the robot's log gets for the same second.
+        let robot_names = [before, after].map(dima_log::naming::log_file_name);
+        assert!(
+            robot_names
+                .iter()
+                .any(|robot| name == robot.replacen("dima-", "dima-ground-", 1)),
+            "{name} vs {robot_names:?}"
+        );
+        recorder.finish().unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn a_session_reads_back_with_every_topic() {

@@ -180,6 +180,11 @@ where
                 println!("MCAP log: {} (open it in Foxglove Studio)", p.display());
             }
             match report.failure() {
+                None if report.ground_external => {
+                    // The scenario's checks assume its scripted station: none were run.
+                    println!("done: an external station drove the link; no scenario checks");
+                    ExitCode::SUCCESS
+                }
                 None => {
                     println!("PASS: every expectation of the scenario held");
                     ExitCode::SUCCESS

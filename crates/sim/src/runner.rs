@@ -288,6 +288,23 @@ pub struct SimReport {
     /// When the loop's own `Overrun` protection tripped or refused revives: that the host
     /// was too busy, what the log saw and the ways out ([`host_overload_hint`]).
     pub host_hint: Option<String>,
+    /// The ground link was left to an external station (`--ground-pty`): the scripted one
+    /// did not run.
+    pub ground_external: bool,
+}
+
+/// The summary's ground-link part: the scripted station's counts, or, when an external
+/// station drove the link (`--ground-pty`), the command frames the robot decoded from it.
+fn ground_summary(devices: &DeviceCounts, external_commands: Option<u64>) -> String {
+    match external_commands {
+        Some(n) => {
+            format!("ground: external station on a pty, {n} command frames decoded by the robot")
+        }
+        None => format!(
+            "ground: {} frames sent, {} display frames back",
+            devices.ground_frames, devices.displays
+        ),
+    }
 }
 
 impl SimReport {
@@ -299,7 +316,7 @@ impl SimReport {
             format!(
             "ran {:.1} s{}: {} cycles, {} packets ok, {} CRC errors, {} missing, {} failsafe(s)\n\
              board: {} requests, {} answers ({} damaged by faults, {} late), {} info frames; \
-             maestro: {} commands, {} opens; ground: {} frames sent, {} display frames back\n",
+             maestro: {} commands, {} opens; {}\n",
             self.ran_s,
             if self.interrupted { " (interrupted)" } else { "" },
             c.cycles,
@@ -314,8 +331,7 @@ impl SimReport {
             d.info_frames,
             d.maestro_commands,
             d.maestro_opens,
-            d.ground_frames,
-            d.displays,
+            ground_summary(d, self.ground_external.then_some(self.app.ground_frames)),
         );
         if self.evidence_bounded {
             s.push_str(&format!(
@@ -663,6 +679,7 @@ impl<'a> SimRun<'a> {
             evidence_bounded: o.bounded_evidence,
             random_faults: o.random_faults.len(),
             host_hint,
+            ground_external: o.ground_pty,
         })
     }
 
@@ -1039,6 +1056,25 @@ mod tests {
         );
         // Narrower than time and mode: cut, never wrapped.
         assert_eq!(fit_status_line(&fields(false), 10), "12.3/20s A");
+    }
+
+    #[test]
+    fn with_an_external_station_the_summary_does_not_count_the_scripted_one() {
+        let devices = DeviceCounts {
+            ground_frames: 197,
+            displays: 41,
+            ..DeviceCounts::default()
+        };
+        assert_eq!(
+            ground_summary(&devices, None),
+            "ground: 197 frames sent, 41 display frames back"
+        );
+        let external = ground_summary(&DeviceCounts::default(), Some(12));
+        assert_eq!(
+            external,
+            "ground: external station on a pty, 12 command frames decoded by the robot"
+        );
+        assert!(!external.contains("0 frames sent"));
     }
 
     #[test]
