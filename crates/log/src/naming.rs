@@ -99,11 +99,14 @@ pub fn run_place(path: &Path) -> RunPlace {
 /// as they exist.
 ///
 /// # Errors
-/// A file of the run before `path` is missing.
+/// `path`, or a file of the run before it, is missing.
 pub fn run_files(path: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let place = run_place(path);
     let mut files = vec![place.first.clone()];
     files.extend((1..=place.number).map(|n| numbered_name(&place.first, n)));
+    if !path.is_file() {
+        anyhow::bail!("{}: no such log file", path.display());
+    }
     if let Some(missing) = files.iter().find(|f| !f.is_file()) {
         anyhow::bail!(
             "{}: file of the run of {} is missing",
@@ -158,10 +161,20 @@ mod tests {
     #[test]
     fn a_missing_file_of_the_run_is_an_error_naming_it() {
         let e = run_files(Path::new("/nonexistent/dima-20261126T170000Z-1.mcap")).unwrap_err();
+        assert_eq!(
+            format!("{e:#}"),
+            "/nonexistent/dima-20261126T170000Z-1.mcap: no such log file"
+        );
+        let dir = std::env::temp_dir().join(format!("dima-log-gap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let second = dir.join("dima-20261126T170000Z-1.mcap");
+        std::fs::write(&second, b"").unwrap();
+        let e = run_files(&second).unwrap_err();
         assert!(
-            format!("{e:#}").contains("dima-20261126T170000Z.mcap"),
+            format!("{e:#}").contains("dima-20261126T170000Z.mcap: file of the run of"),
             "{e:#}"
         );
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -305,11 +305,15 @@ mod tests {
 
     #[test]
     fn a_missing_file_of_the_run_is_an_error() {
-        let e = LogSummary::read_run(Path::new("/nonexistent/dima-20261126T170000Z-1.mcap"))
-            .unwrap_err();
+        let dir = std::env::temp_dir().join(format!("dima-sim-gap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let second = dir.join("dima-20261126T170000Z-1.mcap");
+        std::fs::write(&second, b"").unwrap();
+        let e = LogSummary::read_run(&second).unwrap_err();
         assert!(
             format!("{e:#}").contains("dima-20261126T170000Z.mcap"),
             "{e:#}"
         );
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
