@@ -240,6 +240,21 @@ pub fn refusal_name(refusal: ReviveRefusal) -> String {
     }
 }
 
+/// What the operator should know beyond the name when the robot's loop overran (a FAILSAFE
+/// `Overrun` or a revive refused for it): the robot's computer, not the car, fell behind; for
+/// a simulated robot that computer is this one. `None` for every other cause.
+pub fn overrun_advice(
+    cause: Option<FailsafeCause>,
+    refusal: Option<ReviveRefusal>,
+) -> Option<&'static str> {
+    let overrun = cause == Some(FailsafeCause::Overrun) || refusal == Some(ReviveRefusal::Overrun);
+    overrun.then_some(
+        "the robot's computer did not run the control loop on time (too busy); with --sim that \
+         is this machine: a lower --loop-rate, a larger safety.overrun_limit or realtime \
+         priority helps",
+    )
+}
+
 /// One display frame: the values on the wire and in physical units.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[schemars(title = "dima_ground.Display")]
@@ -522,6 +537,24 @@ fn write_loop(mut file: SessionFile, events: Receiver<RecordEvent>) -> anyhow::R
 mod tests {
     use super::*;
     use dima_groundlink::Percent;
+
+    #[test]
+    fn an_overrun_is_explained_as_the_computer_falling_behind() {
+        let advice = overrun_advice(Some(FailsafeCause::Overrun), None).expect("advice");
+        assert!(
+            advice.contains("computer") && advice.contains("--loop-rate"),
+            "{advice}"
+        );
+        assert!(overrun_advice(None, Some(ReviveRefusal::Overrun)).is_some());
+        assert_eq!(overrun_advice(Some(FailsafeCause::CommsLoss), None), None);
+        assert_eq!(
+            overrun_advice(
+                Some(FailsafeCause::SensorLoss),
+                Some(ReviveRefusal::TooSoon)
+            ),
+            None
+        );
+    }
 
     #[test]
     fn a_session_is_named_like_the_robots_logs_by_its_utc_start() {
