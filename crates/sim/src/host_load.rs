@@ -97,14 +97,19 @@ pub fn host_overload_hint(load: &HostLoad) -> Option<String> {
         .map(|s| format!(" under {s}"))
         .unwrap_or_default();
     let lower_rate = (load.loop_rate_hz / 2).max(10);
+    let had_fifo = load
+        .scheduler
+        .as_deref()
+        .is_some_and(|s| s.starts_with("SCHED_FIFO"));
     let realtime = if load.realtime_flag {
         "--realtime was given: check that the loop got SCHED_FIFO (`dima log info` shows the \
          RT setup; it needs root or CAP_SYS_NICE)"
-            .to_owned()
+    } else if had_fifo {
+        "--realtime (the loop had SCHED_FIFO already; it adds the configuration's CPU pinning \
+         and locked memory, and keeps the robot KILLED when they are refused)"
     } else {
         "--realtime (SCHED_FIFO with the configuration's pinning and locked memory; needs root \
          or CAP_SYS_NICE, and keeps the robot KILLED when refused)"
-            .to_owned()
     };
     Some(format!(
         "the host, not the robot: this machine kept the {rate} Hz loop from running on time \
@@ -167,6 +172,12 @@ mod tests {
         let hint = host_overload_hint(&refusals_only).expect("refusals alone are enough");
         assert!(!hint.contains("FAILSAFE `Overrun`"), "{hint}");
         assert!(hint.contains("--realtime was given"), "{hint}");
+        let had_fifo = HostLoad {
+            scheduler: Some("SCHED_FIFO priority 80".into()),
+            ..busy_laptop()
+        };
+        let hint = host_overload_hint(&had_fifo).unwrap();
+        assert!(hint.contains("the loop had SCHED_FIFO already"), "{hint}");
     }
 
     #[test]
