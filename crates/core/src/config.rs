@@ -1436,6 +1436,22 @@ mod tests {
     }
 
     #[test]
+    fn the_default_files_commented_tail_controller_is_the_yaw_rate_default() {
+        let commented: String = DEFAULT_TOML
+            .lines()
+            .filter_map(|l| l.strip_prefix("#   "))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let mut table: toml::Table = toml::from_str(&commented).expect("the commented section");
+        assert_eq!(
+            table.remove("kind"),
+            Some(toml::Value::String("yaw_rate".into()))
+        );
+        let kind = crate::control::registry::kind("yaw_rate").unwrap();
+        assert_eq!(table, (kind.defaults)());
+    }
+
+    #[test]
     fn empty_file_is_the_defaults() {
         assert_eq!(toml::from_str::<Config>("").unwrap(), Config::default());
     }
