@@ -15,8 +15,8 @@ use super::pid::PidLoop;
 use super::registry::ParamError;
 use crate::config::PidConfig;
 
-/// `[control.tail]` parameters of `kind = "yaw_rate"`; a key left out takes its value from
-/// [`YawRateConfig::RECOMMENDED`].
+/// `[control.tail]` parameters of `kind = "yaw_rate"`; in a configuration, a key left out
+/// takes its value from [`YawRateConfig::RECOMMENDED`] (see `registry::build`).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct YawRateConfig {
