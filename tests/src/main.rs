@@ -21,7 +21,7 @@ fn main() -> ExitCode {
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("warn")),
         )
-        .with_writer(std::io::stderr)
+        .with_writer(dima_robot::terminal::StderrBelowStatus::default)
         .with_ansi(false)
         .init();
     dima_sim::robot::main(&cli.sim)

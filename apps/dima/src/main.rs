@@ -4,19 +4,19 @@
 //! (feature `tools`). `cargo build -p dima --no-default-features` builds the robot alone.
 
 mod cli;
+mod config_check;
 
-use std::io::{IsTerminal, Write};
+use std::io::Write;
 use std::process::ExitCode;
 
 use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::Context;
 use clap::Parser;
 use cli::{Cli, Command};
-use dima_robot::app;
 use dima_robot::config::{self, DEFAULT_TOML};
+use dima_robot::{app, terminal};
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
@@ -30,9 +30,10 @@ fn main() -> ExitCode {
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(level)),
         )
-        .with_writer(std::io::stderr)
-        // Colour codes only for a terminal, never into files and pipes.
-        .with_ansi(std::io::stderr().is_terminal())
+        // Log lines clear `dima sim`'s status line and draw it again below them.
+        .with_writer(terminal::StderrBelowStatus::default)
+        // Colour codes only for a terminal, never into files and pipes, and not with NO_COLOR.
+        .with_ansi(terminal::stderr_colour())
         .init();
     let command = match cli.command {
         #[cfg(feature = "sim")]
@@ -48,7 +49,7 @@ fn main() -> ExitCode {
     match run(command) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            tracing::error!("{error:#}");
+            terminal::report_fatal(&error);
             ExitCode::FAILURE
         }
     }
@@ -67,7 +68,7 @@ fn quiet_by_default(command: &Command) -> bool {
 #[cfg(feature = "tools")]
 fn exit_code(result: anyhow::Result<ExitCode>) -> ExitCode {
     result.unwrap_or_else(|error| {
-        eprintln!("error: {error:#}");
+        terminal::report_fatal(&error);
         ExitCode::FAILURE
     })
 }
@@ -92,8 +93,7 @@ fn run(command: Command) -> anyhow::Result<()> {
         Command::Log(_) | Command::Inspect(_) => unreachable!("handled in main"),
         Command::Config(args) => {
             if let Some(path) = args.check {
-                let config = config::load(&path)?;
-                let text = toml::to_string(&config).context("serialising the configuration")?;
+                let text = config_check::check(&path)?;
                 std::io::stdout().write_all(text.as_bytes())?;
             } else if args.print_default {
                 std::io::stdout().write_all(DEFAULT_TOML.as_bytes())?;

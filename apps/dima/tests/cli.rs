@@ -341,3 +341,53 @@ fn log_tools_read_every_file_of_a_run_given_any_of_them() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The fatal error of `dima ARGS`, which must fail: its stderr.
+fn fatal_stderr(args: &[&str]) -> String {
+    let out = dima().args(args).env_remove("RUST_LOG").output().unwrap();
+    assert!(!out.status.success(), "{args:?} succeeded");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Whether `line` holds something like an RFC 3339 timestamp (`2026-11-27T14:30:56`).
+fn has_timestamp(line: &str) -> bool {
+    let b = line.as_bytes();
+    b.windows(19).any(|w| {
+        let digits = |r: std::ops::Range<usize>| w[r].iter().all(u8::is_ascii_digit);
+        digits(0..4)
+            && w[4] == b'-'
+            && digits(5..7)
+            && w[7] == b'-'
+            && digits(8..10)
+            && w[10] == b'T'
+            && digits(11..13)
+            && w[13] == b':'
+    })
+}
+
+#[test]
+fn every_subcommand_reports_a_fatal_error_the_same_way() {
+    let dir = std::env::temp_dir().join(format!("dima-cli-errors-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[realtime]\nloop_rate_hz = 0\n").unwrap();
+    let missing = dir.join("missing.mcap");
+    let cases: [(&[&str], &str); 3] = [
+        (
+            &["config", "--check", bad.to_str().unwrap()],
+            "realtime.loop_rate_hz = 0",
+        ),
+        (&["log", "info", missing.to_str().unwrap()], "missing.mcap"),
+        (&["sim", "--scenario", "nope"], "unknown scenario `nope`"),
+    ];
+    for (args, cause) in cases {
+        let err = fatal_stderr(args);
+        assert!(err.starts_with("error: "), "{args:?}: {err:?}");
+        assert!(err.contains(cause), "{args:?}: the cause: {err:?}");
+        assert!(!has_timestamp(&err), "{args:?}: a timestamp in {err:?}");
+        assert!(!err.contains("ERROR"), "{args:?}: {err:?}");
+        // Into a pipe: no colour.
+        assert!(!err.contains('\x1b'), "{args:?}: {err:?}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -17,7 +17,7 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     if let Err(e) = cli.validate() {
-        eprintln!("dima-ground: {e:#}");
+        eprintln!("error: {e:#}");
         return ExitCode::from(2);
     }
     dima_ground::ui::run(&cli)

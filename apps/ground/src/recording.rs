@@ -265,6 +265,21 @@ pub fn refusal_name(refusal: ReviveRefusal) -> String {
     }
 }
 
+/// What the operator should know beyond the name when the robot's loop overran (a FAILSAFE
+/// `Overrun` or a revive refused for it): the robot's computer, not the car, fell behind; for
+/// a simulated robot that computer is this one. `None` for every other cause.
+pub fn overrun_advice(
+    cause: Option<FailsafeCause>,
+    refusal: Option<ReviveRefusal>,
+) -> Option<&'static str> {
+    let overrun = cause == Some(FailsafeCause::Overrun) || refusal == Some(ReviveRefusal::Overrun);
+    overrun.then_some(
+        "the robot's computer did not run the control loop on time (too busy); with --sim that \
+         is this machine: a lower --loop-rate, a larger safety.overrun_limit or realtime \
+         priority helps",
+    )
+}
+
 /// One display frame: the values on the wire and in physical units.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[schemars(title = "dima_ground.Display")]
@@ -459,15 +474,18 @@ pub struct Recorder {
 }
 
 impl Recorder {
-    /// Starts a recording in `dir` (created if missing), named `dima-ground-<unix seconds>.mcap`.
+    /// Starts a recording in `dir` (created if missing), named by the UTC time it started as
+    /// the robot's logs are: `dima-ground-YYYYMMDDTHHMMSSZ.mcap`
+    /// ([`dima_log::naming::ground_session_name`]); a second session within the same second
+    /// gets `-1`, `-2`, ...
     pub fn start(dir: &Path) -> anyhow::Result<Recorder> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("recording: cannot create {}", dir.display()))?;
-        let secs = now_ns() / 1_000_000_000;
-        let mut path = dir.join(format!("dima-ground-{secs}.mcap"));
+        let first = dir.join(dima_log::naming::ground_session_name(SystemTime::now()));
+        let mut path = first.clone();
         let mut n = 1;
         while path.exists() {
-            path = dir.join(format!("dima-ground-{secs}-{n}.mcap"));
+            path = dima_log::naming::numbered_name(&first, n);
             n += 1;
         }
         let file = SessionFile::create(&path)?;
@@ -546,6 +564,49 @@ fn write_loop(mut file: SessionFile, events: Receiver<RecordEvent>) -> anyhow::R
 mod tests {
     use super::*;
     use dima_groundlink::Percent;
+
+    #[test]
+    fn an_overrun_is_explained_as_the_computer_falling_behind() {
+        let advice = overrun_advice(Some(FailsafeCause::Overrun), None).expect("advice");
+        assert!(
+            advice.contains("computer") && advice.contains("--loop-rate"),
+            "{advice}"
+        );
+        assert!(overrun_advice(None, Some(ReviveRefusal::Overrun)).is_some());
+        assert_eq!(overrun_advice(Some(FailsafeCause::CommsLoss), None), None);
+        assert_eq!(
+            overrun_advice(
+                Some(FailsafeCause::SensorLoss),
+                Some(ReviveRefusal::TooSoon)
+            ),
+            None
+        );
+    }
+
+    #[test]
+    fn a_session_is_named_like_the_robots_logs_by_its_utc_start() {
+        let dir = std::env::temp_dir().join(format!("dima-ground-name-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let before = SystemTime::now();
+        let recorder = Recorder::start(&dir).unwrap();
+        let after = SystemTime::now();
+        let name = recorder
+            .path()
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        // `dima-ground-` and the name the robot's log gets for the same second.
+        let robot_names = [before, after].map(dima_log::naming::log_file_name);
+        assert!(
+            robot_names
+                .iter()
+                .any(|robot| name == robot.replacen("dima-", "dima-ground-", 1)),
+            "{name} vs {robot_names:?}"
+        );
+        recorder.finish().unwrap();
+        std::fs::remove_dir_all(&dir).ok();
+    }
 
     #[test]
     fn a_session_reads_back_with_every_topic() {

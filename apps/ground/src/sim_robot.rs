@@ -52,7 +52,7 @@ pub fn run_robot(args: &[String]) -> ExitCode {
     let mut options = match args.sim.options() {
         Ok(o) => o,
         Err(e) => {
-            eprintln!("dima-ground sim-robot: {e:#}");
+            eprintln!("error: {e:#}");
             return ExitCode::from(2);
         }
     };
@@ -67,7 +67,7 @@ pub fn run_robot(args: &[String]) -> ExitCode {
     });
     match result {
         Err(e) => {
-            eprintln!("dima-ground sim-robot: {e:#}");
+            eprintln!("error: {e:#}");
             ExitCode::from(2)
         }
         Ok(report) => {

@@ -456,6 +456,24 @@ pub struct PidConfig {
 }
 
 impl PidConfig {
+    /// The default parameters of `speed_pid` (throttle per m/s of speed error).
+    pub const SPEED_PID: PidConfig = PidConfig {
+        kp: 0.15,
+        ki: 0.10,
+        kd: 0.0,
+        output_limit: 0.5,
+        rate_limit_per_s: 2.0,
+    };
+
+    /// The default parameters of `heading_pid` (steering per degree of heading error).
+    pub const HEADING_PID: PidConfig = PidConfig {
+        kp: 0.02,
+        ki: 0.0,
+        kd: 0.002,
+        output_limit: 1.0,
+        rate_limit_per_s: 8.0,
+    };
+
     /// Checks gains (finite, >= 0) and limits; the error names the parameter.
     pub fn check(&self) -> Result<(), ParamError> {
         for (field, gain) in [("kp", self.kp), ("ki", self.ki), ("kd", self.kd)] {
@@ -483,33 +501,41 @@ impl PidConfig {
         }
         Ok(())
     }
-
-    /// As a parameter table, each value the shortest decimal of its `f32` (as a file would
-    /// write it), so the table parses back to the same gains.
-    fn into_table(self) -> toml::Table {
-        let decimal = |v: f32| toml::Value::Float(v.to_string().parse().unwrap_or(f64::from(v)));
-        [
-            ("kp", self.kp),
-            ("ki", self.ki),
-            ("kd", self.kd),
-            ("output_limit", self.output_limit),
-            ("rate_limit_per_s", self.rate_limit_per_s),
-        ]
-        .into_iter()
-        .map(|(k, v)| (k.to_owned(), decimal(v)))
-        .collect()
-    }
 }
 
 /// One channel's AUTO-mode controller: `kind` names it (see `dima_core::control::KINDS`), the
-/// other keys of the section are its parameters.
+/// other keys of the section are its parameters. Read from a file, the parameters the section
+/// leaves out are filled in from the kind's defaults, so `dima config --check` prints them all.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(from = "ControllerSection")]
 pub struct ControllerConfig {
     /// The controller, e.g. `speed_pid`, `heading_pid`, `yaw_rate` or `none`.
     pub kind: String,
     /// Its parameters.
     #[serde(flatten)]
     pub params: toml::Table,
+}
+
+/// A `[control.*]` section as written in the file.
+#[derive(Deserialize)]
+struct ControllerSection {
+    kind: String,
+    #[serde(flatten)]
+    params: toml::Table,
+}
+
+impl From<ControllerSection> for ControllerConfig {
+    fn from(section: ControllerSection) -> ControllerConfig {
+        // An unknown kind keeps its parameters as given; validation names it.
+        let params = match crate::control::registry::kind(&section.kind) {
+            Ok(kind) => crate::control::registry::with_defaults(kind, &section.params),
+            Err(_) => section.params,
+        };
+        ControllerConfig {
+            kind: section.kind,
+            params,
+        }
+    }
 }
 
 impl ControllerConfig {
@@ -525,7 +551,7 @@ impl ControllerConfig {
     pub fn pid(kind: &str, pid: PidConfig) -> ControllerConfig {
         ControllerConfig {
             kind: kind.into(),
-            params: pid.into_table(),
+            params: crate::control::registry::params_table(&pid),
         }
     }
 }
@@ -574,26 +600,8 @@ impl Default for ControlConfig {
         ControlConfig {
             max_speed_mm_s: 5_000,
             max_speed_accuracy_mm_s: 1_000,
-            throttle: ControllerConfig::pid(
-                "speed_pid",
-                PidConfig {
-                    kp: 0.15,
-                    ki: 0.10,
-                    kd: 0.0,
-                    output_limit: 0.5,
-                    rate_limit_per_s: 2.0,
-                },
-            ),
-            steering: ControllerConfig::pid(
-                "heading_pid",
-                PidConfig {
-                    kp: 0.02,
-                    ki: 0.0,
-                    kd: 0.002,
-                    output_limit: 1.0,
-                    rate_limit_per_s: 8.0,
-                },
-            ),
+            throttle: ControllerConfig::pid("speed_pid", PidConfig::SPEED_PID),
+            steering: ControllerConfig::pid("heading_pid", PidConfig::HEADING_PID),
             tail: ControllerConfig::none(),
         }
     }
@@ -1390,6 +1398,57 @@ mod tests {
             toml::from_str("[xbee]\nrequire_auth = false\nkey_file = \"k\"\n").unwrap();
         assert!(!parsed.xbee.require_auth);
         assert_eq!(parsed.xbee.key_file, Some("k".into()));
+    }
+
+    #[test]
+    fn naming_a_controller_kind_is_enough_and_check_prints_its_parameters() {
+        let c = Config::from_toml(
+            "[control.tail]\nkind = \"yaw_rate\"\n[control.throttle]\nkind = \"speed_pid\"\n\
+             kp = 0.3\n",
+            "test.toml",
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let tail = &c.control.tail.params;
+        assert_eq!(tail["max_yaw_rate_dps"], toml::Value::Float(600.0));
+        assert_eq!(tail["min_speed_mm_s"], toml::Value::Float(1500.0));
+        let throttle = &c.control.throttle.params;
+        assert_eq!(
+            throttle["kp"],
+            toml::Value::Float(0.3),
+            "given values override"
+        );
+        assert_eq!(throttle["output_limit"], toml::Value::Float(0.5));
+        // What `dima config --check` prints parses back to the same configuration.
+        let printed = toml::to_string(&c).unwrap();
+        assert!(printed.contains("max_yaw_rate_dps = 600.0"), "{printed}");
+        assert_eq!(Config::from_toml(&printed, "printed").unwrap(), c);
+        // Only the kind, for the default kinds: the defaults.
+        let kinds_only = "[control.throttle]\nkind = \"speed_pid\"\n\
+                          [control.steering]\nkind = \"heading_pid\"\n";
+        assert_eq!(
+            Config::from_toml(kinds_only, "t").unwrap(),
+            Config::default()
+        );
+        assert!(
+            error_for("[control.tail]\nkind = \"yaw_rate\"\nmin_speed_mm_s = -1.0")
+                .contains("control.tail.min_speed_mm_s = -1")
+        );
+    }
+
+    #[test]
+    fn the_default_files_commented_tail_controller_is_the_yaw_rate_default() {
+        let commented: String = DEFAULT_TOML
+            .lines()
+            .filter_map(|l| l.strip_prefix("#   "))
+            .map(|l| format!("{l}\n"))
+            .collect();
+        let mut table: toml::Table = toml::from_str(&commented).expect("the commented section");
+        assert_eq!(
+            table.remove("kind"),
+            Some(toml::Value::String("yaw_rate".into()))
+        );
+        let kind = crate::control::registry::kind("yaw_rate").unwrap();
+        assert_eq!(table, (kind.defaults)());
     }
 
     #[test]

@@ -1,7 +1,8 @@
 //! The names of a run's files, written and parsed in one place.
 //!
 //! A run starts in `NAME.mcap` (on the robot `dima-YYYYMMDDTHHMMSSZ.mcap`, the UTC time it
-//! started) and goes on, after a split by duration or a resume after a disk fault, in
+//! started; the ground station's session recordings `dima-ground-YYYYMMDDTHHMMSSZ.mcap`, so
+//! the two sort and read alike) and goes on, after a split by duration or a resume after a disk fault, in
 //! `NAME-1.mcap`, `NAME-2.mcap`, ... beside it: one numbering for the run.
 
 use std::path::{Path, PathBuf};
@@ -9,6 +10,17 @@ use std::time::{SystemTime, UNIX_EPOCH};
 
 /// `dima-YYYYMMDDTHHMMSSZ.mcap` for `now`: the name of a run's first file.
 pub fn log_file_name(now: SystemTime) -> String {
+    format!("dima-{}.mcap", utc_stamp(now))
+}
+
+/// `dima-ground-YYYYMMDDTHHMMSSZ.mcap` for `now`: the name of a ground station's session
+/// recording, in the robot's style.
+pub fn ground_session_name(now: SystemTime) -> String {
+    format!("dima-ground-{}.mcap", utc_stamp(now))
+}
+
+/// `YYYYMMDDTHHMMSSZ`: `now` in UTC, to the second.
+fn utc_stamp(now: SystemTime) -> String {
     let secs = now.duration_since(UNIX_EPOCH).map_or(0, |d| d.as_secs()) as i64;
     let (days, rem) = (secs.div_euclid(86_400), secs.rem_euclid(86_400));
     // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
@@ -22,7 +34,7 @@ pub fn log_file_name(now: SystemTime) -> String {
     let month = if mp < 10 { mp + 3 } else { mp - 9 };
     let year = yoe + era * 400 + i64::from(month <= 2);
     format!(
-        "dima-{year:04}{month:02}{day:02}T{:02}{:02}{:02}Z.mcap",
+        "{year:04}{month:02}{day:02}T{:02}{:02}{:02}Z",
         rem / 3_600,
         rem % 3_600 / 60,
         rem % 60
@@ -87,11 +99,14 @@ pub fn run_place(path: &Path) -> RunPlace {
 /// as they exist.
 ///
 /// # Errors
-/// A file of the run before `path` is missing.
+/// `path`, or a file of the run before it, is missing.
 pub fn run_files(path: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let place = run_place(path);
     let mut files = vec![place.first.clone()];
     files.extend((1..=place.number).map(|n| numbered_name(&place.first, n)));
+    if !path.is_file() {
+        anyhow::bail!("{}: no such log file", path.display());
+    }
     if let Some(missing) = files.iter().find(|f| !f.is_file()) {
         anyhow::bail!(
             "{}: file of the run of {} is missing",
@@ -118,7 +133,9 @@ mod tests {
         assert_eq!(log_file_name(UNIX_EPOCH), "dima-19700101T000000Z.mcap");
         let leap = UNIX_EPOCH + Duration::from_secs(951_825_600); // 2000-02-29 12:00:00
         assert_eq!(log_file_name(leap), "dima-20000229T120000Z.mcap");
+        assert_eq!(ground_session_name(t), "dima-ground-20261118T110640Z.mcap");
         assert!(is_timestamped("dima-20000229T120000Z"));
+        assert!(!is_timestamped("dima-ground-20000229T120000Z"));
         assert!(!is_timestamped("dima-20000229T120000Z-1"));
         assert!(!is_timestamped("dst-seed"));
     }
@@ -144,10 +161,20 @@ mod tests {
     #[test]
     fn a_missing_file_of_the_run_is_an_error_naming_it() {
         let e = run_files(Path::new("/nonexistent/dima-20261126T170000Z-1.mcap")).unwrap_err();
+        assert_eq!(
+            format!("{e:#}"),
+            "/nonexistent/dima-20261126T170000Z-1.mcap: no such log file"
+        );
+        let dir = std::env::temp_dir().join(format!("dima-log-gap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let second = dir.join("dima-20261126T170000Z-1.mcap");
+        std::fs::write(&second, b"").unwrap();
+        let e = run_files(&second).unwrap_err();
         assert!(
-            format!("{e:#}").contains("dima-20261126T170000Z.mcap"),
+            format!("{e:#}").contains("dima-20261126T170000Z.mcap: file of the run of"),
             "{e:#}"
         );
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -14,7 +14,9 @@
 //!   starts every thread for a given set of device openers;
 //! - [`telemetry`], [`logging`]: the ground-link thread and the MCAP logger thread, which
 //!   writes the typed messages of [`log_messages`], and [`live`], the live view the logger
-//!   thread also serves them on (Foxglove WebSocket protocol, `[foxglove] listen`).
+//!   thread also serves them on (Foxglove WebSocket protocol, `[foxglove] listen`);
+//! - [`terminal`]: what the programs write to the terminal (fatal errors in one style, colour
+//!   only where it belongs).
 //!
 //! The simulator (`dima-sim`) and the log tools (`dima-tools`) depend on this crate, never the
 //! reverse: the robot's binary builds without them.
@@ -30,3 +32,4 @@ pub mod logging;
 pub mod metrics;
 pub mod rt;
 pub mod telemetry;
+pub mod terminal;

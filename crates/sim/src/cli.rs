@@ -51,8 +51,15 @@ pub struct SimArgs {
     /// Control-loop rate in Hz.
     #[arg(long, default_value_t = 250, value_name = "HZ")]
     pub loop_rate: u32,
-    /// Keep the configuration's realtime settings (SCHED_FIFO, CPU pinning, mlockall); by
-    /// default a simulation runs unprivileged.
+    /// Require the configuration's whole realtime setup (without it, SCHED_FIFO is still
+    /// tried).
+    ///
+    /// With --realtime: SCHED_FIFO at `realtime.priority`, CPU pinning (`realtime.cpus`),
+    /// mlockall and cpu_dma_latency, with `realtime.required`: if any of it is refused (no root
+    /// or CAP_SYS_NICE, no such CPU) the robot stays KILLED and the run fails. Without it: the
+    /// loop still asks for SCHED_FIFO and, when that is refused, runs under the normal
+    /// scheduler (the log's RT setup says which), unpinned and unlocked; on a busy machine it
+    /// may then miss periods and trip its own `Overrun` failsafe.
     #[arg(long)]
     pub realtime: bool,
     /// Plain status lines even on a terminal.
@@ -147,7 +154,7 @@ where
     let options = match args.options() {
         Ok(o) => o,
         Err(e) => {
-            eprintln!("dima sim: {e:#}");
+            dima_robot::terminal::report_fatal(&e);
             return ExitCode::from(2);
         }
     };
@@ -167,7 +174,7 @@ where
     }
     match run_simulation(&options, app) {
         Err(e) => {
-            eprintln!("dima sim: {e:#}");
+            dima_robot::terminal::report_fatal(&e);
             ExitCode::from(2)
         }
         Ok(report) => {
@@ -179,17 +186,51 @@ where
                 println!("MCAP log: {} (open it in Foxglove Studio)", p.display());
             }
             match report.failure() {
+                None if report.ground_external => {
+                    // The scenario's checks assume its scripted station: none were run.
+                    println!("done: an external station drove the link; no scenario checks");
+                    ExitCode::SUCCESS
+                }
                 None => {
                     println!("PASS: every expectation of the scenario held");
                     ExitCode::SUCCESS
                 }
                 Some(reason) => {
                     println!("FAIL: {reason}");
+                    if let Some(hint) = &report.host_hint {
+                        println!("{}", indented(hint, "  ", HINT_COLUMNS));
+                    }
                     ExitCode::from(1)
                 }
             }
         }
     }
+}
+
+/// The width the FAIL line's explanation is wrapped to.
+const HINT_COLUMNS: usize = 80;
+
+/// `text` wrapped at word boundaries to lines of at most `columns` characters (a longer word
+/// gets a line of its own), each line starting with `indent`.
+fn indented(text: &str, indent: &str, columns: usize) -> String {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in text.split_whitespace() {
+        if !line.is_empty()
+            && indent.len() + line.chars().count() + 1 + word.chars().count() > columns
+        {
+            lines.push(format!("{indent}{line}"));
+            line.clear();
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    if !line.is_empty() {
+        lines.push(format!("{indent}{line}"));
+    }
+    lines.join("\n")
 }
 
 #[cfg(test)]
@@ -201,6 +242,19 @@ mod tests {
     struct Wrapper {
         #[command(flatten)]
         sim: SimArgs,
+    }
+
+    #[test]
+    fn the_explanation_is_wrapped_and_indented() {
+        let text = "the host, not the robot: this machine kept the 250 Hz loop from running on \
+                    time (57 periods missed)";
+        let out = indented(text, "  ", 30);
+        assert!(
+            out.lines()
+                .all(|l| l.starts_with("  ") && l.chars().count() <= 30),
+            "{out}"
+        );
+        assert_eq!(out.split_whitespace().collect::<Vec<_>>().join(" "), text);
     }
 
     #[test]

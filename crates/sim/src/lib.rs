@@ -50,6 +50,7 @@ pub mod devices;
 pub mod dst;
 pub mod faults;
 pub mod firmware;
+pub mod host_load;
 pub mod logcheck;
 pub mod model;
 pub mod pty;

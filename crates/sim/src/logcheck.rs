@@ -6,7 +6,7 @@ use std::path::Path;
 
 use anyhow::Context;
 use dima_core::config::Config;
-use dima_core::{FailsafeCause, Mode};
+use dima_core::{FailsafeCause, Mode, ReviveRefusal};
 use dima_log::schema::{CycleMessage, Event};
 use dima_log::LoggedRun;
 
@@ -19,6 +19,8 @@ pub struct StateChange {
     pub mode: Mode,
     /// Failsafe cause, if any.
     pub cause: Option<FailsafeCause>,
+    /// Why a revive was refused in the cycle, if one was.
+    pub refused: Option<ReviveRefusal>,
     /// What happened in the cycle.
     pub events: Vec<Event>,
 }
@@ -59,6 +61,8 @@ pub struct LogSummary {
     pub attachments: BTreeSet<String>,
     /// The configuration that ran, from the `dima` metadata record.
     pub config: Option<Config>,
+    /// The loop's realtime setup report as text (metadata `rt_setup`), if logged.
+    pub rt_setup: Option<String>,
 }
 
 impl LogSummary {
@@ -102,6 +106,7 @@ impl LogSummary {
                 t_ns: s.t_ns,
                 mode: s.msg.mode,
                 cause: s.msg.cause,
+                refused: s.msg.refused,
                 events: s.msg.events,
             }));
         self.cycles
@@ -111,6 +116,9 @@ impl LogSummary {
         self.attachments.extend(run.attachments);
         if self.config.is_none() {
             self.config = run.config;
+        }
+        if self.rt_setup.is_none() {
+            self.rt_setup = run.rt_setup;
         }
     }
 
@@ -207,6 +215,7 @@ mod tests {
             t_ns,
             mode,
             cause,
+            refused: None,
             events: vec![Event::ModeChanged],
         }
     }
@@ -296,11 +305,15 @@ mod tests {
 
     #[test]
     fn a_missing_file_of_the_run_is_an_error() {
-        let e = LogSummary::read_run(Path::new("/nonexistent/dima-20261126T170000Z-1.mcap"))
-            .unwrap_err();
+        let dir = std::env::temp_dir().join(format!("dima-sim-gap-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let second = dir.join("dima-20261126T170000Z-1.mcap");
+        std::fs::write(&second, b"").unwrap();
+        let e = LogSummary::read_run(&second).unwrap_err();
         assert!(
             format!("{e:#}").contains("dima-20261126T170000Z.mcap"),
             "{e:#}"
         );
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -32,6 +32,7 @@ use crate::faults::{AppFaults, FaultWindow, Faults, LoopBusy};
 use crate::firmware::{
     boot_firmware, firmware_checks, spawn_firmware_board, BootedFirmware, FirmwareStats,
 };
+use crate::host_load::{host_overload_hint, HostLoad};
 use crate::logcheck::LogSummary;
 use crate::model::VehicleParams;
 use crate::pty::{LinePace, SimPty};
@@ -293,6 +294,26 @@ pub struct SimReport {
     pub random_faults: usize,
     /// With `--firmware`: what the emulated firmware was fed and sent, one line.
     pub firmware: Option<String>,
+    /// When the loop's own `Overrun` protection tripped or refused revives: that the host
+    /// was too busy, what the log saw and the ways out ([`host_overload_hint`]).
+    pub host_hint: Option<String>,
+    /// The ground link was left to an external station (`--ground-pty`): the scripted one
+    /// did not run.
+    pub ground_external: bool,
+}
+
+/// The summary's ground-link part: the scripted station's counts, or, when an external
+/// station drove the link (`--ground-pty`), the command frames the robot decoded from it.
+fn ground_summary(devices: &DeviceCounts, external_commands: Option<u64>) -> String {
+    match external_commands {
+        Some(n) => {
+            format!("ground: external station on a pty, {n} command frames decoded by the robot")
+        }
+        None => format!(
+            "ground: {} frames sent, {} display frames back",
+            devices.ground_frames, devices.displays
+        ),
+    }
 }
 
 impl SimReport {
@@ -304,7 +325,7 @@ impl SimReport {
             format!(
             "ran {:.1} s{}: {} cycles, {} packets ok, {} CRC errors, {} missing, {} failsafe(s)\n\
              board: {} requests, {} answers ({} damaged by faults, {} late), {} info frames; \
-             maestro: {} commands, {} opens; ground: {} frames sent, {} display frames back\n",
+             maestro: {} commands, {} opens; {}\n",
             self.ran_s,
             if self.interrupted { " (interrupted)" } else { "" },
             c.cycles,
@@ -319,8 +340,7 @@ impl SimReport {
             d.info_frames,
             d.maestro_commands,
             d.maestro_opens,
-            d.ground_frames,
-            d.displays,
+            ground_summary(d, self.ground_external.then_some(self.app.ground_frames)),
         );
         if let Some(line) = &self.firmware {
             s.push_str(line);
@@ -712,6 +732,12 @@ impl<'a> SimRun<'a> {
             ));
         }
         let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
+        let host_hint = log
+            .as_ref()
+            .map(|l| {
+                HostLoad::from_log(l, o.loop_rate_hz, o.realtime, o.faults.loop_busy.is_some())
+            })
+            .and_then(|load| host_overload_hint(&load));
         Ok(SimReport {
             safe_us: self.safe_us,
             passed,
@@ -731,6 +757,8 @@ impl<'a> SimRun<'a> {
                 .firmware
                 .as_ref()
                 .map(|_| self.firmware_stats.summary(logged_intact)),
+            host_hint,
+            ground_external: o.ground_pty,
         })
     }
 
@@ -825,37 +853,37 @@ impl StatusMonitor {
             self.print(t, rate, tty);
         }
         if self.tty == Some(true) {
-            eprintln!();
+            dima_robot::terminal::finish_status();
         }
     }
 
     /// Prints the status at `t` with the loop's `rate_hz`: one line redrawn in place on a
-    /// terminal, a new line otherwise.
+    /// terminal, fitted to its width, a new line otherwise.
     fn print(&self, t: f64, rate_hz: f64, tty: bool) {
-        let line = status_line(
+        let columns = if tty { terminal_columns() } else { usize::MAX };
+        let fields = status_fields(
             StatusInputs {
                 t,
                 run_length: self.run_length,
                 phase: self.scenario.phase_at(t),
                 rate_hz,
                 channels: self.channels,
+                progress_bar: tty,
             },
             &self.app,
             &self.board,
             &self.maestro,
             &self.ground,
             &self.world,
-            tty,
         );
-        let mut err = std::io::stderr().lock();
         if tty {
             // One line that never wraps, or the redraw would leave the rest behind.
-            let line: String = line.chars().take(terminal_columns() - 1).collect();
-            let _ = write!(err, "\r\x1b[2K{line}");
+            dima_robot::terminal::draw_status(&fit_status_line(&fields, columns - 1));
         } else {
-            let _ = writeln!(err, "{line}");
+            let mut err = std::io::stderr().lock();
+            let _ = writeln!(err, "{}", fit_status_line(&fields, usize::MAX));
+            let _ = err.flush();
         }
-        let _ = err.flush();
     }
 }
 
@@ -883,34 +911,47 @@ struct StatusInputs<'a> {
     phase: &'a str,
     rate_hz: f64,
     channels: [u8; 3],
+    /// Show the run's progress as a bar (on a terminal, where it fits).
+    progress_bar: bool,
 }
 
-fn status_line(
+/// One part of the status line.
+#[derive(Debug, Clone, PartialEq)]
+struct StatusField {
+    /// What goes before it when a field precedes it (`" "` or `" | "`).
+    separator: &'static str,
+    /// Lower numbers are dropped last when the line does not fit.
+    priority: u8,
+    /// The text.
+    text: String,
+}
+
+/// The status line's fields, in display order, each with its priority: time and mode first,
+/// then where the car is going, the scenario's phase, the loop's rate (it falls when the host
+/// is too busy), the outputs, the link, the packet counts (in the summary at the end anyway)
+/// and last the progress bar.
+fn status_fields(
     inputs: StatusInputs<'_>,
     app: &AppStatus,
     board: &BoardStats,
     maestro: &MaestroStats,
     ground: &GroundStats,
     world: &World,
-    tty: bool,
-) -> String {
+) -> Vec<StatusField> {
     let StatusInputs {
         t,
         run_length,
         phase,
         rate_hz,
         channels,
+        progress_bar,
     } = inputs;
+    let bar = run_length.filter(|_| progress_bar).map(|d| {
+        let width = 10usize;
+        let filled = ((t / d).clamp(0.0, 1.0) * width as f64) as usize;
+        format!("[{}{}]", "#".repeat(filled), ".".repeat(width - filled))
+    });
     let time = match run_length {
-        Some(d) if tty && terminal_columns() >= 120 => {
-            let width = 10usize;
-            let filled = ((t / d).clamp(0.0, 1.0) * width as f64) as usize;
-            format!(
-                "[{}{}] {t:4.1}/{d:.0}s",
-                "#".repeat(filled),
-                ".".repeat(width - filled)
-            )
-        }
         Some(d) => format!("{t:4.1}/{d:.0}s"),
         None => format!("{t:5.1}s"),
     };
@@ -927,19 +968,89 @@ fn status_line(
     let downlink_age = age_text(now, lock(&ground.last_display).map(|(at, _)| at));
     let s = world.state();
     let damaged = board.packets_damaged.load(Ordering::Relaxed);
-    format!(
-        "{time} {:<8} {rate_hz:3.0} Hz | pkt {} ok {} bad{} | out {outputs} | link up {uplink_age} down {downlink_age} | car {:.1} m/s {:03.0}° | {phase}",
-        app.mode_name(),
-        app.packets_ok.load(Ordering::Relaxed),
-        app.packets_missing.load(Ordering::Relaxed),
-        if damaged > 0 {
-            format!(" ({damaged} hit)")
-        } else {
-            String::new()
-        },
-        s.speed_m_s,
-        s.heading_deg
-    )
+    let field = |separator, priority, text: String| StatusField {
+        separator,
+        priority,
+        text,
+    };
+    let mut fields: Vec<StatusField> = bar.map(|b| field(" ", 7, b)).into_iter().collect();
+    fields.extend([
+        field(" ", 0, time),
+        field(" ", 0, format!("{:<8}", app.mode_name())),
+        field(" ", 3, format!("{rate_hz:3.0} Hz")),
+        field(
+            " | ",
+            6,
+            format!(
+                "pkt {} ok {} bad{}",
+                app.packets_ok.load(Ordering::Relaxed),
+                app.packets_missing.load(Ordering::Relaxed),
+                if damaged > 0 {
+                    format!(" ({damaged} hit)")
+                } else {
+                    String::new()
+                }
+            ),
+        ),
+        field(" | ", 4, format!("out {outputs}")),
+        field(
+            " | ",
+            5,
+            format!("link up {uplink_age} down {downlink_age}"),
+        ),
+        field(
+            " | ",
+            1,
+            format!(
+                "car {:.1} m/s {}°",
+                s.speed_m_s,
+                heading_text(s.heading_deg)
+            ),
+        ),
+    ]);
+    if !phase.is_empty() {
+        fields.push(field(" | ", 2, phase.to_owned()));
+    }
+    fields
+}
+
+/// The fields that fit in `columns`, in their order: the lowest-priority ones (highest
+/// number) are left out first, the last of them first; a line still too long with only the
+/// first priority is cut.
+fn fit_status_line(fields: &[StatusField], columns: usize) -> String {
+    let join = |keep: &dyn Fn(&StatusField) -> bool| {
+        let mut line = String::new();
+        for f in fields.iter().filter(|f| keep(f)) {
+            if !line.is_empty() {
+                // A padded field (the mode) loses its padding before a ` | `.
+                if f.separator == " | " {
+                    line.truncate(line.trim_end().len());
+                }
+                line.push_str(f.separator);
+            }
+            line.push_str(&f.text);
+        }
+        line
+    };
+    let mut dropped: Vec<usize> = Vec::new();
+    let mut order: Vec<usize> = (0..fields.len()).collect();
+    // Drop order: highest priority number first; among equals, the later field first.
+    order.sort_by_key(|&i| (std::cmp::Reverse(fields[i].priority), std::cmp::Reverse(i)));
+    let mut line = join(&|_| true);
+    for i in order {
+        if line.chars().count() <= columns || fields[i].priority == 0 {
+            break;
+        }
+        dropped.push(i);
+        line = join(&|f: &StatusField| !dropped.iter().any(|&d| std::ptr::eq(f, &fields[d])));
+    }
+    line.trim_end().chars().take(columns).collect()
+}
+
+/// A heading in whole degrees, 000..=359: 359.6° reads 000, never 360.
+fn heading_text(heading_deg: f64) -> String {
+    let whole = heading_deg.rem_euclid(360.0).round() as u32 % 360;
+    format!("{whole:03}")
 }
 
 /// The age of an event at `at_s` seen at `now_s`: "-" before it happened, milliseconds below one
@@ -960,7 +1071,100 @@ fn age_text(now_s: f64, at_s: Option<f64>) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::age_text;
+    use super::*;
+
+    /// The status line of a run 12.3 s into 20 s, in AUTO, with a heading of 359.7°.
+    fn fields(progress_bar: bool) -> Vec<StatusField> {
+        let app = AppStatus::default();
+        *lock(&app.mode) = Some(Mode::Auto);
+        app.packets_ok.store(3_668, Ordering::Relaxed);
+        app.packets_missing.store(144, Ordering::Relaxed);
+        let world = World::new(VehicleParams::default(), 359.7);
+        status_fields(
+            StatusInputs {
+                t: 12.3,
+                run_length: Some(20.0),
+                phase: "AUTO 2.5 m/s, 120°",
+                rate_hz: 250.0,
+                channels: [0, 1, 2],
+                progress_bar,
+            },
+            &app,
+            &BoardStats::default(),
+            &MaestroStats::default(),
+            &GroundStats::default(),
+            &world,
+        )
+    }
+
+    #[test]
+    fn the_status_line_fits_the_terminal_dropping_the_least_useful_fields_first() {
+        let full = fit_status_line(&fields(false), usize::MAX);
+        assert_eq!(
+            full,
+            "12.3/20s AUTO     250 Hz | pkt 3668 ok 144 bad | out - | link up - down - | \
+             car 0.0 m/s 000° | AUTO 2.5 m/s, 120°"
+        );
+        // 80 columns (79 usable): the car and the phase stay, the counts go first.
+        let at_80 = fit_status_line(&fields(false), 79);
+        assert_eq!(
+            at_80,
+            "12.3/20s AUTO     250 Hz | out - | car 0.0 m/s 000° | AUTO 2.5 m/s, 120°"
+        );
+        assert!(at_80.chars().count() <= 79, "{at_80}");
+        for kept in [
+            "12.3/20s",
+            "AUTO ",
+            "car 0.0 m/s 000°",
+            "AUTO 2.5 m/s, 120°",
+        ] {
+            assert!(at_80.contains(kept), "{kept:?} in {at_80:?}");
+        }
+        assert!(!at_80.contains("pkt"), "{at_80}");
+        // 60 columns: time, mode, car and phase.
+        let at_60 = fit_status_line(&fields(false), 59);
+        assert_eq!(
+            at_60,
+            "12.3/20s AUTO | car 0.0 m/s 000° | AUTO 2.5 m/s, 120°"
+        );
+        // 120 columns: every field; the progress bar only where it fits as well.
+        assert_eq!(fit_status_line(&fields(true), 119), full);
+        assert_eq!(
+            fit_status_line(&fields(true), 140),
+            format!("[######....] {full}")
+        );
+        // Narrower than time and mode: cut, never wrapped.
+        assert_eq!(fit_status_line(&fields(false), 10), "12.3/20s A");
+    }
+
+    #[test]
+    fn with_an_external_station_the_summary_does_not_count_the_scripted_one() {
+        let devices = DeviceCounts {
+            ground_frames: 197,
+            displays: 41,
+            ..DeviceCounts::default()
+        };
+        assert_eq!(
+            ground_summary(&devices, None),
+            "ground: 197 frames sent, 41 display frames back"
+        );
+        let external = ground_summary(&DeviceCounts::default(), Some(12));
+        assert_eq!(
+            external,
+            "ground: external station on a pty, 12 command frames decoded by the robot"
+        );
+        assert!(!external.contains("0 frames sent"));
+    }
+
+    #[test]
+    fn headings_read_000_to_359() {
+        assert_eq!(heading_text(359.7), "000");
+        assert_eq!(heading_text(359.4), "359");
+        assert_eq!(heading_text(360.0), "000");
+        assert_eq!(heading_text(-0.2), "000");
+        assert_eq!(heading_text(-90.0), "270");
+        assert_eq!(heading_text(42.0), "042");
+    }
 
     #[test]
     fn ages_read_in_milliseconds_below_a_second_and_seconds_above() {

@@ -988,6 +988,7 @@ mod tests {
             t_ns,
             mode: Mode::Failsafe,
             cause: Some(FailsafeCause::CommsLoss),
+            refused: None,
             events: Vec::new(),
         };
         let check = Check::CommsFailsafe {

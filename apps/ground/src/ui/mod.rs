@@ -497,7 +497,7 @@ pub fn run(cli: &Cli) -> ExitCode {
     let app = match GroundApp::new(cli, result.clone()) {
         Ok(app) => app,
         Err(e) => {
-            eprintln!("dima-ground: {e:#}");
+            eprintln!("error: {e:#}");
             return ExitCode::from(2);
         }
     };

@@ -13,7 +13,7 @@ use super::connection::{BAD, GOOD, WARN};
 use super::GroundApp;
 use crate::downlink::{DownlinkHealth, Severity};
 use crate::link::{station_time, LinkState, LinkStatus, RobotReport, UplinkView};
-use crate::recording::{cause_name, mode_name, refusal_name};
+use crate::recording::{cause_name, mode_name, overrun_advice, refusal_name};
 use crate::units::{Baro, MagField};
 
 /// Colour of AUTO (the controllers drive).
@@ -332,6 +332,9 @@ fn report_causes(ui: &mut egui::Ui, r: &RobotReport) {
         ui.label(
             RichText::new(format!("last revive refused: {}", refusal_name(refusal))).color(WARN),
         );
+    }
+    if let Some(advice) = overrun_advice(r.failsafe_cause, r.revive_refusal) {
+        ui.label(RichText::new(advice).color(WARN));
     }
 }
 

@@ -1,6 +1,10 @@
 //! Controllers by name: `kind = "..."` in `[control.throttle]`, `[control.steering]` and
 //! `[control.tail]` picks one from [`KINDS`]; the rest of the section is its parameters.
 //!
+//! Every kind has documented default parameters ([`ControllerKind::defaults`]): naming the kind
+//! is enough, and each key given in the section overrides its default. The bounds checks see
+//! the merged parameters.
+//!
 //! Adding a controller: a file with a type that implements [`Controller`] and a
 //! `from_params(&toml::Table)` constructor, and one line in [`KINDS`].
 
@@ -8,9 +12,9 @@ use super::controller::{Channel, ControlInput, Controller};
 use super::heading_pid::HeadingPid;
 use super::neutral::Neutral;
 use super::speed_pid::SpeedPid;
-use super::yaw_rate::YawRate;
+use super::yaw_rate::{YawRate, YawRateConfig};
 use super::Actuation;
-use crate::config::ControlConfig;
+use crate::config::{ControlConfig, PidConfig};
 
 /// A controller kind: its name in the configuration and how to build it.
 #[derive(Debug, Clone, Copy)]
@@ -19,7 +23,11 @@ pub struct ControllerKind {
     pub name: &'static str,
     /// One line for `dima config --check` and the documentation.
     pub summary: &'static str,
-    /// Builds one from the section's other keys.
+    /// Its default parameters (the values the documentation recommends); a parameter the
+    /// section leaves out takes its value from here. An empty table: every parameter must be
+    /// given.
+    pub defaults: fn() -> toml::Table,
+    /// Builds one from its parameters: the section's other keys over [`Self::defaults`].
     pub build: fn(&toml::Table) -> Result<Box<dyn Controller>, ParamError>,
 }
 
@@ -34,21 +42,25 @@ pub const KINDS: &[ControllerKind] = &[
     ControllerKind {
         name: "none",
         summary: "neutral in AUTO",
+        defaults: toml::Table::new,
         build: |p| boxed(no_params(p).map(|()| Neutral)),
     },
     ControllerKind {
         name: "speed_pid",
         summary: "PID on the ground-speed error (m/s)",
+        defaults: || params_table(&PidConfig::SPEED_PID),
         build: |p| boxed(SpeedPid::from_params(p)),
     },
     ControllerKind {
         name: "heading_pid",
         summary: "PID on the heading error (degrees), damped by the yaw rate",
+        defaults: || params_table(&PidConfig::HEADING_PID),
         build: |p| boxed(HeadingPid::from_params(p)),
     },
     ControllerKind {
         name: "yaw_rate",
         summary: "PI on the yaw rate the steering demand asks for",
+        defaults: || params_table(&YawRateConfig::RECOMMENDED),
         build: |p| boxed(YawRate::from_params(p)),
     },
 ];
@@ -114,13 +126,45 @@ fn no_params(params: &toml::Table) -> Result<(), ParamError> {
     }
 }
 
-/// Builds the controller `kind` with `params`.
-pub fn build(kind: &str, params: &toml::Table) -> Result<Box<dyn Controller>, ParamError> {
-    let k = KINDS
+/// A parameter struct as a table, each float the shortest decimal of its `f32` (as a file
+/// would write it), so the table parses back to the same values. Controller parameters are
+/// `f32`.
+pub fn params_table<T: serde::Serialize>(params: &T) -> toml::Table {
+    let decimal = |v: f64| {
+        let single = v as f32;
+        single.to_string().parse().unwrap_or(v)
+    };
+    match toml::Value::try_from(params) {
+        Ok(toml::Value::Table(table)) => table
+            .into_iter()
+            .map(|(k, v)| match v {
+                toml::Value::Float(f) => (k, toml::Value::Float(decimal(f))),
+                other => (k, other),
+            })
+            .collect(),
+        _ => toml::Table::new(),
+    }
+}
+
+/// The kind named `kind`.
+pub fn kind(kind: &str) -> Result<&'static ControllerKind, ParamError> {
+    KINDS
         .iter()
         .find(|k| k.name == kind)
-        .ok_or_else(|| ParamError::UnknownKind(kind.to_owned()))?;
-    (k.build)(params)
+        .ok_or_else(|| ParamError::UnknownKind(kind.to_owned()))
+}
+
+/// `params` over the defaults of `kind`: every parameter of the kind, the given ones as given.
+pub fn with_defaults(kind: &ControllerKind, params: &toml::Table) -> toml::Table {
+    let mut full = (kind.defaults)();
+    full.extend(params.iter().map(|(k, v)| (k.clone(), v.clone())));
+    full
+}
+
+/// Builds the controller `kind` with `params` (over the kind's defaults).
+pub fn build(kind_name: &str, params: &toml::Table) -> Result<Box<dyn Controller>, ParamError> {
+    let k = kind(kind_name)?;
+    (k.build)(&with_defaults(k, params))
 }
 
 /// One controller per channel, run in channel order.
@@ -230,6 +274,40 @@ mod tests {
                 tail: 1.0
             }
         );
+    }
+
+    fn params(text: &str) -> toml::Table {
+        toml::from_str(text).unwrap()
+    }
+
+    #[test]
+    fn naming_a_kind_is_enough_and_given_values_override_the_defaults() {
+        for k in KINDS {
+            build(k.name, &toml::Table::new())
+                .unwrap_or_else(|e| panic!("{} with its defaults: {e}", k.name));
+            let defaults = (k.defaults)();
+            for key in defaults.keys() {
+                let mut one = defaults.clone();
+                one.remove(key);
+                assert_eq!(with_defaults(k, &one), defaults, "{}.{key}", k.name);
+            }
+        }
+        let tail = kind("yaw_rate").unwrap();
+        let merged = with_defaults(tail, &params("kp = 0.005\nmax_yaw_rate_dps = 300.0"));
+        assert_eq!(merged["kp"], toml::Value::Float(0.005));
+        assert_eq!(merged["max_yaw_rate_dps"], toml::Value::Float(300.0));
+        assert_eq!(merged["min_speed_mm_s"], toml::Value::Float(1500.0));
+        assert_eq!(merged["rate_limit_per_s"], toml::Value::Float(50.0));
+    }
+
+    #[test]
+    fn defaults_do_not_lift_the_bounds_checks_or_hide_unknown_keys() {
+        let e = build("yaw_rate", &params("max_yaw_rate_dps = -5.0")).unwrap_err();
+        assert_eq!(e.field(), Some("max_yaw_rate_dps"));
+        let e = build("speed_pid", &params("output_limit = 1.5")).unwrap_err();
+        assert_eq!(e.field(), Some("output_limit"));
+        let e = build("heading_pid", &params("kq = 0.1")).unwrap_err();
+        assert!(e.to_string().contains("kq"), "{e}");
     }
 
     #[test]

@@ -8,15 +8,16 @@
 //! the target heading; going straight it damps yaw disturbances. Below `min_speed_mm_s` the
 //! tail's moment (it grows with speed squared) is too weak to matter: the tail stays neutral.
 
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use super::controller::{ControlInput, Controller};
 use super::pid::PidLoop;
 use super::registry::ParamError;
 use crate::config::PidConfig;
 
-/// `[control.tail]` parameters of `kind = "yaw_rate"`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+/// `[control.tail]` parameters of `kind = "yaw_rate"`; in a configuration, a key left out
+/// takes its value from [`YawRateConfig::RECOMMENDED`] (see `registry::build`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct YawRateConfig {
     /// Proportional gain, tail travel per °/s of yaw-rate error.
@@ -31,6 +32,19 @@ pub struct YawRateConfig {
     pub max_yaw_rate_dps: f32,
     /// Below this ground speed the tail stays neutral, mm/s.
     pub min_speed_mm_s: f32,
+}
+
+impl YawRateConfig {
+    /// The tuning docs/controllers.md derives on the simulator's car: proportional only, a
+    /// reference above what the steering alone achieves (600 °/s), neutral below 1.5 m/s.
+    pub const RECOMMENDED: YawRateConfig = YawRateConfig {
+        kp: 0.02,
+        ki: 0.0,
+        output_limit: 1.0,
+        rate_limit_per_s: 50.0,
+        max_yaw_rate_dps: 600.0,
+        min_speed_mm_s: 1500.0,
+    };
 }
 
 /// The tail's yaw-rate loop.

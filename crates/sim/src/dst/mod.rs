@@ -166,7 +166,7 @@ pub fn main(args: &DstArgs) -> ExitCode {
         Ok(true) => ExitCode::SUCCESS,
         Ok(false) => ExitCode::from(1),
         Err(error) => {
-            eprintln!("error: {error:#}");
+            dima_robot::terminal::report_fatal(&error);
             ExitCode::from(2)
         }
     }
