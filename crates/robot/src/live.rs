@@ -398,6 +398,9 @@ mod tests {
         /// again (its socket's receive buffer as small as the kernel allows).
         fn stuck_client(addr: std::net::SocketAddr, live: &LiveView) -> TcpStream {
             let mut s = TcpStream::connect(addr).unwrap();
+            // Every read of the handshake is bounded: a server that never answers fails the
+            // test instead of hanging it.
+            s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
             let small: libc::c_int = 1;
             // SAFETY: a valid socket and a c_int option of the right size.
             unsafe {
@@ -439,7 +442,9 @@ mod tests {
             .unwrap();
             // Subscribed once a message arrives.
             s.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
+            let deadline = Instant::now() + Duration::from_secs(60);
             loop {
+                assert!(Instant::now() < deadline, "no message within 60 s of subscribing");
                 live.publish(1, 1, b"{}");
                 let mut head = [0u8; 1];
                 if s.read_exact(&mut head).is_ok() && head[0] & 0x0F == 2 {
