@@ -38,6 +38,8 @@ pub struct Replay {
     rebuilds: u64,
     /// Pause once the log time reaches this (`--replay-pause-at`).
     pause_at: Option<Duration>,
+    /// Counts the changes of the state (events applied, rebuilds).
+    revision: u64,
 }
 
 impl Replay {
@@ -71,6 +73,7 @@ impl Replay {
             calibration,
             rebuilds: 0,
             pause_at: None,
+            revision: 0,
         };
         replay.catch_up();
         replay
@@ -106,6 +109,23 @@ impl Replay {
         self.rebuilds
     }
 
+    /// The calibration the sensor values are shown with.
+    pub fn calibration(&self) -> Option<&SensorCalibration> {
+        self.calibration.as_ref()
+    }
+
+    /// Shows the sensor values with `calibration` from now on (the state is rebuilt).
+    pub fn set_calibration(&mut self, calibration: Option<SensorCalibration>) {
+        self.calibration = calibration;
+        self.rebuild();
+        self.catch_up();
+    }
+
+    /// Changes when the state changes (the window copies the state then).
+    pub fn revision(&self) -> u64 {
+        self.revision
+    }
+
     /// Pauses once playback reaches log time `at`.
     pub fn pause_at(&mut self, at: Duration) {
         self.pause_at = Some(at);
@@ -129,19 +149,25 @@ impl Replay {
         self.catch_up()
     }
 
+    /// Starts the state over from the log's start.
+    fn rebuild(&mut self) {
+        self.state = ReplayState::new(
+            self.base,
+            self.log.kind,
+            self.key.clone(),
+            self.calibration.clone(),
+        );
+        self.applied = 0;
+        self.rebuilds += 1;
+        self.revision += 1;
+    }
+
     /// Applies the events up to the clock's log time; backwards, from the start again.
     fn catch_up(&mut self) -> bool {
         let target = self.log.events_until(self.clock.position());
         let mut changed = false;
         if target < self.applied {
-            self.state = ReplayState::new(
-                self.base,
-                self.log.kind,
-                self.key.clone(),
-                self.calibration.clone(),
-            );
-            self.applied = 0;
-            self.rebuilds += 1;
+            self.rebuild();
             changed = true;
         }
         for e in &self.log.events[self.applied..target] {
@@ -149,6 +175,9 @@ impl Replay {
             changed = true;
         }
         self.applied = target;
+        if changed {
+            self.revision += 1;
+        }
         changed
     }
 }
