@@ -14,7 +14,10 @@ use dima_log::reader::{LoggedRun, Message};
 use dima_log::schema::CycleMessage;
 use dima_sensorboard::{SensorPacket, PACKET_LEN};
 
-use crate::recording::{DisplayRecord, LinkRecord, TOPIC_DISPLAY, TOPIC_LINK, TOPIC_RX_BYTES};
+use crate::recording::{
+    CommandRecord, DisplayRecord, LinkRecord, TOPIC_COMMAND, TOPIC_DISPLAY, TOPIC_LINK,
+    TOPIC_RX_BYTES,
+};
 
 /// The display rate of a robot log whose configuration does not say (the robot's default).
 pub const DEFAULT_DISPLAY_RATE_HZ: f64 = 2.0;
@@ -35,6 +38,8 @@ pub enum ReplayEvent {
     Bytes(Vec<u8>),
     /// A link event of the session (`connected`, `disconnected`, `lost`, ...).
     Link(LinkRecord),
+    /// A command frame the station sent (shown as sent; nothing is sent again).
+    Sent(CommandRecord),
     /// A report the robot would have sent (robot logs), as a display frame v3 carries it.
     Report(Box<Downlink>),
 }
@@ -111,6 +116,14 @@ impl ReplayLog {
                     events.push(TimedEvent {
                         at: at(m.log_time),
                         event: ReplayEvent::Link(record),
+                    });
+                }
+                TOPIC_COMMAND => {
+                    let record: CommandRecord = serde_json::from_slice(&m.data)
+                        .with_context(|| format!("{TOPIC_COMMAND} at {}", m.log_time))?;
+                    events.push(TimedEvent {
+                        at: at(m.log_time),
+                        event: ReplayEvent::Sent(record),
                     });
                 }
                 TOPIC_DISPLAY => {

@@ -8,11 +8,11 @@ use std::time::{Duration, Instant};
 
 use dima_groundlink::station::{DownlinkVerdict, Station};
 use dima_groundlink::v2::{self, Downlink, LinkKey};
-use dima_groundlink::{DisplayDecoder, DisplayFrame};
+use dima_groundlink::{Command, CommandType, DisplayDecoder, DisplayFrame};
 
 use crate::downlink::V2TokenSpotter;
 use crate::link::{LinkState, LinkStatus, RobotReport, RATE_WINDOW};
-use crate::recording::{DisplayRecord, LinkRecord, RobotRecord};
+use crate::recording::{CommandRecord, DisplayRecord, LinkRecord, RobotRecord};
 use crate::telemetry::Telemetry;
 use crate::units::{Physical, SensorCalibration};
 
@@ -100,6 +100,7 @@ impl ReplayState {
         match event {
             ReplayEvent::Bytes(bytes) => self.take_bytes(at, bytes),
             ReplayEvent::Link(record) => self.link_event(now, record),
+            ReplayEvent::Sent(record) => self.sent(now, record),
             ReplayEvent::Report(downlink) => {
                 self.status.bytes_in += v2::DISPLAY_V3_FRAME_LEN as u64;
                 self.status.last_byte_at = Some(now);
@@ -107,6 +108,17 @@ impl ReplayState {
             }
         }
         self.update_rate(now);
+    }
+
+    /// A command frame the session sent: counted and listed as the link lists it.
+    fn sent(&mut self, now: Instant, record: &CommandRecord) {
+        self.status.frames_out += 1;
+        self.status.bytes_out += record.frame_hex.len() as u64 / 2;
+        let command = CommandType::from_byte(record.kind)
+            .and_then(|kind| Command::from_parts(kind, record.data).ok());
+        if let Some(command) = command {
+            self.status.last_sent[command.command_type() as usize] = Some((now, command));
+        }
     }
 
     fn link_event(&mut self, now: Instant, record: &LinkRecord) {

@@ -268,8 +268,9 @@ fn a_station_session_replayed_shows_what_the_live_session_showed() {
         std::thread::sleep(Duration::from_millis(30));
     }
     wait_for("the frames", || link.status().frames_in == sent);
-    let live = link.status();
     link.shutdown();
+    // Its final state (the thread publishes it as it ends).
+    let live = link.status();
     drop(pair.slave);
     recorder.finish().unwrap();
 
@@ -313,6 +314,14 @@ fn a_station_session_replayed_shows_what_the_live_session_showed() {
     assert_eq!(replayed.actuation.unwrap().servo_us()[0], 1508);
 
     assert_eq!(end.bytes_in, live.bytes_in);
+    // The commands the session sent (heartbeats at least), counted as live.
+    assert!(live.frames_out > 0);
+    assert_eq!(
+        (end.frames_out, end.bytes_out),
+        (live.frames_out, live.bytes_out)
+    );
+    let sent_kinds = |s: &crate::link::LinkStatus| s.last_sent.map(|sent| sent.map(|(_, c)| c));
+    assert_eq!(sent_kinds(end), sent_kinds(&live));
 
     // Without the key nothing of it is shown: every byte read, no frame, no robot report.
     let mut keyless = Replay::open(&path, None, None).unwrap();
