@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use anyhow::Context;
 use dima_core::safety::{FailsafeCause, Mode, ReviveRefusal};
-use dima_groundlink::v2::{self, Actuation, ControllerCode, Downlink, Health};
+use dima_groundlink::v2::{self, Actuation, ControllerCode, Downlink, Health, RobotMode};
 use dima_groundlink::DisplayFrame;
 use dima_log::reader::{LoggedRun, Message};
 use dima_log::schema::CycleMessage;
@@ -69,6 +69,8 @@ pub struct ReplayLog {
     /// Station logs: the display frames the live session showed (`/ground/display`), the
     /// reference a replay must match.
     pub displays: Vec<(Duration, DisplayRecord)>,
+    /// The robot's reported mode from each change on, for the timeline.
+    pub modes: Vec<(Duration, RobotMode)>,
 }
 
 impl ReplayLog {
@@ -137,6 +139,19 @@ impl ReplayLog {
         // Stable: events at the same time keep the order they were written in.
         events.sort_by_key(|e| e.at);
         displays.sort_by_key(|d| d.0);
+        let reported = displays.iter().filter_map(|(at, d)| {
+            let name = d.robot.as_ref()?.mode.as_str();
+            let mode = [
+                RobotMode::Killed,
+                RobotMode::Manual,
+                RobotMode::Auto,
+                RobotMode::Failsafe,
+            ]
+            .into_iter()
+            .find(|m| crate::recording::mode_name(*m) == name)?;
+            Some((*at, mode))
+        });
+        let modes = changes(reported);
         Ok(ReplayLog {
             path: path.to_owned(),
             kind: LogKind::Station,
@@ -144,6 +159,7 @@ impl ReplayLog {
             duration: at(end_ns),
             start_ns,
             displays,
+            modes,
         })
     }
 
@@ -198,6 +214,10 @@ impl ReplayLog {
         let end_ns = run.cycles[last]
             .t_ns
             .max(run.states.last().map_or(0, |s| s.t_ns));
+        let modes = changes(events.iter().filter_map(|e| match &e.event {
+            ReplayEvent::Report(downlink) => Some((e.at, downlink.status().mode)),
+            _ => None,
+        }));
         Ok(ReplayLog {
             path: path.to_owned(),
             kind: LogKind::Robot,
@@ -205,6 +225,7 @@ impl ReplayLog {
             duration: at(end_ns),
             start_ns,
             displays: Vec::new(),
+            modes,
         })
     }
 
@@ -212,6 +233,17 @@ impl ReplayLog {
     pub fn events_until(&self, t: Duration) -> usize {
         self.events.partition_point(|e| e.at <= t)
     }
+}
+
+/// The first mode and each change of it.
+fn changes(modes: impl Iterator<Item = (Duration, RobotMode)>) -> Vec<(Duration, RobotMode)> {
+    let mut out: Vec<(Duration, RobotMode)> = Vec::new();
+    for (at, mode) in modes {
+        if out.last().is_none_or(|(_, last)| *last != mode) {
+            out.push((at, mode));
+        }
+    }
+    out
 }
 
 /// Builds the reports a robot sends from its logged cycles, as its telemetry thread builds

@@ -125,6 +125,15 @@ fn a_robot_log_replayed_to_the_end_shows_its_final_mode_and_outputs() {
     let mut replay = Replay::open(&path, None, None).unwrap();
     assert_eq!(replay.log().kind, LogKind::Robot);
     assert_eq!(replay.clock().duration(), secs(2.9));
+    assert_eq!(
+        replay.log().modes,
+        [
+            (secs(0.0), RobotMode::Killed),
+            (secs(0.5), RobotMode::Manual),
+            (secs(2.0), RobotMode::Failsafe)
+        ],
+        "the timeline's mode changes, as reported"
+    );
 
     replay.clock_mut().set_speed(8.0);
     replay.clock_mut().play();
@@ -312,6 +321,8 @@ fn a_station_session_replayed_shows_what_the_live_session_showed() {
         (live_report.mode, live_report.seq, live_report.actuation)
     );
     assert_eq!(replayed.actuation.unwrap().servo_us()[0], 1508);
+    let modes: Vec<RobotMode> = replay.log().modes.iter().map(|m| m.1).collect();
+    assert_eq!(modes, [RobotMode::Manual, RobotMode::Killed]);
 
     assert_eq!(end.bytes_in, live.bytes_in);
     // The commands the session sent (heartbeats at least), counted as live.

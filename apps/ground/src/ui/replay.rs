@@ -152,11 +152,30 @@ pub fn timeline(ui: &mut egui::Ui, app: &mut GroundApp) {
         let slider = egui::Slider::new(&mut t, 0.0..=duration_s.max(1e-3))
             .show_value(false)
             .trailing_fill(true);
-        if ui.add(slider).changed() {
+        let response = ui.add(slider);
+        if response.changed() {
             replay.seek(Duration::from_secs_f64(t.clamp(0.0, duration_s)));
         }
+        mode_band(ui, replay, response.rect);
         ui.add_space(4.0);
     });
+}
+
+/// Under the slider's rail, the robot's reported mode along the log, on the mode colours.
+fn mode_band(ui: &mut egui::Ui, replay: &Replay, slider: egui::Rect) {
+    // Before the first report the band is empty: the mode is not known.
+    let (left, right) = (slider.left(), slider.right());
+    let y = slider.bottom() + 1.0..=slider.bottom() + 6.0;
+    ui.add_space(7.0);
+    let duration = replay.clock().duration().as_secs_f64().max(1e-9);
+    let x = |t: Duration| left + (right - left) * (t.as_secs_f64() / duration) as f32;
+    let modes = &replay.log().modes;
+    for (i, (from, mode)) in modes.iter().enumerate() {
+        let to = modes.get(i + 1).map_or(replay.clock().duration(), |m| m.0);
+        let rect = egui::Rect::from_x_y_ranges(x(*from)..=x(to), y.clone());
+        ui.painter()
+            .rect_filled(rect, 0.0, super::status::robot_mode_colour(*mode));
+    }
 }
 
 /// `m:ss.s` (or `h:mm:ss.s`).

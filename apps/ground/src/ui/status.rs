@@ -80,7 +80,7 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
     });
 }
 
-fn robot_mode_colour(mode: RobotMode) -> Color32 {
+pub(super) fn robot_mode_colour(mode: RobotMode) -> Color32 {
     match mode {
         RobotMode::Killed => BAD,
         RobotMode::Manual => GOOD,
