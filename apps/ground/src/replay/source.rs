@@ -82,15 +82,27 @@ impl ReplayLog {
     pub fn open(path: &Path) -> anyhow::Result<ReplayLog> {
         let bytes =
             std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-        let messages = dima_log::reader::messages(&bytes)
-            .with_context(|| format!("{}: not a readable MCAP log", path.display()))?;
-        if messages
-            .iter()
-            .any(|m| m.channel.topic.starts_with("/ground/"))
-        {
+        // The first message tells the kind (a file is one or the other); a file cut short (a
+        // crash) is read up to its first damaged record.
+        let mut messages = Vec::new();
+        let mut station = None;
+        let read = dima_log::reader::for_each_message(&bytes, |m| {
+            let is_station = *station.get_or_insert(m.channel.topic.starts_with("/ground/"));
+            anyhow::ensure!(is_station, "a robot log");
+            messages.push(m);
+            Ok(())
+        });
+        if station == Some(true) {
+            if let Err(e) = read {
+                eprintln!(
+                    "warning: {}: read up to message {}, then: {e:#}",
+                    path.display(),
+                    messages.len()
+                );
+            }
             return ReplayLog::from_station_messages(path, &messages);
         }
-        drop(messages);
+        drop(bytes);
         let run = dima_log::run::read_run(path)?;
         run.warn(path);
         ReplayLog::from_robot_run(path, &run)
