@@ -8,7 +8,9 @@
 //!   live link builds them.
 //!
 //! [`Replay`] ties them: each frame the window hands it the wall time, it applies the events up
-//! to the clock's log time; seeking backwards rebuilds the state from the start of the log.
+//! to the clock's log time; seeking backwards rebuilds the state from the last checkpoint
+//! before the target (a copy of the state kept every [`CHECKPOINT_INTERVAL`] of log time on
+//! the way forward), or from the start of the log.
 
 pub mod clock;
 pub mod source;
@@ -23,6 +25,9 @@ use crate::units::SensorCalibration;
 use clock::ReplayClock;
 use source::ReplayLog;
 use state::ReplayState;
+
+/// Log time between checkpoints of the state.
+pub const CHECKPOINT_INTERVAL: Duration = Duration::from_secs(60);
 
 /// A log being replayed.
 pub struct Replay {
@@ -40,6 +45,10 @@ pub struct Replay {
     pause_at: Option<Duration>,
     /// Counts the changes of the state (events applied, rebuilds).
     revision: u64,
+    /// Checkpoint `k` is the state after the events before `(k + 1) * checkpoint_interval`,
+    /// with how many events that is.
+    checkpoints: Vec<(usize, ReplayState)>,
+    checkpoint_interval: Duration,
 }
 
 impl Replay {
@@ -74,6 +83,8 @@ impl Replay {
             rebuilds: 0,
             pause_at: None,
             revision: 0,
+            checkpoints: Vec::new(),
+            checkpoint_interval: CHECKPOINT_INTERVAL,
         };
         replay.catch_up();
         replay
@@ -117,8 +128,21 @@ impl Replay {
     /// Shows the sensor values with `calibration` from now on (the state is rebuilt).
     pub fn set_calibration(&mut self, calibration: Option<SensorCalibration>) {
         self.calibration = calibration;
-        self.rebuild();
+        self.checkpoints.clear();
+        self.restore(0);
         self.catch_up();
+    }
+
+    /// Keeps a checkpoint every `interval` of log time (from now on; the ones kept are
+    /// dropped).
+    pub fn set_checkpoint_interval(&mut self, interval: Duration) {
+        self.checkpoint_interval = interval.max(Duration::from_millis(1));
+        self.checkpoints.clear();
+    }
+
+    /// How many checkpoints are kept.
+    pub fn checkpoints(&self) -> usize {
+        self.checkpoints.len()
     }
 
     /// Changes when the state changes (the window copies the state then).
@@ -149,15 +173,25 @@ impl Replay {
         self.catch_up()
     }
 
-    /// Starts the state over from the log's start.
-    fn rebuild(&mut self) {
-        self.state = ReplayState::new(
-            self.base,
-            self.log.kind,
-            self.key.clone(),
-            self.calibration.clone(),
-        );
-        self.applied = 0;
+    /// Goes back to the last checkpoint with at most `events` events applied, or to the
+    /// log's start.
+    fn restore(&mut self, events: usize) {
+        match self.checkpoints.iter().rposition(|(n, _)| *n <= events) {
+            Some(k) => {
+                let (n, state) = &self.checkpoints[k];
+                self.applied = *n;
+                self.state = state.clone();
+            }
+            None => {
+                self.state = ReplayState::new(
+                    self.base,
+                    self.log.kind,
+                    self.key.clone(),
+                    self.calibration.clone(),
+                );
+                self.applied = 0;
+            }
+        }
         self.rebuilds += 1;
         self.revision += 1;
     }
@@ -167,14 +201,22 @@ impl Replay {
         let target = self.log.events_until(self.clock.position());
         let mut changed = false;
         if target < self.applied {
-            self.rebuild();
+            self.restore(target);
             changed = true;
         }
-        for e in &self.log.events[self.applied..target] {
+        while self.applied < target {
+            let e = &self.log.events[self.applied];
+            let next_checkpoint = self
+                .checkpoint_interval
+                .saturating_mul(self.checkpoints.len() as u32 + 1);
+            if e.at >= next_checkpoint {
+                self.checkpoints.push((self.applied, self.state.clone()));
+                continue;
+            }
             self.state.apply(e.at, &e.event);
+            self.applied += 1;
             changed = true;
         }
-        self.applied = target;
         if changed {
             self.revision += 1;
         }

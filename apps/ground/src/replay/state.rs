@@ -19,6 +19,7 @@ use crate::units::{Physical, SensorCalibration};
 use super::source::{LogKind, ReplayEvent};
 
 /// The decoders of the version the session spoke.
+#[derive(Clone)]
 enum Decoders {
     /// Ground link v1 (no key).
     V1 {
@@ -35,6 +36,7 @@ enum Decoders {
 
 /// The station's state at a log time. Log time `t` is the instant `base + t`, so the panels
 /// judge ages and freshness against [`ReplayState::instant`] of the replay's position.
+#[derive(Clone)]
 pub struct ReplayState {
     base: Instant,
     /// The link status the panels show.

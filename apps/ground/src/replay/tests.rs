@@ -14,7 +14,7 @@ use dima_log::writer::McapLog;
 
 use super::source::{LogKind, ReplayEvent};
 use super::*;
-use crate::link::{LinkControl, LinkHandle, LinkState};
+use crate::link::{LinkControl, LinkHandle, LinkState, RobotReport};
 use crate::recording::{DisplayRecord, Recorder};
 
 fn temp_dir(name: &str) -> PathBuf {
@@ -239,6 +239,55 @@ fn a_robot_log_cut_short_replays_up_to_the_cut() {
         }
     }
     assert!(partial > 0, "no cut file replayed part of the log");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_backward_seek_from_a_checkpoint_shows_what_a_replay_from_the_start_shows() {
+    let dir = temp_dir("replay-checkpoints");
+    let path = dir.join("robot.mcap");
+    write_robot_log(&path, 30);
+    let mut with = Replay::open(&path, None, None).unwrap();
+    with.set_checkpoint_interval(secs(0.7));
+    with.seek(secs(2.9));
+    // Checkpoints before 0.7, 1.4, 2.1 and 2.8 s.
+    assert_eq!(with.checkpoints(), 4);
+    for t in [2.6, 1.5, 0.69, 0.7, 0.0, 2.2] {
+        with.seek(secs(t));
+        let mut fresh = Replay::open(&path, None, None).unwrap();
+        fresh.seek(secs(t));
+        let (a, b) = (&with.state().status, &fresh.state().status);
+        // Each replay has its own instants: the report's age, and the rest as is.
+        let dummy = Instant::now();
+        let report = |r: &Replay| {
+            r.state().status.robot.map(|report| {
+                let age = r.now().duration_since(report.at);
+                (
+                    age,
+                    RobotReport {
+                        at: dummy,
+                        ..report
+                    },
+                )
+            })
+        };
+        assert_eq!(report(&with), report(&fresh), "at {t} s");
+        assert_eq!(
+            (a.frames_in, a.bytes_in),
+            (b.frames_in, b.bytes_in),
+            "at {t} s"
+        );
+        assert_eq!(
+            with.state().telemetry.speed.points(),
+            fresh.state().telemetry.speed.points(),
+            "at {t} s"
+        );
+        assert_eq!(
+            with.state().telemetry.track.points(),
+            fresh.state().telemetry.track.points()
+        );
+    }
+    assert_eq!(with.checkpoints(), 4, "kept, not taken again");
     let _ = std::fs::remove_dir_all(&dir);
 }
 
