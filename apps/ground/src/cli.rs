@@ -15,6 +15,9 @@ use crate::joystick::JoystickConfigError;
 /// neutral; released: neutral), Space kill (always), R held for one second revive. After a
 /// kill, a revive, or the robot reporting KILLED or FAILSAFE, a key, stick or slider still held
 /// must be let go and moved again before it drives.
+///
+/// Replay (--replay FILE.mcap): P play/pause, Left/Right 5 s back/forward, Minus/Plus speed,
+/// Home/End start/end of the log; the timeline seeks with a click or a drag.
 #[derive(Debug, Clone, Parser)]
 #[command(name = "dima-ground", version, about, long_about)]
 pub struct Cli {
@@ -102,6 +105,23 @@ pub struct Cli {
     /// The panel shown in the middle of the window at start (switch with its tabs).
     #[arg(long, value_enum, default_value_t = Panel::Plots, value_name = "PANEL")]
     pub panel: Panel,
+    /// Replay this MCAP log instead of driving: a station session log (decoded again, with
+    /// --key-file for ground link v2) or a robot log (the reports it would have sent), through
+    /// the same panels and plots, with a timeline. Nothing is sent and nothing is recorded.
+    #[arg(long, value_name = "FILE.mcap", conflicts_with_all = ["port", "sim"])]
+    pub replay: Option<PathBuf>,
+    /// Replay speed: 0.25, 0.5, 1, 2, 4 or 8 (the nearest is taken).
+    #[arg(
+        long,
+        default_value_t = 1.0,
+        value_name = "FACTOR",
+        requires = "replay"
+    )]
+    pub replay_speed: f64,
+    /// Start the replay playing, and pause it when the log time reaches this many seconds
+    /// (without it the replay starts paused at the start).
+    #[arg(long, value_name = "SECONDS", requires = "replay")]
+    pub replay_pause_at: Option<f64>,
     /// Window size in logical pixels, WIDTHxHEIGHT.
     #[arg(long, default_value = "1400x900", value_name = "WxH", value_parser = parse_size)]
     pub window_size: (f32, f32),
@@ -167,6 +187,14 @@ impl Cli {
         if let Some(dir) = &self.map_tiles {
             if !dir.is_dir() {
                 anyhow::bail!("--map-tiles {}: not a directory", dir.display());
+            }
+        }
+        if !(self.replay_speed.is_finite() && self.replay_speed > 0.0) {
+            anyhow::bail!("--replay-speed must be a positive factor");
+        }
+        if let Some(t) = self.replay_pause_at {
+            if !(t.is_finite() && t >= 0.0) {
+                anyhow::bail!("--replay-pause-at must be a number of seconds >= 0");
             }
         }
         if let Some(d) = self.sim_duration {
@@ -237,6 +265,29 @@ mod tests {
         assert!(Cli::try_parse_from(["dima-ground", "--window-size", "big"]).is_err());
         let bad = Cli::try_parse_from(["dima-ground", "--baud", "1234"]).unwrap();
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn replay_flags() {
+        let c = Cli::try_parse_from([
+            "dima-ground",
+            "--replay",
+            "run.mcap",
+            "--replay-speed",
+            "4",
+            "--replay-pause-at",
+            "12.5",
+        ])
+        .unwrap();
+        assert_eq!(c.replay, Some(PathBuf::from("run.mcap")));
+        assert_eq!((c.replay_speed, c.replay_pause_at), (4.0, Some(12.5)));
+        c.validate().unwrap();
+        assert!(Cli::try_parse_from(["dima-ground", "--replay", "a", "--sim"]).is_err());
+        assert!(Cli::try_parse_from(["dima-ground", "--replay", "a", "--port", "/dev/x"]).is_err());
+        assert!(Cli::try_parse_from(["dima-ground", "--replay-speed", "2"]).is_err());
+        let slow =
+            Cli::try_parse_from(["dima-ground", "--replay", "a", "--replay-speed", "0"]).unwrap();
+        assert!(slow.validate().is_err());
     }
 
     #[test]

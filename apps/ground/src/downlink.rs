@@ -15,7 +15,9 @@
 
 use std::time::Duration;
 
-use dima_groundlink::v2::{DISPLAY_FRAME_LEN, DISPLAY_START};
+use dima_groundlink::v2::{
+    DISPLAY_FRAME_LEN, DISPLAY_START, DISPLAY_V3_FRAME_LEN, DISPLAY_V3_START,
+};
 
 /// A report older than this is not the robot's current state (four display periods at the
 /// robot's default 2 Hz).
@@ -159,8 +161,9 @@ impl DownlinkHealth {
     }
 }
 
-/// Spots display frame v2 start tokens (`A5 44` and the length 126) in a byte stream read as
-/// version 1, across reads.
+/// Spots the start tokens of the authenticated display frames (v2: `A5 44` and the length 126;
+/// v3, what the robot sends: `A5 46` and the length 156) in a byte stream read as version 1,
+/// across reads.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct V2TokenSpotter {
     last: [u8; 2],
@@ -171,7 +174,8 @@ impl V2TokenSpotter {
     pub fn feed(&mut self, bytes: &[u8]) -> bool {
         let mut seen = false;
         for &b in bytes {
-            seen |= self.last == DISPLAY_START && usize::from(b) == DISPLAY_FRAME_LEN;
+            seen |= (self.last == DISPLAY_START && usize::from(b) == DISPLAY_FRAME_LEN)
+                || (self.last == DISPLAY_V3_START && usize::from(b) == DISPLAY_V3_FRAME_LEN);
             self.last = [self.last[1], b];
         }
         seen
@@ -336,5 +340,14 @@ mod tests {
         assert!(!spotter.feed(&[0xA5, 0x44, 0x10, 0x24, 0x44]));
         let mut fresh = V2TokenSpotter::default();
         assert!(fresh.feed(&frame));
+    }
+
+    #[test]
+    fn the_spotter_finds_the_display_frames_v3_the_robot_sends() {
+        let key = LinkKey::from_bytes([7; 16]);
+        let frame = dima_groundlink::v2::DisplayFrameV3::default().encode(&key);
+        let mut spotter = V2TokenSpotter::default();
+        assert!(spotter.feed(&frame[..3]), "A5 46 9C");
+        assert!(!spotter.feed(&[0xA5, 0x46, 0x10]));
     }
 }

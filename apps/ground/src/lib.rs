@@ -30,6 +30,8 @@
 //!   lost and regained, a refused revive) and when it clears, as a pure function;
 //! - [`sound`]: the alerts' sounds through the system's command-line player, or skipped;
 //! - [`recording`]: the session log (everything sent and received, timestamped) as MCAP;
+//! - [`replay`]: `--replay`, a station session log or a robot log played back through the
+//!   same panels, with a replay clock (play, pause, seek, speed) in virtual time;
 //! - [`sim`]: `--sim`, the simulated robot exactly as `dima sim --ground-pty` runs it, in a
 //!   child process;
 //! - [`cli`]: the command line.
@@ -47,6 +49,7 @@ pub mod link;
 pub mod map;
 pub mod plots;
 pub mod recording;
+pub mod replay;
 pub mod robot_view;
 pub mod serial;
 pub mod sim;

@@ -324,6 +324,19 @@ impl LinkHandle {
         })
     }
 
+    /// A handle with no thread behind it (`--replay`): what is sent to it goes nowhere, its
+    /// status stays disconnected and no frame ever comes.
+    pub fn inert() -> LinkHandle {
+        let (control, _) = mpsc::channel();
+        let (_, events) = mpsc::channel();
+        LinkHandle {
+            control,
+            status: Arc::default(),
+            events,
+            thread: None,
+        }
+    }
+
     /// Sends a request to the thread (never blocks).
     pub fn send(&self, request: LinkControl) {
         // The thread only ends on Shutdown: a closed channel means it is already gone.

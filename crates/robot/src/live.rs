@@ -444,7 +444,10 @@ mod tests {
             s.set_read_timeout(Some(Duration::from_millis(50))).unwrap();
             let deadline = Instant::now() + Duration::from_secs(60);
             loop {
-                assert!(Instant::now() < deadline, "no message within 60 s of subscribing");
+                assert!(
+                    Instant::now() < deadline,
+                    "no message within 60 s of subscribing"
+                );
                 live.publish(1, 1, b"{}");
                 let mut head = [0u8; 1];
                 if s.read_exact(&mut head).is_ok() && head[0] & 0x0F == 2 {

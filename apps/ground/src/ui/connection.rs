@@ -133,7 +133,7 @@ fn link_state(ui: &mut egui::Ui, status: &LinkStatus) {
 /// the recording, the simulated robot, the channel table and the calibration.
 fn notes(ui: &mut egui::Ui, app: &GroundApp) {
     // Green only while authentic reports arrive: a key file alone proves nothing.
-    let health = app.status.downlink(std::time::Instant::now());
+    let health = app.status.downlink(app.now());
     let colour = match health.severity() {
         Severity::Good => GOOD,
         _ if app.status.authenticated => BAD,

@@ -5,7 +5,6 @@
 
 use dima_groundlink::station::ManualChannel;
 use dima_groundlink::{Command, Percent};
-use std::time::Instant;
 
 use eframe::egui::{self, Color32, RichText};
 
@@ -23,21 +22,30 @@ pub fn left_panel(ui: &mut egui::Ui, app: &mut GroundApp) {
         .exact_size(330.0)
         .show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
-                kill_and_revive(ui, app);
-                ui.separator();
+                // A replay sends nothing: every control disabled.
+                let replaying = app.replay.is_some();
+                if !replaying {
+                    kill_and_revive(ui, app);
+                    ui.separator();
+                }
                 // Drive controls act only while the robot is live: greyed otherwise.
-                let liveness = Liveness::of(&app.status, Instant::now());
-                if let Some(why) = liveness.why_greyed() {
+                let liveness = Liveness::of(&app.status, app.now());
+                if replaying {
+                    ui.label(RichText::new("REPLAY: the controls send nothing").color(WARN));
+                } else if let Some(why) = liveness.why_greyed() {
                     ui.label(RichText::new(why).color(WARN));
                 }
-                ui.add_enabled_ui(liveness.is_live(), |ui| manual(ui, app));
+                let live = liveness.is_live() && !replaying;
+                ui.add_enabled_ui(live, |ui| manual(ui, app));
                 ui.separator();
-                ui.add_enabled_ui(liveness.is_live(), |ui| setpoints(ui, app));
+                ui.add_enabled_ui(live, |ui| setpoints(ui, app));
                 robot_setpoints(ui, app);
-                ui.separator();
-                gamepad(ui, app);
-                ui.separator();
-                keys_legend(ui, app);
+                if !replaying {
+                    ui.separator();
+                    gamepad(ui, app);
+                    ui.separator();
+                    keys_legend(ui, app);
+                }
             });
         });
 }
@@ -107,7 +115,7 @@ pub fn revive_confirmation(ctx: &egui::Context, app: &mut GroundApp) {
 
 fn manual(ui: &mut egui::Ui, app: &mut GroundApp) {
     ui.heading("Manual");
-    let now = Instant::now();
+    let now = app.now();
     let truth = Truth::of(&app.status, now);
     for (i, channel) in ManualChannel::ALL.into_iter().enumerate() {
         let mut value = app.manual.shown[i].get();
@@ -202,7 +210,7 @@ fn setpoints(ui: &mut egui::Ui, app: &mut GroundApp) {
 
 /// What the robot reports it follows: its setpoints (or none), estimates, controllers.
 fn robot_setpoints(ui: &mut egui::Ui, app: &GroundApp) {
-    let truth = Truth::of(&app.status, Instant::now());
+    let truth = Truth::of(&app.status, app.now());
     ui.label(RichText::new("the robot reports").strong());
     egui::Grid::new("robot-setpoints")
         .num_columns(2)

@@ -85,7 +85,7 @@ pub fn central_panel(ui: &mut egui::Ui, app: &mut GroundApp) {
 /// The one the robot reports it follows; from a robot that does not report its setpoints,
 /// what the station last sent in AUTO.
 fn heading_setpoint(app: &GroundApp) -> Option<f64> {
-    let truth = Truth::of(&app.status, std::time::Instant::now());
+    let truth = Truth::of(&app.status, app.now());
     shown_heading_setpoint_deg(truth, || {
         let mode = app.status.robot.as_ref().map(|r| (r.at, r.mode));
         heading_setpoint_deg(&app.status.last_sent, mode)

@@ -9,6 +9,7 @@ mod drive;
 mod input;
 mod joystick;
 mod map;
+mod replay;
 mod status;
 
 use std::path::PathBuf;
@@ -29,6 +30,7 @@ use crate::downlink::DownlinkHealth;
 use crate::keys::KeyboardDriver;
 use crate::link::{LinkControl, LinkEvent, LinkHandle, LinkStatus};
 use crate::recording::{now_ns, LinkRecord, RecordEvent, Recorder};
+use crate::replay::Replay;
 use crate::robot_view::Liveness;
 use crate::sim::{SimLaunch, SimRobot};
 use crate::sound::Sounder;
@@ -117,6 +119,10 @@ pub struct GroundApp {
     /// Set by SIGINT/SIGTERM: close the window (stopping the robot and closing the recording)
     /// instead of dying with the recording open.
     stop_requested: Arc<AtomicBool>,
+    /// `--replay`: the log played back (the link is inert, the drive controls disabled).
+    replay: Option<Replay>,
+    /// The replay's revision last copied into `status` and `telemetry`.
+    replay_shown: Option<u64>,
 }
 
 impl GroundApp {
@@ -127,7 +133,21 @@ impl GroundApp {
         let joystick = cli.joystick_config()?;
         let (table, table_source) = channel_table(cli)?;
         let calibration = sensor_calibration(cli)?;
-        let (recorder, recording_note) = start_recorder(cli)?;
+        let replay = open_replay(cli, &key, &calibration)?;
+        // A robot log's own sensor-board info frame calibrates its values.
+        let calibration = match &replay {
+            Some(r) if calibration.is_none() => r.calibration().cloned(),
+            _ => calibration,
+        };
+        if let Some(r) = &replay {
+            if r.log().kind == crate::replay::source::LogKind::Robot {
+                link_note = "robot log: the robot's reports rebuilt from its cycles".to_owned();
+            }
+        }
+        let (recorder, recording_note) = match &replay {
+            Some(_) => (None, "not recording (replay)".to_owned()),
+            None => start_recorder(cli)?,
+        };
         let sim = start_sim(cli)?;
         if let Some(robot) = &sim {
             // The simulated robot requires ground link v2 with this key.
@@ -137,11 +157,15 @@ impl GroundApp {
                 robot.key_file().display()
             );
         }
-        let link = LinkHandle::spawn(
-            recorder.as_ref().map(Recorder::sender),
-            calibration.clone(),
-            key,
-        )?;
+        let link = match &replay {
+            // A replay sends nothing anywhere: no link thread at all.
+            Some(_) => LinkHandle::inert(),
+            None => LinkHandle::spawn(
+                recorder.as_ref().map(Recorder::sender),
+                calibration.clone(),
+                key,
+            )?,
+        };
         let port = sim.as_ref().map(SimRobot::ground_pty).or(cli.port.clone());
         if let Some(path) = &port {
             link.send(LinkControl::Connect {
@@ -196,7 +220,7 @@ impl GroundApp {
                 drawn: Arc::default(),
             }),
             alerts: Alerts::default(),
-            sounder: Sounder::new(cli.mute),
+            sounder: Sounder::new(cli.mute || replay.is_some()),
             controls_live: None,
             map: map::MapPanel::new(cli.panel, cli.map_tiles.clone()),
             screenshot: cli.screenshot.clone().map(|path| ScreenshotPlan {
@@ -205,7 +229,43 @@ impl GroundApp {
                 requested: false,
                 result: screenshot_result,
             }),
+            replay,
+            replay_shown: None,
         })
+    }
+
+    /// The station's "now": the instant of the replay's log time in replay mode.
+    fn now(&self) -> Instant {
+        self.replay.as_ref().map_or_else(Instant::now, Replay::now)
+    }
+
+    /// Replay mode's frame: the replay keys, the clock to the wall time, the state shown, the
+    /// alerts at the log's time.
+    fn replay_logic(&mut self, ctx: &egui::Context) {
+        let Some(replay) = self.replay.as_mut() else {
+            return;
+        };
+        replay::keys(ctx, replay);
+        let rebuilds = replay.rebuilds();
+        replay.update(self.started.elapsed());
+        self.show_replay(rebuilds);
+        self.update_alerts(self.now());
+    }
+
+    /// Copies the replay's state when it changed; after a rebuild the alerts start over.
+    fn show_replay(&mut self, rebuilds_before: u64) {
+        let Some(replay) = self.replay.as_ref() else {
+            return;
+        };
+        if replay.rebuilds() != rebuilds_before {
+            self.alerts = Alerts::default();
+            self.controls_live = None;
+        }
+        if self.replay_shown != Some(replay.revision()) {
+            self.replay_shown = Some(replay.revision());
+            self.status = replay.state().status.clone();
+            self.telemetry = replay.state().telemetry.clone();
+        }
     }
 
     /// A kill from any source: at once, and the manual sources must be let go.
@@ -225,6 +285,10 @@ impl GroundApp {
 
     /// Frames in, input to the link.
     fn logic(&mut self, ctx: &egui::Context) {
+        if self.replay.is_some() {
+            self.replay_logic(ctx);
+            return;
+        }
         let now = Instant::now();
         for event in self.link.drain_events() {
             let LinkEvent::Frame(at, frame) = event;
@@ -418,6 +482,30 @@ fn start_recorder(cli: &Cli) -> anyhow::Result<(Option<Recorder>, String)> {
     Ok((Some(r), note))
 }
 
+/// Opens the `--replay` log, at the `--replay-speed`, playing up to `--replay-pause-at`.
+fn open_replay(
+    cli: &Cli,
+    key: &Option<dima_groundlink::v2::LinkKey>,
+    calibration: &Option<SensorCalibration>,
+) -> anyhow::Result<Option<Replay>> {
+    let Some(path) = &cli.replay else {
+        return Ok(None);
+    };
+    let mut replay = Replay::open(path, key.clone(), calibration.clone())?;
+    if calibration.is_none() && replay.log().kind == crate::replay::source::LogKind::Robot {
+        // The robot's own board info, when the log has it.
+        if let Ok(c) = SensorCalibration::from_robot_log(path) {
+            replay.set_calibration(Some(c));
+        }
+    }
+    replay.clock_mut().set_speed(cli.replay_speed);
+    if let Some(at) = cli.replay_pause_at {
+        replay.pause_at(Duration::from_secs_f64(at));
+        replay.clock_mut().play();
+    }
+    Ok(Some(replay))
+}
+
 /// Starts the simulated robot with `--sim`.
 fn start_sim(cli: &Cli) -> anyhow::Result<Option<SimRobot>> {
     if !cli.sim {
@@ -445,8 +533,16 @@ impl eframe::App for GroundApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.logic(&ctx);
-        connection::top_bar(ui, self);
+        if self.replay.is_some() {
+            replay::top_bar(ui, self);
+        } else {
+            connection::top_bar(ui, self);
+        }
         alert::banner(ui, self);
+        let rebuilds = self.replay.as_ref().map_or(0, Replay::rebuilds);
+        replay::timeline(ui, self);
+        // A seek on the timeline shows at once.
+        self.show_replay(rebuilds);
         status::bottom_bar(ui, self);
         drive::left_panel(ui, self);
         status::right_panel(ui, self);
@@ -501,9 +597,13 @@ pub fn run(cli: &Cli) -> ExitCode {
             return ExitCode::from(2);
         }
     };
+    let title = match &cli.replay {
+        Some(path) => format!("DIMA ground station — REPLAY {}", path.display()),
+        None => "DIMA ground station".to_owned(),
+    };
     let options = eframe::NativeOptions {
         viewport: egui::ViewportBuilder::default()
-            .with_title("DIMA ground station")
+            .with_title(title)
             .with_inner_size([cli.window_size.0, cli.window_size.1]),
         ..Default::default()
     };

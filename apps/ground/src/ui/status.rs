@@ -27,7 +27,7 @@ const STALE: Duration = Duration::from_secs(1);
 pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
     egui::Panel::bottom("summary").show(ui, |ui| {
         ui.horizontal(|ui| {
-            let now = Instant::now();
+            let now = app.now();
             let s = &app.status;
             match s.fresh_report(now) {
                 Some(r) => {
@@ -80,7 +80,7 @@ pub fn bottom_bar(ui: &mut egui::Ui, app: &GroundApp) {
     });
 }
 
-fn robot_mode_colour(mode: RobotMode) -> Color32 {
+pub(super) fn robot_mode_colour(mode: RobotMode) -> Color32 {
     match mode {
         RobotMode::Killed => BAD,
         RobotMode::Manual => GOOD,
@@ -137,7 +137,7 @@ pub fn right_panel(ui: &mut egui::Ui, app: &GroundApp) {
                 link_health(ui, app);
                 ui.separator();
                 if app.status.authenticated {
-                    robot_report(ui, &app.status);
+                    robot_report(ui, &app.status, app.now());
                 } else {
                     robot_state(ui, app);
                 }
@@ -149,7 +149,7 @@ pub fn right_panel(ui: &mut egui::Ui, app: &GroundApp) {
 
 fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
     let s = &app.status;
-    let now = Instant::now();
+    let now = app.now();
     ui.heading("Link");
     egui::Grid::new("link")
         .num_columns(2)
@@ -238,7 +238,7 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
 
 fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
     let s = &app.status;
-    let now = Instant::now();
+    let now = app.now();
     ui.heading("Robot");
     health_banner(ui, s.downlink(now));
     ui.small(
@@ -281,8 +281,7 @@ fn robot_state(ui: &mut egui::Ui, app: &GroundApp) {
 }
 
 /// The robot's report (v2): mode, causes, acknowledgements, health and rejections.
-fn robot_report(ui: &mut egui::Ui, s: &LinkStatus) {
-    let now = Instant::now();
+fn robot_report(ui: &mut egui::Ui, s: &LinkStatus, now: Instant) {
     ui.heading("Robot");
     report_mode(ui, s, now);
     let Some(r) = &s.robot else {
