@@ -6,17 +6,24 @@
 
 use crate::error::Error;
 
-/// Writing whole packets.
+#[maybe_async_cfg::maybe(
+    sync(),
+    async(feature = "async"),
+    idents(WriteInterface(sync, async = "AsyncWriteInterface"))
+)]
+/// Writing whole packets: [`WriteInterface`], and `AsyncWriteInterface` with the same methods,
+/// each `async` (feature `async`).
+#[allow(async_fn_in_trait)] // as embedded-hal-async: the caller's executor decides on Send
 pub trait WriteInterface {
     /// The transport's error.
     type Error;
 
     /// Write all of `bytes`, in order. Implementations bound every wait (see [`NbSerial`]).
-    fn write_all(&mut self, bytes: &[u8]) -> Result<(), Error<Self::Error>>;
+    async fn write_all(&mut self, bytes: &[u8]) -> Result<(), Error<Self::Error>>;
 
     /// Wait until everything written has left the transport, within a bounded wait.
     /// The default does nothing (for transports without a transmit buffer).
-    fn flush(&mut self) -> Result<(), Error<Self::Error>> {
+    async fn flush(&mut self) -> Result<(), Error<Self::Error>> {
         Ok(())
     }
 }
@@ -25,6 +32,41 @@ pub trait WriteInterface {
 pub trait ReadInterface: WriteInterface {
     /// One received byte, or `WouldBlock` if none is available yet.
     fn read_byte(&mut self) -> nb::Result<u8, Self::Error>;
+}
+
+/// Reads a whole reply for the blocking driver: polls `iface`, and each time no byte is there
+/// asks `deadline` whether to stop ([`DeviceError::Timeout`](crate::DeviceError::Timeout)).
+pub(crate) fn read_reply<I: ReadInterface>(
+    iface: &mut I,
+    reply: &mut [u8],
+    deadline: &mut impl Deadline,
+) -> Result<(), Error<I::Error>> {
+    for slot in reply.iter_mut() {
+        loop {
+            match iface.read_byte() {
+                Ok(byte) => {
+                    *slot = byte;
+                    break;
+                }
+                Err(nb::Error::WouldBlock) => {
+                    if deadline.expired() {
+                        return Err(Error::Device(crate::DeviceError::Timeout));
+                    }
+                }
+                Err(nb::Error::Other(e)) => return Err(Error::Comm(e)),
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A byte already received, if any, without waiting (for discarding stale bytes).
+pub(crate) fn take_pending<I: ReadInterface>(iface: &mut I) -> Result<Option<u8>, Error<I::Error>> {
+    match iface.read_byte() {
+        Ok(byte) => Ok(Some(byte)),
+        Err(nb::Error::WouldBlock) => Ok(None),
+        Err(nb::Error::Other(e)) => Err(Error::Comm(e)),
+    }
 }
 
 /// When to give up waiting for a reply. Polled once each time no byte is available.

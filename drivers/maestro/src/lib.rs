@@ -29,6 +29,10 @@
 //!   application that writes them itself with its own deadline.
 //! - Per-channel [`Limits`]: an out-of-range target is an error ([`TargetError::OutOfRange`]) and
 //!   nothing is sent; clamping is a separate, explicit call ([`Limits::clamp`]).
+//! - Feature `async`: `MaestroAsync`, the same driver over `embedded-io-async` 0.7
+//!   (`AsyncIoSerial`), generated from the same source as [`Maestro`] (so the two cannot
+//!   drift); queries race the reply against an `AsyncDeadline` (`AsyncDelayDeadline` over an
+//!   embedded-hal-async `DelayNs`). The blocking API stays available.
 //! - Replies are read against a caller-given [`Deadline`] ([`PollBudget`], [`DelayDeadline`] or a
 //!   closure); a missing or short reply is [`DeviceError::Timeout`], never a hang or stale data.
 //!
@@ -79,6 +83,28 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+/// Writes each driver item once for the blocking `Maestro` and, with the `async` feature, once
+/// more for `MaestroAsync` (`.await` on the transport calls), through `maybe-async-cfg`.
+macro_rules! blocking_and_async {
+    ($($item:item)*) => {
+        $(
+            #[maybe_async_cfg::maybe(
+                sync(),
+                async(feature = "async"),
+                idents(
+                    Maestro(sync, async = "MaestroAsync"),
+                    WriteInterface(sync, async = "AsyncWriteInterface"),
+                    ReadInterface(sync, async = "AsyncReadInterface"),
+                    Deadline(sync, async = "AsyncDeadline"),
+                    transport(sync, async = "async_transport")
+                )
+            )]
+            $item
+        )*
+    };
+}
+pub(crate) use blocking_and_async;
+
 mod codec;
 mod command;
 mod crc7;
@@ -86,6 +112,8 @@ mod decoder;
 mod device;
 mod error;
 mod interface;
+#[cfg(feature = "async")]
+mod io_async;
 mod limits;
 mod model;
 pub mod reply;
@@ -101,13 +129,19 @@ pub use command::{opcode, Command, MultiTargets};
 pub use crc7::{crc7, MAESTRO_CRC7};
 pub use decoder::{CommandDecoder, Decoded, DecoderConfig, DecoderStats};
 pub use device::Maestro;
+#[cfg(feature = "async")]
+pub use device::MaestroAsync;
 pub use error::{DeviceError, Error, InvalidInput};
+#[cfg(feature = "async")]
+pub use interface::AsyncWriteInterface;
 #[cfg(feature = "embedded-io")]
 pub use interface::IoSerial;
 pub use interface::{
     Deadline, DelayDeadline, NbSerial, PollBudget, ReadInterface, WriteInterface,
     DEFAULT_WRITE_POLLS_PER_BYTE,
 };
+#[cfg(feature = "async")]
+pub use io_async::{AsyncDeadline, AsyncDelayDeadline, AsyncIoSerial, AsyncReadInterface};
 pub use limits::{ChannelLimits, LimitViolation, Limits};
 pub use model::{Micro6, Mini12, Mini18, Mini24, MiniModel, Model};
 pub use status::ErrorFlags;
