@@ -100,7 +100,8 @@ mod tests {
         tm.ingest(t0 + Duration::from_millis(1_500), DisplayFrame::default());
         assert_eq!(tm.speed.points()[..2], [[0.5, 2.0], [1.0, 2.0]]);
         assert!((tm.heading.points()[1][1] - 90.0).abs() < 1e-9);
-        assert!((tm.acc[2].points()[0][1] - 9.80).abs() < 0.01);
+        // 1020 counts at ±2 g (2 g over 2048 counts): 996.1 mg.
+        assert!((tm.acc[2].points()[0][1] - 9.768).abs() < 0.001);
         let track = tm.track.points();
         assert_eq!(
             track.len(),

@@ -284,15 +284,16 @@ mod tests {
 
     #[test]
     fn imu_scales_and_signs() {
-        // BMX055: ±2 g at 0.98 mg per count; ±2000 °/s at 16.4 counts per °/s.
+        // BMX055: ±2 g over 2048 counts (1000/1024 mg per count; the datasheet rounds it to
+        // 0.98); ±2000 °/s at 16.4 counts per °/s.
         let frame = DisplayFrame {
             acc: [-1000, 0, 1020],
             gyro: [164, -328, 0],
             ..DisplayFrame::default()
         };
         let p = Physical::from_frame(&frame, None);
-        assert!(close(f64::from(p.acc_m_s2[0]), -0.98 * 9.80665, 1e-4));
-        assert!(close(f64::from(p.acc_m_s2[2]), 0.9996 * 9.80665, 1e-3));
+        assert!(close(f64::from(p.acc_m_s2[0]), -1000.0 / 1024.0 * 9.80665, 1e-4));
+        assert!(close(f64::from(p.acc_m_s2[2]), 1020.0 / 1024.0 * 9.80665, 1e-4));
         assert!(close(f64::from(p.gyro_dps[0]), 10.0, 1e-4));
         assert!(close(f64::from(p.gyro_dps[1]), -20.0, 1e-4));
     }

@@ -21,7 +21,7 @@ pub const MAX_BARO_ADC: u32 = (1 << 20) - 1;
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct DisplayFrame {
-    /// Accelerometer X, Y, Z, signed 12-bit counts (±2 g: 0.98 mg per count).
+    /// Accelerometer X, Y, Z, signed 12-bit counts (±2 g: 2 g over 2048 counts, 1000/1024 mg per count).
     pub acc: [i16; 3],
     /// Gyroscope X, Y, Z, signed counts (±2000 °/s: 1/16.4 °/s per count).
     pub gyro: [i16; 3],

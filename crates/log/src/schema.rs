@@ -234,7 +234,7 @@ impl CommandMessage {
 /// One decoded sensor packet.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct SensorMessage {
-    /// Accelerometer X, Y, Z, raw 12-bit counts (±2 g: 0.98 mg per count).
+    /// Accelerometer X, Y, Z, raw 12-bit counts (±2 g: 2 g over 2048 counts, 1000/1024 mg per count).
     pub accel: [i16; 3],
     /// Gyroscope X, Y, Z, raw counts (±2000 °/s: 1/16.4 °/s per count).
     pub gyro: [i16; 3],

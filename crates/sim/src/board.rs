@@ -476,12 +476,11 @@ mod tests {
         };
         let p = raw.decode();
         // 0.1 g forward; 1 g up; lateral -v*r = -3 * 0.5236 = -1.571 m/s² = -160 mg. The
-        // host scales by the datasheet's rounded 0.98 mg/LSB (exactly 1/1024 g on the board
-        // side), so allow 0.5 %.
+        // board and the host use the same scale (2 g over 2048 counts): within a count.
         let mg = p.accel.map(units::accel_mg_2g);
         assert!((mg[0] - 100.0).abs() < 1.5, "{mg:?}");
         assert!((mg[1] + 160.2).abs() < 1.5, "{mg:?}");
-        assert!((mg[2] - 1000.0).abs() < 5.0, "{mg:?}");
+        assert!((mg[2] - 1000.0).abs() < 1.5, "{mg:?}");
         assert!(
             (units::gyro_dps_2000(p.gyro[2]) + 30.0).abs() < 0.1,
             "{:?}",
