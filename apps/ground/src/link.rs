@@ -57,6 +57,26 @@ pub fn station_time(at: Instant) -> StationTime {
     at.saturating_duration_since(*EPOCH.get_or_init(Instant::now))
 }
 
+/// The authentic display frames (v2 and v3) that `bytes` complete, minus those the station
+/// has already seen (`DownlinkVerdict::Old`). A rejected candidate is counted by the decoder;
+/// the content of a frame whose tag does not match is never looked at.
+pub fn authentic_frames(
+    decoder: &mut v2::DownlinkDecoder,
+    station: &mut Station,
+    bytes: &[u8],
+    t: StationTime,
+) -> Vec<Downlink> {
+    let mut frames = Vec::new();
+    for &b in bytes {
+        for downlink in decoder.push(b).into_iter().flatten().flatten() {
+            if station.on_display(downlink.status(), t) != DownlinkVerdict::Old {
+                frames.push(downlink);
+            }
+        }
+    }
+    frames
+}
+
 /// Requests from the user interface.
 #[derive(Debug, Clone, PartialEq)]
 pub enum LinkControl {
@@ -229,6 +249,26 @@ pub struct LinkStatus {
 }
 
 impl LinkStatus {
+    /// The v2/v3 decoder's counts (`stats`, as of `now`): rejected tags (and when the last
+    /// was), skipped bytes, malformed frames.
+    pub fn count_v2_decoding(&mut self, stats: v2::StreamStats, now: Instant) {
+        if u64::from(stats.bad_tag) > self.bad_tag {
+            self.last_bad_tag_at = Some(now);
+        }
+        self.bad_tag = u64::from(stats.bad_tag);
+        self.skipped_bytes = u64::from(stats.skipped_bytes);
+        self.out_of_range = u64::from(stats.malformed);
+    }
+
+    /// An authentic report that arrived `now`: the robot's state and the downlink's loss,
+    /// and the record of it for the session recording.
+    pub fn take_report(&mut self, now: Instant, downlink: &Downlink) -> RobotRecord {
+        let report = RobotReport::new(now, downlink);
+        self.loss.on_report(report.session, report.seq);
+        self.robot = Some(report);
+        RobotRecord::from_downlink(downlink, self.bad_tag)
+    }
+
     /// Time since the last valid display frame.
     pub fn frame_age(&self, now: Instant) -> Option<Duration> {
         self.last_frame_at.map(|t| now.saturating_duration_since(t))
@@ -784,33 +824,14 @@ impl LinkWorker {
         else {
             return;
         };
-        let t = station_time(now);
-        let mut frames = Vec::new();
-        for &b in bytes {
-            // A rejected candidate is counted by the decoder; the content of a frame whose tag
-            // does not match is never looked at.
-            for downlink in decoder.push(b).into_iter().flatten().flatten() {
-                if station.on_display(downlink.status(), t) != DownlinkVerdict::Old {
-                    frames.push(downlink);
-                }
-            }
-        }
-        let stats = decoder.stats();
-        if u64::from(stats.bad_tag) > self.status.bad_tag {
-            self.status.last_bad_tag_at = Some(now);
-        }
-        self.status.bad_tag = u64::from(stats.bad_tag);
-        self.status.skipped_bytes = u64::from(stats.skipped_bytes);
-        self.status.out_of_range = u64::from(stats.malformed);
+        let frames = authentic_frames(decoder, station, bytes, station_time(now));
+        self.status.count_v2_decoding(decoder.stats(), now);
         let settled = station.take_settled();
         for s in settled {
             self.record(RecordEvent::Delivery(t_ns, DeliveryRecord::new(&s)));
         }
         for downlink in frames {
-            let report = RobotReport::new(now, &downlink);
-            self.status.loss.on_report(report.session, report.seq);
-            self.status.robot = Some(report);
-            let record = RobotRecord::from_downlink(&downlink, self.status.bad_tag);
+            let record = self.status.take_report(now, &downlink);
             self.deliver(now, t_ns, downlink.status().sensors, Some(record));
         }
     }

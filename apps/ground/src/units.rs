@@ -292,8 +292,16 @@ mod tests {
             ..DisplayFrame::default()
         };
         let p = Physical::from_frame(&frame, None);
-        assert!(close(f64::from(p.acc_m_s2[0]), -1000.0 / 1024.0 * 9.80665, 1e-4));
-        assert!(close(f64::from(p.acc_m_s2[2]), 1020.0 / 1024.0 * 9.80665, 1e-4));
+        assert!(close(
+            f64::from(p.acc_m_s2[0]),
+            -1000.0 / 1024.0 * 9.80665,
+            1e-4
+        ));
+        assert!(close(
+            f64::from(p.acc_m_s2[2]),
+            1020.0 / 1024.0 * 9.80665,
+            1e-4
+        ));
         assert!(close(f64::from(p.gyro_dps[0]), 10.0, 1e-4));
         assert!(close(f64::from(p.gyro_dps[1]), -20.0, 1e-4));
     }

@@ -6,12 +6,12 @@
 use std::collections::VecDeque;
 use std::time::{Duration, Instant};
 
-use dima_groundlink::station::{DownlinkVerdict, Station};
+use dima_groundlink::station::Station;
 use dima_groundlink::v2::{self, Downlink, LinkKey};
 use dima_groundlink::{Command, CommandType, DisplayDecoder, DisplayFrame};
 
 use crate::downlink::V2TokenSpotter;
-use crate::link::{LinkState, LinkStatus, RobotReport, RATE_WINDOW};
+use crate::link::{authentic_frames, LinkState, LinkStatus, RATE_WINDOW};
 use crate::recording::{CommandRecord, DisplayRecord, LinkRecord, RobotRecord};
 use crate::telemetry::Telemetry;
 use crate::units::{Physical, SensorCalibration};
@@ -195,21 +195,8 @@ impl ReplayState {
                 }
             }
             Decoders::V2 { decoder, station } => {
-                let mut frames = Vec::new();
-                for &b in bytes {
-                    for downlink in decoder.push(b).into_iter().flatten().flatten() {
-                        if station.on_display(downlink.status(), at) != DownlinkVerdict::Old {
-                            frames.push(downlink);
-                        }
-                    }
-                }
-                let stats = decoder.stats();
-                if u64::from(stats.bad_tag) > self.status.bad_tag {
-                    self.status.last_bad_tag_at = Some(now);
-                }
-                self.status.bad_tag = u64::from(stats.bad_tag);
-                self.status.skipped_bytes = u64::from(stats.skipped_bytes);
-                self.status.out_of_range = u64::from(stats.malformed);
+                let frames = authentic_frames(decoder, station, bytes, at);
+                self.status.count_v2_decoding(decoder.stats(), now);
                 for downlink in frames {
                     self.report(now, &downlink);
                 }
@@ -219,10 +206,7 @@ impl ReplayState {
 
     /// An authentic report: the robot's state, then its sensors.
     fn report(&mut self, now: Instant, downlink: &Downlink) {
-        let report = RobotReport::new(now, downlink);
-        self.status.loss.on_report(report.session, report.seq);
-        self.status.robot = Some(report);
-        let record = RobotRecord::from_downlink(downlink, self.status.bad_tag);
+        let record = self.status.take_report(now, downlink);
         self.deliver(now, downlink.status().sensors, Some(record));
     }
 
