@@ -38,6 +38,8 @@ pub struct Config {
     pub log: LogConfig,
     /// Live view of the log's channels over the Foxglove WebSocket protocol.
     pub foxglove: FoxgloveConfig,
+    /// Protections that judge where the car is and how it lies: rollover and geofence.
+    pub navigation: NavigationConfig,
 }
 
 /// Sensor-board link: UART and request line.
@@ -639,6 +641,33 @@ impl Default for EstimatorConfig {
     }
 }
 
+/// `[navigation]`: the protections that judge where the car is and how it lies.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NavigationConfig {
+    /// The accelerometer's reading tilted from the car's up axis by more than this, in
+    /// degrees (20..=90), is a car on its side or roof (`Rollover`). The up axis is the board's
+    /// Z axis, its sign from `estimator.gyro_yaw_sign` (-1: Z points up).
+    pub rollover_tilt_deg: f32,
+    /// ...for at least this long, in milliseconds (100..=1000): a bump or a hard corner tilts
+    /// the reading for a few packets only.
+    pub rollover_ms: u32,
+}
+
+impl Default for NavigationConfig {
+    fn default() -> Self {
+        NavigationConfig {
+            rollover_tilt_deg: 60.0,
+            rollover_ms: 500,
+        }
+    }
+}
+
+/// `navigation.rollover_tilt_deg`, degrees.
+pub const ROLLOVER_TILT_DEG: std::ops::RangeInclusive<f32> = 20.0..=90.0;
+/// `navigation.rollover_ms`, ms: a rollover trips within a second, like every protection.
+pub const ROLLOVER_MS: std::ops::RangeInclusive<u32> = 100..=1_000;
+
 /// MCAP log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -899,7 +928,18 @@ impl Config {
         self.validate_control()?;
         self.validate_estimator()?;
         self.validate_log()?;
+        self.validate_navigation()?;
         self.validate_foxglove()
+    }
+
+    fn validate_navigation(&self) -> Result<(), ConfigError> {
+        let n = &self.navigation;
+        within(
+            "navigation.rollover_tilt_deg",
+            n.rollover_tilt_deg,
+            ROLLOVER_TILT_DEG,
+        )?;
+        within("navigation.rollover_ms", n.rollover_ms, ROLLOVER_MS)
     }
 
     fn validate_foxglove(&self) -> Result<(), ConfigError> {

@@ -27,7 +27,8 @@
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
 //!   missing packets, a stuck IMU (the accelerometer's or the gyroscope's words frozen, each
 //!   die judged on its own), or an overrunning loop (too many late wake-ups within a second, or
-//!   too long a stall) -> FAILSAFE; in AUTO also GNSS older than its timeout (a fix counts only
+//!   too long a stall), or a car rolled over (see [`crate::monitor::RolloverMonitor`]) ->
+//!   FAILSAFE; in AUTO also GNSS older than its timeout (a fix counts only
 //!   while it is valid and its time of week advances past the newest fix used: a repeated or
 //!   backward iTOW is old data). FAILSAFE latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
@@ -115,6 +116,9 @@ pub enum FailsafeCause {
     Overrun,
     /// In AUTO, no fresh GNSS fix within the GNSS timeout.
     GnssStale,
+    /// The accelerometer's reading tilted beyond `navigation.rollover_tilt_deg` for
+    /// `navigation.rollover_ms`: the car lies on its side or its roof.
+    Rollover,
 }
 
 /// Why a revive was refused. In logs by its variant name.
@@ -141,6 +145,9 @@ pub enum ReviveRefusal {
     RealtimeSetup,
     /// Less than `safety.revive_min_interval_ms` since the last kill or revive.
     TooSoon,
+    /// The last packet shows the car tilted beyond `navigation.rollover_tilt_deg`: it is not
+    /// on its wheels.
+    RolledOver,
 }
 
 /// Thresholds, in the units the transition functions use.
@@ -199,6 +206,8 @@ pub struct CycleHealth {
     pub imu_stuck: bool,
     /// No fresh GNSS fix within the GNSS timeout.
     pub gnss_stale: bool,
+    /// The car has been tilted beyond the rollover angle for the rollover time.
+    pub rolled_over: bool,
 }
 
 impl CycleHealth {
@@ -208,6 +217,7 @@ impl CycleHealth {
         overrunning: false,
         imu_stuck: false,
         gnss_stale: false,
+        rolled_over: false,
     };
 }
 
@@ -462,6 +472,8 @@ impl SafetyState {
             Some(FailsafeCause::ImuStuck)
         } else if health.overrunning {
             Some(FailsafeCause::Overrun)
+        } else if health.rolled_over {
+            Some(FailsafeCause::Rollover)
         } else if health.gnss_stale && self.mode == Mode::Auto {
             Some(FailsafeCause::GnssStale)
         } else {
@@ -749,6 +761,7 @@ mod tests {
             ReviveRefusal::ImuStuck,
             ReviveRefusal::Overrun,
             ReviveRefusal::RealtimeSetup,
+            ReviveRefusal::RolledOver,
         ] {
             let mut s = healthy();
             let effect = fresh(&mut s, Command::Revive, 0, Some(why));
@@ -772,6 +785,13 @@ mod tests {
                     ..OK
                 },
                 FailsafeCause::Overrun,
+            ),
+            (
+                CycleHealth {
+                    rolled_over: true,
+                    ..OK
+                },
+                FailsafeCause::Rollover,
             ),
         ] {
             let mut s = healthy();

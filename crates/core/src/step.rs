@@ -17,7 +17,7 @@ use crate::counters::Counters;
 use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
 use crate::monitor::{
     AnswerWindow, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule, OverrunWindow,
-    PacketVerdict,
+    PacketVerdict, RolloverMonitor, RolloverRule,
 };
 use crate::safety::{
     CycleHealth, FailsafeCause, Mode, ReceivedCommand, ReviveRefusal, SafetyLimits, SafetyState,
@@ -117,6 +117,8 @@ pub struct CoreState {
     pub imu: ImuStuckDetector,
     /// Late wake-ups within the last second.
     pub overruns: OverrunWindow,
+    /// How long the car has been tilted.
+    pub rollover: RolloverMonitor,
     /// Time of the last controller step.
     pub last_step_ns: Option<Nanos>,
     /// The required realtime setup failed: revives are refused for the whole run.
@@ -146,6 +148,7 @@ pub struct Core {
     max_speed_accuracy_mm_s: u32,
     imu_stuck_packets: u32,
     overrun: OverrunRule,
+    rollover: RolloverRule,
 }
 
 impl Core {
@@ -176,6 +179,11 @@ impl Core {
                 max_stall_ns: u64::from(config.safety.max_stall_ms) * 1_000_000,
                 period_ns: config.period_ns(),
             },
+            rollover: RolloverRule::new(
+                config.navigation.rollover_tilt_deg,
+                config.navigation.rollover_ms,
+                -config.estimator.gyro_yaw_sign,
+            ),
         })
     }
 
@@ -197,6 +205,8 @@ impl Core {
             Some(ReviveRefusal::ImuStuck)
         } else if state.overruns.exceeded(now, &self.overrun) {
             Some(ReviveRefusal::Overrun)
+        } else if state.rollover.is_tilted() {
+            Some(ReviveRefusal::RolledOver)
         } else {
             None
         }
@@ -233,6 +243,9 @@ impl Core {
         let packet = raw.filter(|_| verdict.is_ok()).map(|raw| raw.decode());
         if let Some(p) = &packet {
             state.imu.update(p.accel, p.gyro, self.imu_stuck_packets);
+            state
+                .rollover
+                .update(p.accel.map(units::accel_mg_2g), now, &self.rollover);
             state.values.gyro_z_dps = units::gyro_dps_2000(p.gyro[2]);
         }
         let epoch = state.gnss.update(
@@ -338,6 +351,7 @@ impl Core {
             overrunning,
             imu_stuck: state.imu.is_stuck(self.imu_stuck_packets),
             gnss_stale: state.values.gnss.is_none(),
+            rolled_over: state.rollover.is_rolled_over(),
         };
         state.safety.on_cycle(&self.limits, health, now);
         let mode_changed = state.safety.mode != mode_before;

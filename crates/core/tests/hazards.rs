@@ -6,7 +6,9 @@
 
 use dima_core::config::Config;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand};
+use dima_core::{
+    Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand, ReviveRefusal,
+};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
@@ -535,4 +537,67 @@ fn fresh_commands_act_and_keep_the_link_from_their_arrival() {
         (at - arrival) / MS,
         timeout / MS
     );
+}
+
+/// The car rolls onto its side (the accelerometer reads 1 g along its Y axis) in `mode` and
+/// stays there: the cycles it took to leave `mode`, and the outputs then.
+fn roll_onto_the_side(rig: &mut Rig, mode: Mode) -> (u64, CycleOutputs) {
+    rig.board.accel = [10, 1_020, 15];
+    for cycles in 1..=2_500 {
+        let out = rig.quiet_cycle();
+        if out.mode != mode {
+            return (cycles, out);
+        }
+    }
+    panic!("still {mode:?} after 10 s on its side");
+}
+
+#[test]
+fn a_car_on_its_side_trips_rollover_in_manual_and_auto_and_cannot_be_revived() {
+    let hold_cycles = u64::from(Config::default().navigation.rollover_ms) * MS / PERIOD;
+    for auto in [false, true] {
+        let mut rig = Rig::new();
+        if auto {
+            rig.in_auto(2_000);
+        } else {
+            assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+            rig.cycle(&[Command::Throttle(pct(80))]);
+        }
+        let mode = if auto { Mode::Auto } else { Mode::Manual };
+        let (cycles, out) = roll_onto_the_side(&mut rig, mode);
+        assert_eq!(
+            (out.mode, out.cause),
+            (Mode::Failsafe, Some(FailsafeCause::Rollover)),
+            "auto {auto}"
+        );
+        assert_eq!(out.targets, rig.core.safe_targets(), "auto {auto}");
+        // Not a packet before the hold time, and within a cycle of it.
+        assert!(
+            (hold_cycles..=hold_cycles + 1).contains(&cycles),
+            "auto {auto}: tripped after {cycles} cycles, hold {hold_cycles}"
+        );
+        // Still on its side: a revive is refused.
+        rig.run(100);
+        let out = rig.cycle(&[Command::Revive]);
+        assert_eq!(
+            (out.mode, out.refused),
+            (Mode::Failsafe, Some(ReviveRefusal::RolledOver))
+        );
+        // Back on its wheels: the revive goes through.
+        rig.board.accel = [0, 0, 1_020];
+        rig.run(10);
+        assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    }
+}
+
+#[test]
+fn a_bump_that_tilts_the_reading_for_a_few_packets_is_not_a_rollover() {
+    let mut rig = Rig::new();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    for _ in 0..20 {
+        rig.board.accel = [300, 1_500, -600];
+        assert_eq!(rig.run(10).mode, Mode::Manual);
+        rig.board.accel = [0, 0, 1_020];
+        assert_eq!(rig.run(50).mode, Mode::Manual);
+    }
 }
