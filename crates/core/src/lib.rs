@@ -40,6 +40,7 @@ pub mod config;
 pub mod control;
 pub mod counters;
 pub mod estimate;
+pub mod geo;
 pub mod monitor;
 pub mod safety;
 pub mod step;

@@ -28,9 +28,11 @@
 //!   missing packets, a stuck IMU (the accelerometer's or the gyroscope's words frozen, each
 //!   die judged on its own), or an overrunning loop (too many late wake-ups within a second, or
 //!   too long a stall), or a car rolled over (see [`crate::monitor::RolloverMonitor`]) ->
-//!   FAILSAFE; in AUTO also GNSS older than its timeout (a fix counts only
+//!   FAILSAFE, and so does a new GNSS fix outside the geofence (see
+//!   [`crate::monitor::Geofence`]); in AUTO also GNSS older than its timeout (a fix counts only
 //!   while it is valid and its time of week advances past the newest fix used: a repeated or
-//!   backward iTOW is old data). FAILSAFE latches until a revive;
+//!   backward iTOW is old data), and in MANUAL too when a geofence is configured (without a
+//!   fresh fix the fence cannot be judged). FAILSAFE latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
 //!   from neutral;
 //! - every mode transition is counted ([`SafetyState::mode_transitions`]), also those that come
@@ -119,6 +121,8 @@ pub enum FailsafeCause {
     /// The accelerometer's reading tilted beyond `navigation.rollover_tilt_deg` for
     /// `navigation.rollover_ms`: the car lies on its side or its roof.
     Rollover,
+    /// In MANUAL or AUTO, a new GNSS fix outside the geofence (`[navigation.fence]`).
+    Geofence,
 }
 
 /// Why a revive was refused. In logs by its variant name.
@@ -148,6 +152,9 @@ pub enum ReviveRefusal {
     /// The last packet shows the car tilted beyond `navigation.rollover_tilt_deg`: it is not
     /// on its wheels.
     RolledOver,
+    /// A geofence is configured and the newest fix is outside its inclusion areas, or there is
+    /// no fresh fix to tell.
+    OutsideFence,
 }
 
 /// Thresholds, in the units the transition functions use.
@@ -208,6 +215,11 @@ pub struct CycleHealth {
     pub gnss_stale: bool,
     /// The car has been tilted beyond the rollover angle for the rollover time.
     pub rolled_over: bool,
+    /// The newest valid GNSS fix was outside the geofence.
+    pub outside_fence: bool,
+    /// A geofence is configured: GNSS must be fresh in MANUAL as well as in AUTO, or the
+    /// fence cannot be judged.
+    pub fenced: bool,
 }
 
 impl CycleHealth {
@@ -218,6 +230,8 @@ impl CycleHealth {
         imu_stuck: false,
         gnss_stale: false,
         rolled_over: false,
+        outside_fence: false,
+        fenced: false,
     };
 }
 
@@ -474,7 +488,9 @@ impl SafetyState {
             Some(FailsafeCause::Overrun)
         } else if health.rolled_over {
             Some(FailsafeCause::Rollover)
-        } else if health.gnss_stale && self.mode == Mode::Auto {
+        } else if health.outside_fence {
+            Some(FailsafeCause::Geofence)
+        } else if health.gnss_stale && (self.mode == Mode::Auto || health.fenced) {
             Some(FailsafeCause::GnssStale)
         } else {
             None
@@ -762,6 +778,7 @@ mod tests {
             ReviveRefusal::Overrun,
             ReviveRefusal::RealtimeSetup,
             ReviveRefusal::RolledOver,
+            ReviveRefusal::OutsideFence,
         ] {
             let mut s = healthy();
             let effect = fresh(&mut s, Command::Revive, 0, Some(why));
@@ -792,6 +809,21 @@ mod tests {
                     ..OK
                 },
                 FailsafeCause::Rollover,
+            ),
+            (
+                CycleHealth {
+                    outside_fence: true,
+                    ..OK
+                },
+                FailsafeCause::Geofence,
+            ),
+            (
+                CycleHealth {
+                    gnss_stale: true,
+                    fenced: true,
+                    ..OK
+                },
+                FailsafeCause::GnssStale,
             ),
         ] {
             let mut s = healthy();
