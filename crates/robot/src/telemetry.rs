@@ -374,6 +374,8 @@ fn failsafe_cause(cause: FailsafeCause) -> v2::FailsafeCause {
         FailsafeCause::ImuStuck => v2::FailsafeCause::ImuStuck,
         FailsafeCause::Overrun => v2::FailsafeCause::Overrun,
         FailsafeCause::GnssStale => v2::FailsafeCause::GnssStale,
+        FailsafeCause::Rollover => v2::FailsafeCause::Rollover,
+        FailsafeCause::Geofence => v2::FailsafeCause::Geofence,
     }
 }
 
@@ -384,6 +386,8 @@ fn revive_refusal(refusal: ReviveRefusal) -> v2::ReviveRefusal {
         ReviveRefusal::Overrun => v2::ReviveRefusal::Overrun,
         ReviveRefusal::RealtimeSetup => v2::ReviveRefusal::RealtimeSetup,
         ReviveRefusal::TooSoon => v2::ReviveRefusal::TooSoon,
+        ReviveRefusal::RolledOver => v2::ReviveRefusal::RolledOver,
+        ReviveRefusal::OutsideFence => v2::ReviveRefusal::OutsideFence,
     }
 }
 
@@ -884,6 +888,16 @@ impl TelemetryWorker {
 mod tests {
     use super::*;
     use dima_groundlink::Percent;
+
+    #[test]
+    fn rollover_and_geofence_go_out_under_their_own_codes() {
+        let code = |c| v2::FailsafeCause::code(Some(failsafe_cause(c)));
+        assert_eq!(code(FailsafeCause::Rollover), 6);
+        assert_eq!(code(FailsafeCause::Geofence), 7);
+        let code = |r| v2::ReviveRefusal::code(Some(revive_refusal(r)));
+        assert_eq!(code(ReviveRefusal::RolledOver), 6);
+        assert_eq!(code(ReviveRefusal::OutsideFence), 7);
+    }
 
     fn link(require_auth: bool, key: Option<LinkKey>) -> CommandLink {
         CommandLink::new(&LinkSecurity {
