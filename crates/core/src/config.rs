@@ -1585,6 +1585,9 @@ mod tests {
         assert_eq!(c.navigation.fence.max_distance_m, Some(80.0));
         assert_eq!(c.navigation.fence.circles[0].radius_m, 50.0);
         assert_eq!(c.navigation.fence.polygons[0].len(), 3);
+        // Written out (as `dima sim` hands a configuration to the robot) it reads back the same.
+        let text = toml::to_string(&c).expect("serialises");
+        assert_eq!(Config::from_toml(&text, "written.toml").unwrap(), c);
         for (toml, key) in [
             (
                 "polygons = [[[48.0, 11.0], [48.0, 11.01]]]",
