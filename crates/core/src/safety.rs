@@ -116,7 +116,8 @@ pub enum FailsafeCause {
     /// The loop overran: more late wake-ups within a second than `safety.overrun_limit`, or
     /// periods missed within a second adding up to more than `safety.max_stall_ms`.
     Overrun,
-    /// In AUTO, no fresh GNSS fix within the GNSS timeout.
+    /// In AUTO, no fresh GNSS fix within the GNSS timeout; in MANUAL too when a geofence is
+    /// configured (without a fix the fence cannot be judged).
     GnssStale,
     /// The accelerometer's reading tilted beyond `navigation.rollover_tilt_deg` for
     /// `navigation.rollover_ms`: the car lies on its side or its roof.
