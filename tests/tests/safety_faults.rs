@@ -5,9 +5,11 @@
 //! The simulation's configuration puts the steering's safe position at 1560 µs, so FAILSAFE
 //! cannot be mistaken for MANUAL at neutral.
 
+use dima_core::config::{Config, SafeOutput};
 use dima_core::{FailsafeCause, Mode};
-use dima_e2e::{assert_passed, simulate};
+use dima_e2e::{assert_passed, simulate, simulate_with};
 use dima_groundlink::Command;
+use dima_sim::app_config::SIM_STEERING_SAFE_US;
 use dima_sim::scenario::{manual_us, pct, send, Check, Scenario};
 
 /// Revive at 0.5 s (and again at 0.8 s), drive in MANUAL from 1 s, AUTO (2.5 m/s, 90°) from 2 s.
@@ -142,4 +144,81 @@ fn answers_later_than_a_period_never_make_the_link_look_healthy() {
     assert!(c.packets_ok <= c.cycles / 100, "{c:?}");
     assert!(c.packets_stale + c.packets_late + c.packets_missing >= c.cycles - 1);
     assert!(c.revives_refused >= 2, "{c:?}");
+}
+
+#[test]
+fn a_car_on_its_side_trips_rollover_and_is_not_revived_until_upright() {
+    let mut s = Scenario::custom("rollover", 6.0);
+    s.script.push(send(0.5, Command::Revive));
+    s.script.push(send(0.8, Command::Revive));
+    s.script.push(send(1.0, Command::Throttle(pct(60))));
+    // On its side from 2 s to 4 s: tilted for 500 ms trips.
+    s.script.push(send(3.0, Command::Revive)); // refused: still on its side
+    s.script.push(send(4.5, Command::Revive));
+    s.script.push(send(4.8, Command::Throttle(pct(58))));
+    s.checks = vec![
+        Check::NeverSafe {
+            from_s: 1.2,
+            to_s: 2.4,
+        },
+        Check::FailsafeFor {
+            cause: FailsafeCause::Rollover,
+            from_s: 2.4,
+            to_s: 2.75,
+        },
+        Check::SafeHeld {
+            from_s: 2.5,
+            to_s: 4.5,
+        },
+        Check::OutputsReach {
+            from_s: 4.8,
+            to_s: 6.0,
+            targets_us: manual_us(58, 50, 50),
+        },
+        Check::Failsafes(1),
+    ];
+    let r = simulate("rollover", s, &["vehicle:rollover=2+2"], 16);
+    assert_passed(&r);
+    assert!(r.app.counters.revives_refused >= 1, "{:?}", r.app.counters);
+}
+
+#[test]
+fn driving_out_of_the_fence_trips_geofence() {
+    let mut config = Config::default();
+    config.channels.steering.safe = SafeOutput::PulseUs(SIM_STEERING_SAFE_US);
+    // 6 m from the revive point: at 60 % throttle the car is past it within a few seconds.
+    config.navigation.fence.max_distance_m = Some(6.0);
+    let mut s = Scenario::custom("fence", 8.0);
+    s.script.push(send(0.5, Command::Revive));
+    s.script.push(send(0.8, Command::Revive));
+    s.script.push(send(1.0, Command::Throttle(pct(60))));
+    s.checks = vec![
+        Check::NeverSafe {
+            from_s: 1.2,
+            to_s: 1.5,
+        },
+        Check::FailsafeFor {
+            cause: FailsafeCause::Geofence,
+            from_s: 1.5,
+            to_s: 7.0,
+        },
+        Check::SafeHeld {
+            from_s: 1.5,
+            to_s: 8.0,
+        },
+        Check::ModesInOrder(vec![Mode::Manual, Mode::Failsafe]),
+        Check::Failsafes(1),
+    ];
+    let r = simulate_with("fence", s, &[], 17, Some(&config));
+    assert_passed(&r);
+    // The model, driven by the outputs, really did get farther than 6 m from where it
+    // started.
+    let start = r.evidence.truth.first().expect("model samples");
+    let farthest = r
+        .evidence
+        .truth
+        .iter()
+        .map(|v| (v.north_m - start.north_m).hypot(v.east_m - start.east_m))
+        .fold(0.0, f64::max);
+    assert!(farthest > 6.0, "{farthest} m");
 }

@@ -249,6 +249,8 @@ pub fn cause_name(cause: FailsafeCause) -> String {
         FailsafeCause::ImuStuck => "IMU stuck".into(),
         FailsafeCause::Overrun => "loop overruns".into(),
         FailsafeCause::GnssStale => "GNSS stale".into(),
+        FailsafeCause::Rollover => "rolled over".into(),
+        FailsafeCause::Geofence => "left the geofence".into(),
         FailsafeCause::Other(code) => format!("cause {code}"),
     }
 }
@@ -261,6 +263,8 @@ pub fn refusal_name(refusal: ReviveRefusal) -> String {
         ReviveRefusal::Overrun => "loop overruns".into(),
         ReviveRefusal::RealtimeSetup => "realtime setup failed".into(),
         ReviveRefusal::TooSoon => "too soon after a kill or revive".into(),
+        ReviveRefusal::RolledOver => "not on its wheels".into(),
+        ReviveRefusal::OutsideFence => "outside the geofence, or no GNSS fix".into(),
         ReviveRefusal::Other(code) => format!("refusal {code}"),
     }
 }
@@ -606,6 +610,16 @@ mod tests {
         );
         recorder.finish().unwrap();
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn rollover_and_geofence_are_told_in_words() {
+        assert_eq!(cause_name(FailsafeCause::Rollover), "rolled over");
+        assert_eq!(cause_name(FailsafeCause::Geofence), "left the geofence");
+        assert_eq!(refusal_name(ReviveRefusal::RolledOver), "not on its wheels");
+        assert!(refusal_name(ReviveRefusal::OutsideFence).contains("geofence"));
+        // The codes an older robot cannot send still read as their number.
+        assert_eq!(cause_name(FailsafeCause::Other(9)), "cause 9");
     }
 
     #[test]

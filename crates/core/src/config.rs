@@ -38,6 +38,8 @@ pub struct Config {
     pub log: LogConfig,
     /// Live view of the log's channels over the Foxglove WebSocket protocol.
     pub foxglove: FoxgloveConfig,
+    /// Protections that judge where the car is and how it lies: rollover and geofence.
+    pub navigation: NavigationConfig,
 }
 
 /// Sensor-board link: UART and request line.
@@ -647,6 +649,76 @@ impl Default for EstimatorConfig {
     }
 }
 
+/// `[navigation]`: the protections that judge where the car is and how it lies.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NavigationConfig {
+    /// The accelerometer's reading tilted from the car's up axis by more than this, in
+    /// degrees (20..=90), is a car on its side or roof (`Rollover`). The up axis is the board's
+    /// Z axis, its sign from `estimator.gyro_yaw_sign` (-1: Z points up).
+    pub rollover_tilt_deg: f32,
+    /// ...for at least this long, in milliseconds (100..=1000): a bump or a hard corner tilts
+    /// the reading for a few packets only.
+    pub rollover_ms: u32,
+    /// The geofence (`[navigation.fence]`); none by default.
+    pub fence: FenceConfig,
+}
+
+/// `[navigation.fence]`: where the car may drive. Leaving it in MANUAL or AUTO trips FAILSAFE
+/// (`Geofence`) on the first fix outside; a revive outside it is refused (`OutsideFence`). With
+/// nothing configured there is no fence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct FenceConfig {
+    /// Largest distance from the point where the robot was last revived, m (1..=100000);
+    /// absent: no limit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_distance_m: Option<f64>,
+    /// Inclusion circles (at most 16). When any circle or polygon is given, the car must be
+    /// inside at least one of them.
+    pub circles: Vec<FenceCircle>,
+    /// Inclusion polygons (at most 16), each `[[lat_deg, lon_deg], ...]`: 3..=256 vertices in
+    /// either order, within 50 km of its first vertex.
+    pub polygons: Vec<Vec<[f64; 2]>>,
+}
+
+/// One inclusion circle of the geofence.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FenceCircle {
+    /// Centre latitude, degrees (-90..=90).
+    pub lat_deg: f64,
+    /// Centre longitude, degrees (-180..=180).
+    pub lon_deg: f64,
+    /// Radius, m (1..=100000).
+    pub radius_m: f64,
+}
+
+/// `navigation.fence.max_distance_m` and a circle's `radius_m`, m.
+pub const FENCE_DISTANCE_M: std::ops::RangeInclusive<f64> = 1.0..=100_000.0;
+/// Most circles, and most polygons, in the fence.
+pub const FENCE_MAX_AREAS: usize = 16;
+/// Vertices of a fence polygon.
+pub const FENCE_POLYGON_VERTICES: std::ops::RangeInclusive<usize> = 3..=256;
+/// Farthest a polygon's vertex may be from its first, m: the polygon is flattened onto the
+/// plane tangent at its first vertex.
+pub const FENCE_POLYGON_SPAN_M: f64 = 50_000.0;
+
+impl Default for NavigationConfig {
+    fn default() -> Self {
+        NavigationConfig {
+            rollover_tilt_deg: 60.0,
+            rollover_ms: 500,
+            fence: FenceConfig::default(),
+        }
+    }
+}
+
+/// `navigation.rollover_tilt_deg`, degrees.
+pub const ROLLOVER_TILT_DEG: std::ops::RangeInclusive<f32> = 20.0..=90.0;
+/// `navigation.rollover_ms`, ms: a rollover trips within a second, like every protection.
+pub const ROLLOVER_MS: std::ops::RangeInclusive<u32> = 100..=1_000;
+
 /// MCAP log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -786,6 +858,66 @@ fn invalid(key: impl Into<String>, value: impl std::fmt::Display, allowed: &str)
     }
 }
 
+/// A fence coordinate pair `[lat_deg, lon_deg]` as a point, or the error naming `key`.
+fn fence_point(key: &str, lat_deg: f64, lon_deg: f64) -> Result<crate::geo::LatLon, ConfigError> {
+    let p = crate::geo::LatLon::new(lat_deg, lon_deg);
+    if p.is_valid() {
+        Ok(p)
+    } else {
+        Err(invalid(
+            key,
+            format!("[{lat_deg}, {lon_deg}]"),
+            "expected a finite latitude -90..=90 and longitude -180..=180, in degrees",
+        ))
+    }
+}
+
+/// Checks `[navigation.fence]`.
+fn validate_fence(fence: &FenceConfig) -> Result<(), ConfigError> {
+    if let Some(max) = fence.max_distance_m {
+        within("navigation.fence.max_distance_m", max, FENCE_DISTANCE_M)?;
+    }
+    for (key, count) in [
+        ("navigation.fence.circles", fence.circles.len()),
+        ("navigation.fence.polygons", fence.polygons.len()),
+    ] {
+        within(key, count, 0..=FENCE_MAX_AREAS)?;
+    }
+    for (i, c) in fence.circles.iter().enumerate() {
+        fence_point(
+            &format!("navigation.fence.circles[{i}]"),
+            c.lat_deg,
+            c.lon_deg,
+        )?;
+        within(
+            &format!("navigation.fence.circles[{i}].radius_m"),
+            c.radius_m,
+            FENCE_DISTANCE_M,
+        )?;
+    }
+    for (i, polygon) in fence.polygons.iter().enumerate() {
+        let key = format!("navigation.fence.polygons[{i}]");
+        within_because(
+            &format!("{key} vertices"),
+            polygon.len(),
+            FENCE_POLYGON_VERTICES,
+            "a polygon needs three vertices to enclose an area",
+        )?;
+        let first = fence_point(&format!("{key}[0]"), polygon[0][0], polygon[0][1])?;
+        for (j, &[lat, lon]) in polygon.iter().enumerate() {
+            let p = fence_point(&format!("{key}[{j}]"), lat, lon)?;
+            if crate::geo::distance_m(first, p) > FENCE_POLYGON_SPAN_M {
+                return Err(invalid(
+                    format!("{key}[{j}]"),
+                    format!("[{lat}, {lon}]"),
+                    "more than 50 km from the polygon's first vertex",
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// `Ok` when `value` is within `range`, else the error naming `key` and the range.
 fn within<T>(key: &str, value: T, range: std::ops::RangeInclusive<T>) -> Result<(), ConfigError>
 where
@@ -907,7 +1039,19 @@ impl Config {
         self.validate_control()?;
         self.validate_estimator()?;
         self.validate_log()?;
+        self.validate_navigation()?;
         self.validate_foxglove()
+    }
+
+    fn validate_navigation(&self) -> Result<(), ConfigError> {
+        let n = &self.navigation;
+        within(
+            "navigation.rollover_tilt_deg",
+            n.rollover_tilt_deg,
+            ROLLOVER_TILT_DEG,
+        )?;
+        within("navigation.rollover_ms", n.rollover_ms, ROLLOVER_MS)?;
+        validate_fence(&n.fence)
     }
 
     fn validate_foxglove(&self) -> Result<(), ConfigError> {
@@ -1486,6 +1630,60 @@ mod tests {
         let mut c = Config::default();
         c.channels.steering.safe = SafeOutput::PulseUs(900);
         assert!(c.validate().is_err());
+    }
+
+    #[test]
+    fn a_fence_parses_and_its_bounds_are_checked() {
+        let c = Config::from_toml(
+            "[navigation.fence]\nmax_distance_m = 80.0\n\
+             circles = [{ lat_deg = 48.1, lon_deg = 11.5, radius_m = 50.0 }]\n\
+             polygons = [[[48.0, 11.0], [48.0, 11.01], [48.01, 11.01]]]\n",
+            "test.toml",
+        )
+        .expect("a valid fence");
+        assert_eq!(c.navigation.fence.max_distance_m, Some(80.0));
+        assert_eq!(c.navigation.fence.circles[0].radius_m, 50.0);
+        assert_eq!(c.navigation.fence.polygons[0].len(), 3);
+        // Written out (as `dima sim` hands a configuration to the robot) it reads back the same.
+        let text = toml::to_string(&c).expect("serialises");
+        assert_eq!(Config::from_toml(&text, "written.toml").unwrap(), c);
+        for (toml, key) in [
+            (
+                "polygons = [[[48.0, 11.0], [48.0, 11.01]]]",
+                "navigation.fence.polygons[0] vertices",
+            ),
+            (
+                "polygons = [[[48.0, 11.0], [48.0, 11.01], [91.0, 11.0]]]",
+                "navigation.fence.polygons[0][2]",
+            ),
+            (
+                "polygons = [[[48.0, 11.0], [48.0, 11.01], [48.0, nan]]]",
+                "navigation.fence.polygons[0][2]",
+            ),
+            (
+                "polygons = [[[48.0, 11.0], [48.0, 11.01], [49.0, 11.0]]]",
+                "navigation.fence.polygons[0][2]",
+            ),
+            (
+                "circles = [{ lat_deg = 48.0, lon_deg = 181.0, radius_m = 5.0 }]",
+                "navigation.fence.circles[0]",
+            ),
+            (
+                "circles = [{ lat_deg = 48.0, lon_deg = 11.0, radius_m = 0.0 }]",
+                "navigation.fence.circles[0].radius_m",
+            ),
+            ("max_distance_m = inf", "navigation.fence.max_distance_m"),
+            ("max_distance_m = 0.5", "navigation.fence.max_distance_m"),
+        ] {
+            let err = error_for(&format!("[navigation.fence]\n{toml}\n"));
+            assert!(
+                err.starts_with(&format!("config: {key} = ")),
+                "{toml}: {err}"
+            );
+        }
+        assert!(error_for("[navigation]\nrollover_tilt_deg = 10.0\n")
+            .contains("navigation.rollover_tilt_deg"));
+        assert!(error_for("[navigation]\nrollover_ms = 2000\n").contains("navigation.rollover_ms"));
     }
 
     /// The error for `toml` (parsed over the defaults), as text.

@@ -40,9 +40,11 @@ pub mod config;
 pub mod control;
 pub mod counters;
 pub mod estimate;
+pub mod geo;
 pub mod monitor;
 pub mod safety;
 pub mod step;
+pub mod wire;
 
 pub use dima_groundlink::Command;
 pub use safety::{FailsafeCause, Mode, ReceivedCommand, ReviveRefusal};

@@ -27,9 +27,12 @@
 //! - in MANUAL or AUTO: no command for longer than the comms timeout, K consecutive bad or
 //!   missing packets, a stuck IMU (the accelerometer's or the gyroscope's words frozen, each
 //!   die judged on its own), or an overrunning loop (too many late wake-ups within a second, or
-//!   too long a stall) -> FAILSAFE; in AUTO also GNSS older than its timeout (a fix counts only
+//!   too long a stall), or a car rolled over (see [`crate::monitor::RolloverMonitor`]) ->
+//!   FAILSAFE, and so does a new GNSS fix outside the geofence (see
+//!   [`crate::monitor::Geofence`]); in AUTO also GNSS older than its timeout (a fix counts only
 //!   while it is valid and its time of week advances past the newest fix used: a repeated or
-//!   backward iTOW is old data). FAILSAFE latches until a revive;
+//!   backward iTOW is old data), and in MANUAL too when a geofence is configured (without a
+//!   fresh fix the fence cannot be judged). FAILSAFE latches until a revive;
 //! - entering KILLED or FAILSAFE forgets every manual value and setpoint, so a revive starts
 //!   from neutral;
 //! - every mode transition is counted ([`SafetyState::mode_transitions`]), also those that come
@@ -113,8 +116,14 @@ pub enum FailsafeCause {
     /// The loop overran: more late wake-ups within a second than `safety.overrun_limit`, or
     /// periods missed within a second adding up to more than `safety.max_stall_ms`.
     Overrun,
-    /// In AUTO, no fresh GNSS fix within the GNSS timeout.
+    /// In AUTO, no fresh GNSS fix within the GNSS timeout; in MANUAL too when a geofence is
+    /// configured (without a fix the fence cannot be judged).
     GnssStale,
+    /// The accelerometer's reading tilted beyond `navigation.rollover_tilt_deg` for
+    /// `navigation.rollover_ms`: the car lies on its side or its roof.
+    Rollover,
+    /// In MANUAL or AUTO, a new GNSS fix outside the geofence (`[navigation.fence]`).
+    Geofence,
 }
 
 /// Why a revive was refused. In logs by its variant name.
@@ -141,6 +150,12 @@ pub enum ReviveRefusal {
     RealtimeSetup,
     /// Less than `safety.revive_min_interval_ms` since the last kill or revive.
     TooSoon,
+    /// The last packet shows the car tilted beyond `navigation.rollover_tilt_deg`: it is not
+    /// on its wheels.
+    RolledOver,
+    /// A geofence is configured and the newest fix is outside its inclusion areas, or there is
+    /// no fresh fix to tell.
+    OutsideFence,
 }
 
 /// Thresholds, in the units the transition functions use.
@@ -199,6 +214,13 @@ pub struct CycleHealth {
     pub imu_stuck: bool,
     /// No fresh GNSS fix within the GNSS timeout.
     pub gnss_stale: bool,
+    /// The car has been tilted beyond the rollover angle for the rollover time.
+    pub rolled_over: bool,
+    /// The newest valid GNSS fix was outside the geofence.
+    pub outside_fence: bool,
+    /// A geofence is configured: GNSS must be fresh in MANUAL as well as in AUTO, or the
+    /// fence cannot be judged.
+    pub fenced: bool,
 }
 
 impl CycleHealth {
@@ -208,6 +230,9 @@ impl CycleHealth {
         overrunning: false,
         imu_stuck: false,
         gnss_stale: false,
+        rolled_over: false,
+        outside_fence: false,
+        fenced: false,
     };
 }
 
@@ -462,7 +487,11 @@ impl SafetyState {
             Some(FailsafeCause::ImuStuck)
         } else if health.overrunning {
             Some(FailsafeCause::Overrun)
-        } else if health.gnss_stale && self.mode == Mode::Auto {
+        } else if health.rolled_over {
+            Some(FailsafeCause::Rollover)
+        } else if health.outside_fence {
+            Some(FailsafeCause::Geofence)
+        } else if health.gnss_stale && (self.mode == Mode::Auto || health.fenced) {
             Some(FailsafeCause::GnssStale)
         } else {
             None
@@ -749,6 +778,8 @@ mod tests {
             ReviveRefusal::ImuStuck,
             ReviveRefusal::Overrun,
             ReviveRefusal::RealtimeSetup,
+            ReviveRefusal::RolledOver,
+            ReviveRefusal::OutsideFence,
         ] {
             let mut s = healthy();
             let effect = fresh(&mut s, Command::Revive, 0, Some(why));
@@ -772,6 +803,28 @@ mod tests {
                     ..OK
                 },
                 FailsafeCause::Overrun,
+            ),
+            (
+                CycleHealth {
+                    rolled_over: true,
+                    ..OK
+                },
+                FailsafeCause::Rollover,
+            ),
+            (
+                CycleHealth {
+                    outside_fence: true,
+                    ..OK
+                },
+                FailsafeCause::Geofence,
+            ),
+            (
+                CycleHealth {
+                    gnss_stale: true,
+                    fenced: true,
+                    ..OK
+                },
+                FailsafeCause::GnssStale,
             ),
         ] {
             let mut s = healthy();

@@ -15,9 +15,10 @@ use crate::control::{
 };
 use crate::counters::Counters;
 use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
+use crate::geo::LatLon;
 use crate::monitor::{
-    AnswerWindow, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule, OverrunWindow,
-    PacketVerdict,
+    AnswerWindow, FenceMonitor, Geofence, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule,
+    OverrunWindow, PacketVerdict, RolloverMonitor, RolloverRule,
 };
 use crate::safety::{
     CycleHealth, FailsafeCause, Mode, ReceivedCommand, ReviveRefusal, SafetyLimits, SafetyState,
@@ -117,6 +118,10 @@ pub struct CoreState {
     pub imu: ImuStuckDetector,
     /// Late wake-ups within the last second.
     pub overruns: OverrunWindow,
+    /// How long the car has been tilted.
+    pub rollover: RolloverMonitor,
+    /// The newest fix and the revive point, judged against the geofence.
+    pub fence: FenceMonitor,
     /// Time of the last controller step.
     pub last_step_ns: Option<Nanos>,
     /// The required realtime setup failed: revives are refused for the whole run.
@@ -146,6 +151,8 @@ pub struct Core {
     max_speed_accuracy_mm_s: u32,
     imu_stuck_packets: u32,
     overrun: OverrunRule,
+    rollover: RolloverRule,
+    fence: Geofence,
 }
 
 impl Core {
@@ -176,6 +183,12 @@ impl Core {
                 max_stall_ns: u64::from(config.safety.max_stall_ms) * 1_000_000,
                 period_ns: config.period_ns(),
             },
+            rollover: RolloverRule::new(
+                config.navigation.rollover_tilt_deg,
+                config.navigation.rollover_ms,
+                -config.estimator.gyro_yaw_sign,
+            ),
+            fence: Geofence::new(&config.navigation.fence),
         })
     }
 
@@ -197,6 +210,13 @@ impl Core {
             Some(ReviveRefusal::ImuStuck)
         } else if state.overruns.exceeded(now, &self.overrun) {
             Some(ReviveRefusal::Overrun)
+        } else if state.rollover.is_tilted() {
+            Some(ReviveRefusal::RolledOver)
+        } else if state.fence.refuses_revive(
+            &self.fence,
+            state.gnss.current(now, self.gnss_timeout_ns).is_some(),
+        ) {
+            Some(ReviveRefusal::OutsideFence)
         } else {
             None
         }
@@ -233,6 +253,9 @@ impl Core {
         let packet = raw.filter(|_| verdict.is_ok()).map(|raw| raw.decode());
         if let Some(p) = &packet {
             state.imu.update(p.accel, p.gyro, self.imu_stuck_packets);
+            state
+                .rollover
+                .update(p.accel.map(units::accel_mg_2g), now, &self.rollover);
             state.values.gyro_z_dps = units::gyro_dps_2000(p.gyro[2]);
         }
         let epoch = state.gnss.update(
@@ -246,6 +269,12 @@ impl Core {
             _ => {}
         }
         let new_fix = epoch.fix();
+        if new_fix.is_some() {
+            if let Some(pvt) = packet.as_ref().and_then(SensorPacket::nav_pvt) {
+                let position = LatLon::from_deg_e7(pvt.lat_deg_e7, pvt.lon_deg_e7);
+                state.fence.on_fix(position, &self.fence);
+            }
+        }
         state.values.gnss = state.gnss.current(now, self.gnss_timeout_ns);
         state.values.gnss_new = new_fix.is_some();
         let imu = packet.as_ref().map(|p| ImuSample {
@@ -313,6 +342,7 @@ impl Core {
         let mut refused = None;
         let mut rejected = 0;
         for &received in inputs.commands {
+            let was_safe = state.safety.mode.is_safe();
             let blocked = self.revive_blocker(state, now);
             let effect = state
                 .safety
@@ -320,6 +350,9 @@ impl Core {
             if effect.stale {
                 state.counters.commands_stale += 1;
                 continue;
+            }
+            if was_safe && !state.safety.mode.is_safe() {
+                state.fence.on_revive(&self.fence);
             }
             state.counters.commands += 1;
             if effect.rejected {
@@ -338,6 +371,9 @@ impl Core {
             overrunning,
             imu_stuck: state.imu.is_stuck(self.imu_stuck_packets),
             gnss_stale: state.values.gnss.is_none(),
+            rolled_over: state.rollover.is_rolled_over(),
+            outside_fence: state.fence.is_outside(),
+            fenced: self.fence.is_configured(),
         };
         state.safety.on_cycle(&self.limits, health, now);
         let mode_changed = state.safety.mode != mode_before;

@@ -4,9 +4,11 @@
 //! round trip inside one cycle, one IMU die frozen while the other stays alive, and commands
 //! that reach the step long after they arrived.
 
-use dima_core::config::Config;
+use dima_core::config::{Config, FenceCircle, FenceConfig};
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
-use dima_core::{Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand};
+use dima_core::{
+    Command, Core, CoreState, FailsafeCause, Mode, Nanos, ReceivedCommand, ReviveRefusal,
+};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
 use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
@@ -36,6 +38,8 @@ struct Board {
     accel_alive: bool,
     gyro_alive: bool,
     packets: u32,
+    lat_deg_e7: i32,
+    lon_deg_e7: i32,
 }
 
 impl Board {
@@ -49,6 +53,8 @@ impl Board {
             accel_alive: true,
             gyro_alive: true,
             packets: 0,
+            lat_deg_e7: 480_000_000,
+            lon_deg_e7: 110_000_000,
         }
     }
 
@@ -74,6 +80,8 @@ impl Board {
             g_speed_mm_s: self.speed_mm_s,
             head_mot_deg_e5: self.head_deg_e5,
             s_acc_mm_s: 150,
+            lat_deg_e7: self.lat_deg_e7,
+            lon_deg_e7: self.lon_deg_e7,
             ..NavPvt::default()
         };
         let p = SensorPacket {
@@ -535,4 +543,183 @@ fn fresh_commands_act_and_keep_the_link_from_their_arrival() {
         (at - arrival) / MS,
         timeout / MS
     );
+}
+
+/// The car rolls onto its side (the accelerometer reads 1 g along its Y axis) in `mode` and
+/// stays there: the cycles it took to leave `mode`, and the outputs then.
+fn roll_onto_the_side(rig: &mut Rig, mode: Mode) -> (u64, CycleOutputs) {
+    rig.board.accel = [10, 1_020, 15];
+    for cycles in 1..=2_500 {
+        let out = rig.quiet_cycle();
+        if out.mode != mode {
+            return (cycles, out);
+        }
+    }
+    panic!("still {mode:?} after 10 s on its side");
+}
+
+#[test]
+fn a_car_on_its_side_trips_rollover_in_manual_and_auto_and_cannot_be_revived() {
+    let hold_cycles = u64::from(Config::default().navigation.rollover_ms) * MS / PERIOD;
+    for auto in [false, true] {
+        let mut rig = Rig::new();
+        if auto {
+            rig.in_auto(2_000);
+        } else {
+            assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+            rig.cycle(&[Command::Throttle(pct(80))]);
+        }
+        let mode = if auto { Mode::Auto } else { Mode::Manual };
+        let (cycles, out) = roll_onto_the_side(&mut rig, mode);
+        assert_eq!(
+            (out.mode, out.cause),
+            (Mode::Failsafe, Some(FailsafeCause::Rollover)),
+            "auto {auto}"
+        );
+        assert_eq!(out.targets, rig.core.safe_targets(), "auto {auto}");
+        // Not a packet before the hold time, and within a cycle of it.
+        assert!(
+            (hold_cycles..=hold_cycles + 1).contains(&cycles),
+            "auto {auto}: tripped after {cycles} cycles, hold {hold_cycles}"
+        );
+        // Still on its side: a revive is refused.
+        rig.run(100);
+        let out = rig.cycle(&[Command::Revive]);
+        assert_eq!(
+            (out.mode, out.refused),
+            (Mode::Failsafe, Some(ReviveRefusal::RolledOver))
+        );
+        // Back on its wheels: the revive goes through.
+        rig.board.accel = [0, 0, 1_020];
+        rig.run(10);
+        assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    }
+}
+
+#[test]
+fn a_bump_that_tilts_the_reading_for_a_few_packets_is_not_a_rollover() {
+    let mut rig = Rig::new();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    for _ in 0..20 {
+        rig.board.accel = [300, 1_500, -600];
+        assert_eq!(rig.run(10).mode, Mode::Manual);
+        rig.board.accel = [0, 0, 1_020];
+        assert_eq!(rig.run(50).mode, Mode::Manual);
+    }
+}
+
+/// The default configuration with `[navigation.fence]` set by `fence`.
+fn fenced(fence: impl FnOnce(&mut FenceConfig)) -> Rig {
+    let mut config = Config::default();
+    fence(&mut config.navigation.fence);
+    Rig::with_config(config)
+}
+
+/// Cycles without commands but heartbeats while the mode stays `mode` (at most 10 s): the
+/// cycles it took, and the outputs of the first cycle in another mode.
+fn quiet_while(rig: &mut Rig, mode: Mode) -> (u64, CycleOutputs) {
+    for cycles in 1..=2_500 {
+        let out = rig.quiet_cycle();
+        if out.mode != mode {
+            return (cycles, out);
+        }
+    }
+    panic!("still {mode:?} after 10 s");
+}
+
+#[test]
+fn leaving_the_fence_trips_geofence_in_manual_and_auto_within_a_gnss_period() {
+    for auto in [false, true] {
+        // 50 m from the revive point.
+        let mut rig = fenced(|f| f.max_distance_m = Some(50.0));
+        let mode = if auto {
+            rig.in_auto(2_000);
+            Mode::Auto
+        } else {
+            assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+            rig.cycle(&[Command::Throttle(pct(80))]);
+            Mode::Manual
+        };
+        // 44 m north: still inside.
+        rig.board.lat_deg_e7 += 4_000;
+        assert_eq!(rig.run(100).mode, mode, "auto {auto}");
+        // 56 m north: outside from the next fix on.
+        rig.board.lat_deg_e7 += 1_000;
+        let (cycles, out) = quiet_while(&mut rig, mode);
+        assert_eq!(
+            (out.mode, out.cause),
+            (Mode::Failsafe, Some(FailsafeCause::Geofence)),
+            "auto {auto}"
+        );
+        assert_eq!(out.targets, rig.core.safe_targets());
+        assert!(cycles <= EPOCH_CYCLES + 1, "auto {auto}: {cycles} cycles");
+        // A revive out there is a new revive point (no inclusion area is given): it is taken.
+        rig.run(100);
+        assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+        assert_eq!(rig.run(100).mode, Mode::Manual);
+    }
+}
+
+#[test]
+fn a_revive_outside_the_inclusion_areas_is_refused_inside_it_is_taken() {
+    // A circle of 100 m round a point 200 m south of the car.
+    let mut rig = fenced(|f| {
+        f.circles = vec![FenceCircle {
+            lat_deg: 47.998,
+            lon_deg: 11.0,
+            radius_m: 100.0,
+        }]
+    });
+    rig.run(30);
+    let out = rig.cycle(&[Command::Revive]);
+    assert_eq!(
+        (out.mode, out.refused),
+        (Mode::Killed, Some(ReviveRefusal::OutsideFence))
+    );
+    // Carried into the circle.
+    rig.board.lat_deg_e7 -= 15_000;
+    rig.run(100);
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    assert_eq!(rig.run(100).mode, Mode::Manual);
+    // Driven out of it: FAILSAFE.
+    rig.board.lat_deg_e7 += 10_000;
+    let (_, out) = quiet_while(&mut rig, Mode::Manual);
+    assert_eq!(out.cause, Some(FailsafeCause::Geofence));
+}
+
+#[test]
+fn with_a_fence_stale_gnss_trips_in_manual_too_without_one_it_does_not() {
+    for fence in [false, true] {
+        let mut rig = if fence {
+            fenced(|f| f.max_distance_m = Some(50.0))
+        } else {
+            Rig::new()
+        };
+        assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+        rig.run(50);
+        rig.gnss_running = false;
+        if fence {
+            let (cycles, out) = quiet_while(&mut rig, Mode::Manual);
+            assert_eq!(out.cause, Some(FailsafeCause::GnssStale));
+            let timeout_cycles = u64::from(rig.config.safety.gnss_timeout_ms) * MS / PERIOD;
+            assert!(cycles <= timeout_cycles + 1, "{cycles}");
+            // No fresh fix: the fence cannot be judged, a revive is refused.
+            rig.run(100);
+            let out = rig.cycle(&[Command::Revive]);
+            assert_eq!(out.refused, Some(ReviveRefusal::OutsideFence));
+        } else {
+            assert_eq!(rig.run(1_000).mode, Mode::Manual);
+        }
+    }
+}
+
+#[test]
+fn without_a_fence_the_car_drives_anywhere() {
+    let mut rig = Rig::new();
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
+    for _ in 0..20 {
+        rig.board.lat_deg_e7 += 100_000;
+        rig.board.lon_deg_e7 -= 100_000;
+        assert_eq!(rig.run(50).mode, Mode::Manual);
+    }
 }

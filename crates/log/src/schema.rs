@@ -480,6 +480,38 @@ mod tests {
     use super::*;
 
     #[test]
+    fn rollover_and_geofence_are_logged_by_name_and_in_the_schema() {
+        let state = StateMessage {
+            cycle: 7,
+            mode: Mode::Failsafe,
+            cause: Some(FailsafeCause::Geofence),
+            refused: Some(ReviveRefusal::OutsideFence),
+            events: Vec::new(),
+        };
+        let json = serde_json::to_value(&state).unwrap();
+        assert_eq!(json["cause"], "Geofence");
+        assert_eq!(json["refused"], "OutsideFence");
+        let back: StateMessage = serde_json::from_value(json).unwrap();
+        assert_eq!(back, state);
+        let rolled = serde_json::json!({
+            "cycle": 8, "mode": "FAILSAFE", "cause": "Rollover", "refused": "RolledOver",
+            "events": [],
+        });
+        let rolled: StateMessage = serde_json::from_value(rolled).unwrap();
+        assert_eq!(
+            (rolled.cause, rolled.refused),
+            (
+                Some(FailsafeCause::Rollover),
+                Some(ReviveRefusal::RolledOver)
+            )
+        );
+        let schema = json_schema::<StateMessage>();
+        for name in ["Rollover", "Geofence", "RolledOver", "OutsideFence"] {
+            assert!(schema.contains(&format!("\"{name}\"")), "{name}");
+        }
+    }
+
+    #[test]
     fn schemas_carry_the_contract_names_and_units() {
         let cycle: serde_json::Value =
             serde_json::from_str(&json_schema::<CycleMessage>()).unwrap();

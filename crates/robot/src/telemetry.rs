@@ -357,36 +357,6 @@ impl CommandLink {
     }
 }
 
-/// The robot's mode as display frames v2 carry it.
-pub fn robot_mode(mode: Mode) -> v2::RobotMode {
-    match mode {
-        Mode::Killed => v2::RobotMode::Killed,
-        Mode::Manual => v2::RobotMode::Manual,
-        Mode::Auto => v2::RobotMode::Auto,
-        Mode::Failsafe => v2::RobotMode::Failsafe,
-    }
-}
-
-fn failsafe_cause(cause: FailsafeCause) -> v2::FailsafeCause {
-    match cause {
-        FailsafeCause::CommsLoss => v2::FailsafeCause::CommsLoss,
-        FailsafeCause::SensorLoss => v2::FailsafeCause::SensorLoss,
-        FailsafeCause::ImuStuck => v2::FailsafeCause::ImuStuck,
-        FailsafeCause::Overrun => v2::FailsafeCause::Overrun,
-        FailsafeCause::GnssStale => v2::FailsafeCause::GnssStale,
-    }
-}
-
-fn revive_refusal(refusal: ReviveRefusal) -> v2::ReviveRefusal {
-    match refusal {
-        ReviveRefusal::SensorLoss => v2::ReviveRefusal::SensorLoss,
-        ReviveRefusal::ImuStuck => v2::ReviveRefusal::ImuStuck,
-        ReviveRefusal::Overrun => v2::ReviveRefusal::Overrun,
-        ReviveRefusal::RealtimeSetup => v2::ReviveRefusal::RealtimeSetup,
-        ReviveRefusal::TooSoon => v2::ReviveRefusal::TooSoon,
-    }
-}
-
 /// Saturating narrowing for the display frame's 32-bit counters.
 fn c32(value: u64) -> u32 {
     u32::try_from(value).unwrap_or(u32::MAX)
@@ -498,9 +468,9 @@ impl RobotReport {
     /// The display frame v2: what the robot is.
     pub fn display_v2(&self) -> v2::DisplayFrame {
         v2::DisplayFrame {
-            mode: robot_mode(self.mode),
-            failsafe_cause: self.cause.map(failsafe_cause),
-            revive_refusal: self.refusal.map(revive_refusal),
+            mode: self.mode.into(),
+            failsafe_cause: self.cause.map(Into::into),
+            revive_refusal: self.refusal.map(Into::into),
             session: self.session,
             seq: self.seq,
             ack_seq: self.ack_seq,

@@ -99,6 +99,8 @@ pub struct SensorFaultState {
     pub gnss_lost: bool,
     /// Keep the last accelerometer and gyroscope words.
     pub imu_stuck: bool,
+    /// The car lies on its left side: the accelerometer reads 1 g along its Y axis.
+    pub rolled_over: bool,
 }
 
 /// The board's answer to one request.
@@ -204,10 +206,19 @@ impl BoardSim {
         }
 
         let e = self.errors;
-        let accel_mg = Xyz {
-            x: state.accel_m_s2 / G * 1e3 + e.accel_bias_mg[0] + self.noise(4.0),
-            y: state.lateral_accel_left_m_s2() / G * 1e3 + e.accel_bias_mg[1] + self.noise(4.0),
-            z: 1e3 + e.accel_bias_mg[2] + self.noise(4.0),
+        let accel_mg = if faults.rolled_over {
+            // On its left side: gravity's reaction along +Y, nothing along Z.
+            Xyz {
+                x: e.accel_bias_mg[0] + self.noise(4.0),
+                y: 1e3 + e.accel_bias_mg[1] + self.noise(4.0),
+                z: e.accel_bias_mg[2] + self.noise(4.0),
+            }
+        } else {
+            Xyz {
+                x: state.accel_m_s2 / G * 1e3 + e.accel_bias_mg[0] + self.noise(4.0),
+                y: state.lateral_accel_left_m_s2() / G * 1e3 + e.accel_bias_mg[1] + self.noise(4.0),
+                z: 1e3 + e.accel_bias_mg[2] + self.noise(4.0),
+            }
         };
         let gyro_dps = Xyz {
             x: e.gyro_bias_dps[0] + self.noise(0.1),
@@ -507,6 +518,30 @@ mod tests {
         assert_eq!(pvt.head_mot_deg_e5, 9_000_000);
         assert!((pvt.lat_deg() - (-34.0885 + 100.0 / 111_194.9)).abs() < 1e-6);
         assert!(pvt.gnss_fix_ok());
+    }
+
+    #[test]
+    fn a_rolled_over_car_reads_gravity_along_its_side_and_nothing_else_changes() {
+        let mut b = exact();
+        let state = VehicleState {
+            accel_m_s2: 2.0,
+            ..VehicleState::default()
+        };
+        let decoded = |a: &Answer| match decode(&a.packet).first() {
+            Some(Frame::Packet(raw)) => raw.decode(),
+            other => panic!("not a packet: {other:?}"),
+        };
+        let upright = decoded(&b.answer(0.05, &state));
+        let rolled = SensorFaultState {
+            rolled_over: true,
+            ..SensorFaultState::default()
+        };
+        let side = decoded(&b.answer_with(0.06, &state, rolled));
+        let mg = side.accel.map(units::accel_mg_2g);
+        assert!((mg[1] - 1_000.0).abs() < 20.0, "{mg:?}");
+        assert!(mg[0].abs() < 20.0 && mg[2].abs() < 20.0, "{mg:?}");
+        assert!(upright.accel.map(units::accel_mg_2g)[2] > 980.0);
+        assert_eq!(side.gyro, upright.gyro);
     }
 
     #[test]

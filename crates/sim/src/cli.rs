@@ -29,7 +29,7 @@ pub struct SimArgs {
     /// A fault on a link, repeatable: LINK:KEY=VALUE[,KEY=VALUE...] with LINK sensor, ground
     /// or maestro and KEY ber, drop, insert (probabilities), delay, jitter (ms), silence,
     /// disconnect (START+DURATION s); device and application faults in windows: gnss:freeze,
-    /// gnss:loss, imu:stuck, loop:busy (with busy_ms), log:stall, log:full,
+    /// gnss:loss, imu:stuck, vehicle:rollover, loop:busy (with busy_ms), log:stall, log:full,
     /// maestro:write_error. Example: --fault sensor:ber=1e-4 --fault maestro:disconnect=5+1
     #[arg(long = "fault", value_name = "LINK:KEY=VALUE")]
     pub faults: Vec<String>,

@@ -253,6 +253,7 @@ impl BoardWorker {
             gnss_frozen: self.sensor_faults.gnss_frozen_at(t),
             gnss_lost: self.sensor_faults.gnss_lost_at(t),
             imu_stuck: self.sensor_faults.imu_stuck_at(t),
+            rolled_over: self.sensor_faults.rolled_over_at(t),
         };
         let answer = self.board.answer_with(t, &state, faults);
         // A delay fault postpones the whole transmission.

@@ -145,6 +145,9 @@ pub struct SensorFaults {
     pub gnss_losses: Vec<Window>,
     /// `imu:stuck`: the accelerometer and gyroscope words stay frozen (failed reads).
     pub imu_stuck: Vec<Window>,
+    /// `vehicle:rollover`: the car lies on its side; the accelerometer says so, the rest of
+    /// the model goes on as it was.
+    pub rollovers: Vec<Window>,
 }
 
 impl SensorFaults {
@@ -161,6 +164,11 @@ impl SensorFaults {
     /// Whether the IMU is stuck at `t_s`.
     pub fn imu_stuck_at(&self, t_s: f64) -> bool {
         self.imu_stuck.iter().any(|w| w.contains(t_s))
+    }
+
+    /// Whether the car lies on its side at `t_s`.
+    pub fn rolled_over_at(&self, t_s: f64) -> bool {
+        self.rollovers.iter().any(|w| w.contains(t_s))
     }
 }
 
@@ -212,11 +220,12 @@ impl Faults {
     }
 
     /// Applies a `LINK:KEY=VALUE[,KEY=VALUE...]` argument, e.g. `sensor:ber=1e-3,drop=1e-4`,
-    /// `gnss:freeze=5+2`, `imu:stuck=5+2` or `loop:busy=5+2,busy_ms=6`.
+    /// `gnss:freeze=5+2`, `imu:stuck=5+2`, `vehicle:rollover=8+2` or `loop:busy=5+2,busy_ms=6`.
     pub fn apply_arg(&mut self, arg: &str) -> Result<(), FaultParseError> {
         let (link, settings) = arg.split_once(':').ok_or_else(|| {
             FaultParseError(format!(
-                "`{arg}`: expected LINK:KEY=VALUE (sensor, ground, maestro, gnss, imu, loop, log)"
+                "`{arg}`: expected LINK:KEY=VALUE (sensor, ground, maestro, gnss, imu, vehicle, \
+                 loop, log)"
             ))
         })?;
         let link = match link.trim() {
@@ -226,12 +235,13 @@ impl Faults {
                 return self.apply_write_error(settings)
             }
             "maestro" => Link::Maestro,
-            "gnss" | "imu" => return self.apply_sensor_fault(link.trim(), settings),
+            "gnss" | "imu" | "vehicle" => return self.apply_sensor_fault(link.trim(), settings),
             "loop" => return self.apply_loop_fault(settings),
             "log" => return self.apply_log_fault(settings),
             other => {
                 return Err(FaultParseError(format!(
-                    "unknown link `{other}` (sensor, ground, maestro, gnss, imu, loop, log)"
+                    "unknown link `{other}` (sensor, ground, maestro, gnss, imu, vehicle, loop, \
+                     log)"
                 )))
             }
         };
@@ -243,7 +253,8 @@ impl Faults {
 }
 
 impl Faults {
-    /// `gnss:freeze=W`, `gnss:loss=W`, `imu:stuck=W` (windows `START+DURATION`).
+    /// `gnss:freeze=W`, `gnss:loss=W`, `imu:stuck=W`, `vehicle:rollover=W` (windows
+    /// `START+DURATION`).
     fn apply_sensor_fault(&mut self, device: &str, settings: &str) -> Result<(), FaultParseError> {
         for setting in settings.split(',').filter(|s| !s.trim().is_empty()) {
             let (key, value) = setting
@@ -255,6 +266,12 @@ impl Faults {
                 ("gnss", "freeze") => s.gnss_freezes.push(window),
                 ("gnss", "loss") => s.gnss_losses.push(window),
                 ("imu", "stuck") => s.imu_stuck.push(window),
+                ("vehicle", "rollover") => s.rollovers.push(window),
+                ("vehicle", other) => {
+                    return Err(FaultParseError(format!(
+                        "unknown vehicle fault `{other}` (rollover)"
+                    )))
+                }
                 ("gnss", other) => {
                     return Err(FaultParseError(format!(
                         "unknown gnss fault `{other}` (freeze, loss)"
@@ -610,6 +627,9 @@ mod tests {
         f.apply_arg("log:stall=1+5").unwrap();
         f.apply_arg("log:full=2+3,full=9+1").unwrap();
         f.apply_arg("maestro:write_error=4+2").unwrap();
+        f.apply_arg("vehicle:rollover=8+2").unwrap();
+        assert!(f.sensors.rolled_over_at(8.0) && f.sensors.rolled_over_at(9.9));
+        assert!(!f.sensors.rolled_over_at(7.9) && !f.sensors.rolled_over_at(10.0));
         assert_eq!(f.app.log_stalls.len(), 1);
         assert_eq!(f.app.log_full.len(), 2);
         assert!(f.app.maestro_write_errors[0].contains(5.9));
@@ -640,6 +660,9 @@ mod tests {
             "log:full=1",
             "maestro:write_error=x",
             "maestro:write_error=1+1,ber=0.1",
+            "vehicle:rollover",
+            "vehicle:rollover=8",
+            "vehicle:flip=8+2",
         ] {
             assert!(Faults::default().apply_arg(bad).is_err(), "{bad}");
         }

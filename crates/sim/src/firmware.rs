@@ -453,6 +453,7 @@ impl Feeder {
             gnss_frozen: self.sensor_faults.gnss_frozen_at(t),
             gnss_lost: self.sensor_faults.gnss_lost_at(t),
             imu_stuck: self.sensor_faults.imu_stuck_at(t),
+            rolled_over: self.sensor_faults.rolled_over_at(t),
         };
         let packet = self
             .board

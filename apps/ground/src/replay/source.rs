@@ -302,9 +302,9 @@ impl RobotReporter {
         let c = &cycle.counters;
         let saturate = |v: u64| u32::try_from(v).unwrap_or(u32::MAX);
         let status = v2::DisplayFrame {
-            mode: robot_mode(cycle.mode),
-            failsafe_cause: self.cause.map(failsafe_cause),
-            revive_refusal: self.refusal.map(revive_refusal),
+            mode: cycle.mode.into(),
+            failsafe_cause: self.cause.map(Into::into),
+            revive_refusal: self.refusal.map(Into::into),
             session: 0,
             seq: self.seq,
             ack_seq: 0,
@@ -379,35 +379,5 @@ fn sensors(cycle: &CycleMessage, packet: Option<&[u8; PACKET_LEN]>) -> DisplayFr
         g_speed_mm_s: s.g_speed_mm_s.unwrap_or(0),
         head_mot_deg_e5: s.head_mot_deg.map_or(0, |d| (d * 1e5).round() as i32),
         ..DisplayFrame::default()
-    }
-}
-
-/// The robot's mode as display frames carry it.
-fn robot_mode(mode: Mode) -> v2::RobotMode {
-    match mode {
-        Mode::Killed => v2::RobotMode::Killed,
-        Mode::Manual => v2::RobotMode::Manual,
-        Mode::Auto => v2::RobotMode::Auto,
-        Mode::Failsafe => v2::RobotMode::Failsafe,
-    }
-}
-
-fn failsafe_cause(cause: FailsafeCause) -> v2::FailsafeCause {
-    match cause {
-        FailsafeCause::CommsLoss => v2::FailsafeCause::CommsLoss,
-        FailsafeCause::SensorLoss => v2::FailsafeCause::SensorLoss,
-        FailsafeCause::ImuStuck => v2::FailsafeCause::ImuStuck,
-        FailsafeCause::Overrun => v2::FailsafeCause::Overrun,
-        FailsafeCause::GnssStale => v2::FailsafeCause::GnssStale,
-    }
-}
-
-fn revive_refusal(refusal: ReviveRefusal) -> v2::ReviveRefusal {
-    match refusal {
-        ReviveRefusal::SensorLoss => v2::ReviveRefusal::SensorLoss,
-        ReviveRefusal::ImuStuck => v2::ReviveRefusal::ImuStuck,
-        ReviveRefusal::Overrun => v2::ReviveRefusal::Overrun,
-        ReviveRefusal::RealtimeSetup => v2::ReviveRefusal::RealtimeSetup,
-        ReviveRefusal::TooSoon => v2::ReviveRefusal::TooSoon,
     }
 }

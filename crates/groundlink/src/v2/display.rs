@@ -74,6 +74,10 @@ pub enum FailsafeCause {
     Overrun,
     /// No new GNSS solution for too long.
     GnssStale,
+    /// The car rolled over (on its side or roof for too long).
+    Rollover,
+    /// A GNSS fix outside the geofence.
+    Geofence,
     /// A cause this version of the decoder has no name for (its nonzero wire code).
     Other(u8),
 }
@@ -88,6 +92,8 @@ impl FailsafeCause {
             3 => FailsafeCause::ImuStuck,
             4 => FailsafeCause::Overrun,
             5 => FailsafeCause::GnssStale,
+            6 => FailsafeCause::Rollover,
+            7 => FailsafeCause::Geofence,
             other => FailsafeCause::Other(other),
         })
     }
@@ -101,6 +107,8 @@ impl FailsafeCause {
             Some(FailsafeCause::ImuStuck) => 3,
             Some(FailsafeCause::Overrun) => 4,
             Some(FailsafeCause::GnssStale) => 5,
+            Some(FailsafeCause::Rollover) => 6,
+            Some(FailsafeCause::Geofence) => 7,
             Some(FailsafeCause::Other(code)) => code,
         }
     }
@@ -120,6 +128,10 @@ pub enum ReviveRefusal {
     RealtimeSetup,
     /// Too soon after the last kill or revive (the robot rate-limits revives).
     TooSoon,
+    /// The car is not on its wheels.
+    RolledOver,
+    /// Outside the geofence, or no fresh GNSS fix to tell.
+    OutsideFence,
     /// A reason this version of the decoder has no name for (its nonzero wire code).
     Other(u8),
 }
@@ -134,6 +146,8 @@ impl ReviveRefusal {
             3 => ReviveRefusal::Overrun,
             4 => ReviveRefusal::RealtimeSetup,
             5 => ReviveRefusal::TooSoon,
+            6 => ReviveRefusal::RolledOver,
+            7 => ReviveRefusal::OutsideFence,
             other => ReviveRefusal::Other(other),
         })
     }
@@ -147,6 +161,8 @@ impl ReviveRefusal {
             Some(ReviveRefusal::Overrun) => 3,
             Some(ReviveRefusal::RealtimeSetup) => 4,
             Some(ReviveRefusal::TooSoon) => 5,
+            Some(ReviveRefusal::RolledOver) => 6,
+            Some(ReviveRefusal::OutsideFence) => 7,
             Some(ReviveRefusal::Other(code)) => code,
         }
     }
@@ -332,6 +348,40 @@ mod tests {
         assert_eq!(&bytes[54..118], &sensors.encode()[..64]);
         assert_eq!(&bytes[118..], &KEY.tag(&bytes[..118]));
         assert_eq!(DisplayFrame::decode(&bytes, &KEY), Ok(frame));
+    }
+
+    #[test]
+    fn every_cause_and_refusal_has_its_own_code_and_comes_back() {
+        use FailsafeCause as C;
+        use ReviveRefusal as R;
+        let causes = [
+            (C::CommsLoss, 1),
+            (C::SensorLoss, 2),
+            (C::ImuStuck, 3),
+            (C::Overrun, 4),
+            (C::GnssStale, 5),
+            (C::Rollover, 6),
+            (C::Geofence, 7),
+        ];
+        for (cause, code) in causes {
+            assert_eq!(C::code(Some(cause)), code, "{cause:?}");
+            assert_eq!(C::from_code(code), Some(cause));
+        }
+        let refusals = [
+            (R::SensorLoss, 1),
+            (R::ImuStuck, 2),
+            (R::Overrun, 3),
+            (R::RealtimeSetup, 4),
+            (R::TooSoon, 5),
+            (R::RolledOver, 6),
+            (R::OutsideFence, 7),
+        ];
+        for (refusal, code) in refusals {
+            assert_eq!(R::code(Some(refusal)), code, "{refusal:?}");
+            assert_eq!(R::from_code(code), Some(refusal));
+        }
+        assert_eq!(C::from_code(8), Some(C::Other(8)));
+        assert_eq!(R::from_code(8), Some(R::Other(8)));
     }
 
     #[test]

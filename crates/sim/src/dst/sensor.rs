@@ -161,6 +161,7 @@ impl Sensor {
             gnss_frozen: plan.active(Fault::GnssFrozen, t_req),
             gnss_lost: plan.active(Fault::GnssLost, t_req),
             imu_stuck: false,
+            rolled_over: false,
         };
         let answer = self.board.answer_with(now_s, car, faults);
         let packet = self.apply_faults(answer.packet, t_req, plan);
