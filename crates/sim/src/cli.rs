@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+use anyhow::Context;
 use clap::Args;
 
 use crate::faults::{random_windows, Faults};
@@ -48,9 +49,9 @@ pub struct SimArgs {
     /// Directory for the MCAP log.
     #[arg(long, default_value = "dima-logs", value_name = "DIR")]
     pub log_dir: PathBuf,
-    /// Control-loop rate in Hz.
-    #[arg(long, default_value_t = 250, value_name = "HZ")]
-    pub loop_rate: u32,
+    /// Control-loop rate in Hz (default: `realtime.loop_rate_hz` of --config, else 250).
+    #[arg(long, value_name = "HZ")]
+    pub loop_rate: Option<u32>,
     /// Require the configuration's whole realtime setup (without it, SCHED_FIFO is still
     /// tried).
     ///
@@ -124,7 +125,7 @@ impl SimArgs {
         o.bounded_evidence = o.scenario.name == "soak";
         o.ground_pty = self.ground_pty;
         o.log_dir = self.log_dir.clone();
-        o.loop_rate_hz = self.loop_rate;
+        o.loop_rate_hz = self.loop_rate_hz()?;
         o.app_config = self.config.clone();
         o.realtime = self.realtime;
         o.key_file = self.key_file.clone();
@@ -140,6 +141,25 @@ impl SimArgs {
         Ok(o)
     }
 }
+
+impl SimArgs {
+    /// The loop rate: `--loop-rate`, else the configuration file's, else 250 Hz.
+    fn loop_rate_hz(&self) -> anyhow::Result<u32> {
+        if let Some(hz) = self.loop_rate {
+            return Ok(hz);
+        }
+        let Some(path) = &self.config else {
+            return Ok(DEFAULT_LOOP_RATE_HZ);
+        };
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read config file {}", path.display()))?;
+        let config = dima_core::config::Config::from_toml(&text, &path.display().to_string())?;
+        Ok(config.realtime.loop_rate_hz)
+    }
+}
+
+/// The loop rate without `--loop-rate` or a configuration file, Hz.
+pub const DEFAULT_LOOP_RATE_HZ: u32 = 250;
 
 /// The random stream of `--random-faults` (apart from the devices' noise).
 const RANDOM_FAULTS_STREAM: u64 = 20;
@@ -242,6 +262,27 @@ mod tests {
     struct Wrapper {
         #[command(flatten)]
         sim: SimArgs,
+    }
+
+    #[test]
+    fn the_loop_rate_is_the_flags_else_the_configuration_files_else_250_hz() {
+        let file = std::env::temp_dir().join(format!("dima-sim-rate-{}.toml", std::process::id()));
+        std::fs::write(
+            &file,
+            "[realtime]\nloop_rate_hz = 50\n\n[safety]\noverrun_limit = 5\n",
+        )
+        .unwrap();
+        let rate = |args: &[&str]| {
+            let w =
+                Wrapper::try_parse_from(std::iter::once("dima-sim").chain(args.iter().copied()))
+                    .unwrap();
+            w.sim.options().unwrap().loop_rate_hz
+        };
+        let path = file.to_str().unwrap();
+        assert_eq!(rate(&[]), DEFAULT_LOOP_RATE_HZ);
+        assert_eq!(rate(&["--config", path]), 50);
+        assert_eq!(rate(&["--config", path, "--loop-rate", "100"]), 100);
+        std::fs::remove_file(&file).ok();
     }
 
     #[test]
