@@ -34,6 +34,8 @@ pub struct Config {
     pub control: ControlConfig,
     /// The state estimate the controllers read.
     pub estimator: EstimatorConfig,
+    /// Navigation: the waypoint mission AUTO follows.
+    pub navigation: NavigationConfig,
     /// MCAP log.
     pub log: LogConfig,
     /// Live view of the log's channels over the Foxglove WebSocket protocol.
@@ -639,6 +641,60 @@ impl Default for EstimatorConfig {
     }
 }
 
+/// `[navigation]`: the waypoint mission (see `dima_core::mission`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct NavigationConfig {
+    /// QGroundControl plan file (`.plan`) the robot reads at start-up; a file that cannot be
+    /// read or followed refuses the start. Empty: no mission (AUTO holds the operator's
+    /// setpoints).
+    pub mission_file: PathBuf,
+    /// Ground speed where the plan sets none (`DO_CHANGE_SPEED`), m/s, 0.1..=20.
+    pub mission_speed_m_s: f64,
+    /// Acceptance radius where a waypoint sets none, m, 0.1..=50.
+    pub mission_acceptance_m: f64,
+    /// Shortest lookahead distance of the path follower, m, 0.5..=50 (the lookahead is 1 s
+    /// of travel, at least this).
+    pub mission_lookahead_m: f64,
+    /// Lateral acceleration allowed in a corner, m/s², 0.5..=20.
+    pub mission_lateral_accel_m_s2: f64,
+    /// Deceleration allowed before a corner or the last waypoint, m/s², 0.2..=10.
+    pub mission_decel_m_s2: f64,
+}
+
+impl Default for NavigationConfig {
+    fn default() -> Self {
+        let f = crate::mission::FollowerParams::default();
+        NavigationConfig {
+            mission_file: PathBuf::new(),
+            mission_speed_m_s: f.default_speed_m_s,
+            mission_acceptance_m: f.default_acceptance_m,
+            mission_lookahead_m: f.lookahead_min_m,
+            mission_lateral_accel_m_s2: f.lateral_accel_m_s2,
+            mission_decel_m_s2: f.decel_m_s2,
+        }
+    }
+}
+
+impl NavigationConfig {
+    /// The path follower's settings.
+    pub fn follower_params(&self) -> crate::mission::FollowerParams {
+        crate::mission::FollowerParams {
+            default_speed_m_s: self.mission_speed_m_s,
+            default_acceptance_m: self.mission_acceptance_m,
+            lookahead_min_m: self.mission_lookahead_m,
+            lateral_accel_m_s2: self.mission_lateral_accel_m_s2,
+            decel_m_s2: self.mission_decel_m_s2,
+            ..crate::mission::FollowerParams::default()
+        }
+    }
+
+    /// The mission file, if one is configured.
+    pub fn mission_file(&self) -> Option<&std::path::Path> {
+        (!self.mission_file.as_os_str().is_empty()).then_some(self.mission_file.as_path())
+    }
+}
+
 /// MCAP log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -898,6 +954,7 @@ impl Config {
         self.validate_channels()?;
         self.validate_control()?;
         self.validate_estimator()?;
+        self.validate_navigation()?;
         self.validate_log()?;
         self.validate_foxglove()
     }
@@ -911,6 +968,43 @@ impl Config {
             ));
         }
         Ok(())
+    }
+
+    fn validate_navigation(&self) -> Result<(), ConfigError> {
+        let n = &self.navigation;
+        within(
+            "navigation.mission_speed_m_s",
+            n.mission_speed_m_s,
+            0.1..=20.0,
+        )?;
+        let max_m_s = f64::from(self.control.max_speed_mm_s) * 1e-3;
+        if n.mission_speed_m_s > max_m_s {
+            return Err(invalid(
+                "navigation.mission_speed_m_s",
+                n.mission_speed_m_s,
+                &format!("expected at most control.max_speed_mm_s ({max_m_s} m/s)"),
+            ));
+        }
+        within(
+            "navigation.mission_acceptance_m",
+            n.mission_acceptance_m,
+            0.1..=50.0,
+        )?;
+        within(
+            "navigation.mission_lookahead_m",
+            n.mission_lookahead_m,
+            0.5..=50.0,
+        )?;
+        within(
+            "navigation.mission_lateral_accel_m_s2",
+            n.mission_lateral_accel_m_s2,
+            0.5..=20.0,
+        )?;
+        within(
+            "navigation.mission_decel_m_s2",
+            n.mission_decel_m_s2,
+            0.2..=10.0,
+        )
     }
 
     fn validate_log(&self) -> Result<(), ConfigError> {

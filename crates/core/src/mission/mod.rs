@@ -10,10 +10,12 @@
 pub mod follower;
 pub mod local;
 pub mod plan;
+pub mod progress;
 
 pub use follower::{Follower, FollowerParams, FollowerState, Guidance};
 pub use local::{LocalFrame, LocalPoint};
 pub use plan::{parse_plan, PlanError};
+pub use progress::{AutoSource, MissionProgress, MissionStatus};
 
 /// One waypoint of a mission, as the plan gives it.
 #[derive(Debug, Clone, Copy, PartialEq)]
