@@ -51,6 +51,7 @@ pub mod dst;
 pub mod faults;
 pub mod firmware;
 pub mod logcheck;
+pub mod mission;
 pub mod model;
 pub mod pty;
 pub mod request;

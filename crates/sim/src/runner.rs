@@ -55,6 +55,8 @@ pub struct AppStatus {
     pub packets_missing: AtomicU64,
     /// Revives seen: changes from KILLED or FAILSAFE to MANUAL.
     pub revives: AtomicU64,
+    /// What the cycles showed of the mission (`--scenario mission`).
+    pub mission: Mutex<crate::mission::MissionTrack>,
 }
 
 impl AppStatus {
@@ -161,6 +163,9 @@ pub struct SimOptions {
     /// The sensor board's firmware (its `qemu` build, an ELF) to run under `qemu-system-arm`
     /// in place of the simulated board ([`crate::firmware`]); `None`: the Rust board.
     pub firmware: Option<PathBuf>,
+    /// The mission (`--mission FILE.plan`): the robot's `[navigation] mission_file`, and its
+    /// number of waypoints.
+    pub mission: Option<(PathBuf, usize)>,
 }
 
 impl SimOptions {
@@ -187,6 +192,7 @@ impl SimOptions {
             bounded_evidence: false,
             foxglove: None,
             firmware: None,
+            mission: None,
         }
     }
 
@@ -293,6 +299,8 @@ pub struct SimReport {
     pub random_faults: usize,
     /// With `--firmware`: what the emulated firmware was fed and sent, one line.
     pub firmware: Option<String>,
+    /// With `--mission`: waypoints, cross-track error and lap time.
+    pub mission: Option<String>,
 }
 
 impl SimReport {
@@ -324,6 +332,10 @@ impl SimReport {
         );
         if let Some(line) = &self.firmware {
             s.push_str(line);
+            s.push('\n');
+        }
+        if let Some(lines) = &self.mission {
+            s.push_str(lines);
             s.push('\n');
         }
         if self.evidence_bounded {
@@ -477,6 +489,9 @@ impl<'a> SimRun<'a> {
             &o.log_dir,
         )?;
         crate::app_config::set_live_view(&mut config, o.foxglove.as_deref())?;
+        if let Some((plan, _)) = &o.mission {
+            config.navigation.mission_file = plan.clone();
+        }
         let key = link_key(o, &mut config)?;
         let outputs = OutputMap::new(&config.channels);
         let run = SimRun {
@@ -660,8 +675,10 @@ impl<'a> SimRun<'a> {
     /// Reads the log back, evaluates the scenario's checks against the evidence and reports.
     fn judge(&self, app: AppOutcome, ran_s: f64) -> anyhow::Result<SimReport> {
         let o = self.o;
-        let interrupted =
-            !self.ended_by_runner.load(Ordering::Relaxed) && o.run_length_s().is_some();
+        let mission = lock(&self.app_status.mission).clone();
+        let interrupted = !self.ended_by_runner.load(Ordering::Relaxed)
+            && o.run_length_s().is_some()
+            && !mission.ended();
         let log = match &app.log_path {
             Some(p) => Some(LogSummary::read_run(p)?),
             None => None,
@@ -711,6 +728,13 @@ impl<'a> SimRun<'a> {
                 o.bounded_evidence,
             ));
         }
+        let mission_summary = o.mission.as_ref().map(|&(_, waypoints)| {
+            checks.push((
+                "mission: the last waypoint is reached".to_owned(),
+                Some(mission.verdict(waypoints, ran_s)),
+            ));
+            mission.summary(waypoints)
+        });
         let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
         Ok(SimReport {
             safe_us: self.safe_us,
@@ -731,6 +755,7 @@ impl<'a> SimRun<'a> {
                 .firmware
                 .as_ref()
                 .map(|_| self.firmware_stats.summary(logged_intact)),
+            mission: mission_summary,
         })
     }
 

@@ -97,6 +97,8 @@ pub struct Guidance {
     pub along_track_m: f64,
     /// Length of the current leg, m.
     pub leg_length_m: f64,
+    /// Distance from the car to the current waypoint, m.
+    pub to_go_m: f64,
     /// The last waypoint has been reached.
     pub finished: bool,
 }
@@ -226,6 +228,7 @@ impl Follower {
                 cross_track_m: view.cross_m,
                 along_track_m: view.along_m,
                 leg_length_m: view.length_m,
+                to_go_m: car.distance_to(target.point),
                 finished: true,
             };
         }
@@ -250,6 +253,7 @@ impl Follower {
             cross_track_m: view.cross_m,
             along_track_m: view.along_m,
             leg_length_m: view.length_m,
+            to_go_m,
             finished: false,
         }
     }

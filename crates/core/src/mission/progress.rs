@@ -47,6 +47,9 @@ impl MissionProgress {
         Some(MissionStatus {
             waypoint: g.waypoint as u32,
             cross_track_m: g.cross_track_m as f32,
+            along_track_m: g.along_track_m as f32,
+            leg_length_m: g.leg_length_m as f32,
+            to_go_m: g.to_go_m as f32,
             heading_deg: g.heading_deg as f32,
             speed_m_s: g.speed_m_s as f32,
             finished: g.finished,
@@ -61,6 +64,12 @@ pub struct MissionStatus {
     pub waypoint: u32,
     /// Signed distance from the current leg, m, positive right of the track.
     pub cross_track_m: f32,
+    /// Distance along the current leg from its start, m.
+    pub along_track_m: f32,
+    /// Length of the current leg, m.
+    pub leg_length_m: f32,
+    /// Distance to the current waypoint, m.
+    pub to_go_m: f32,
     /// The follower's heading setpoint, degrees clockwise from north.
     pub heading_deg: f32,
     /// The follower's speed, m/s, before the operator's speed setpoint caps it.
