@@ -154,12 +154,13 @@ impl SimArgs {
 }
 
 /// Where a mission's car starts: at the first waypoint, heading for the second.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 struct MissionStart {
     lat_deg: f64,
     lon_deg: f64,
     heading_deg: f64,
-    waypoints: usize,
+    /// The waypoints in the model's frame: metres north and east of the first.
+    waypoints: Vec<(f64, f64)>,
 }
 
 /// Reads and checks the plan as the robot will, and where the car starts.
@@ -179,7 +180,13 @@ fn mission_start(plan: &std::path::Path) -> anyhow::Result<MissionStart> {
         lat_deg: first.lat_deg,
         lon_deg: first.lon_deg,
         heading_deg,
-        waypoints: mission.waypoints.len(),
+        waypoints: mission
+            .waypoints
+            .iter()
+            .map(|w| {
+                crate::mission::model_frame(first.lat_deg, first.lon_deg, w.lat_deg, w.lon_deg)
+            })
+            .collect(),
     })
 }
 
@@ -312,7 +319,9 @@ mod tests {
             "{}",
             o.scenario.start_heading_deg
         );
-        assert_eq!(o.mission.as_ref().map(|m| m.1), Some(5));
+        let waypoints = &o.mission.as_ref().unwrap().1;
+        assert_eq!(waypoints.len(), 5);
+        assert!((waypoints[2].0 - 40.0).abs() < 0.2 && (waypoints[2].1 - 40.0).abs() < 0.2);
         assert_eq!(o.scenario.duration_s, 300.0);
         let err = args(&["sim", "--scenario", "mission"]).unwrap_err();
         assert!(err.to_string().contains("needs --mission"), "{err}");

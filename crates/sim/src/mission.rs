@@ -4,6 +4,47 @@
 use dima_core::mission::AutoSource;
 use dima_core::{CycleOutputs, FailsafeCause, Mode, Nanos};
 
+use crate::board::EARTH_RADIUS_M;
+use crate::model::VehicleState;
+
+/// A latitude and longitude in the model's frame around (`lat0_deg`, `lon0_deg`): metres
+/// north and east, as the simulated receiver converts the other way.
+pub fn model_frame(lat0_deg: f64, lon0_deg: f64, lat_deg: f64, lon_deg: f64) -> (f64, f64) {
+    (
+        (lat_deg - lat0_deg).to_radians() * EARTH_RADIUS_M,
+        (lon_deg - lon0_deg).to_radians() * EARTH_RADIUS_M * lat0_deg.to_radians().cos(),
+    )
+}
+
+/// The model's true distance from the legs between `waypoints` (model frame) on their
+/// straights: RMS and largest, m, over the samples of `truth` on a straight.
+pub fn true_straights(truth: &[VehicleState], waypoints: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let (mut sum_sq, mut n, mut max) = (0.0, 0usize, 0.0f64);
+    for s in truth {
+        for leg in waypoints.windows(2) {
+            let ((n0, e0), (n1, e1)) = (leg[0], leg[1]);
+            let length = (n1 - n0).hypot(e1 - e0);
+            if length < f64::from(STRAIGHT_MIN_LEG_M) {
+                continue;
+            }
+            let (un, ue) = ((n1 - n0) / length, (e1 - e0) / length);
+            let (dn, de) = (s.north_m - n0, s.east_m - e0);
+            let along = dn * un + de * ue;
+            let cross = -dn * ue + de * un;
+            let on_straight = along > f64::from(STRAIGHT_FROM_M)
+                && along < length - f64::from(STRAIGHT_BEFORE_END_M)
+                && cross.abs() < f64::from(STRAIGHT_FROM_M) / 2.0;
+            if on_straight {
+                sum_sq += cross * cross;
+                n += 1;
+                max = max.max(cross.abs());
+                break;
+            }
+        }
+    }
+    (n > 0).then(|| ((sum_sq / n as f64).sqrt(), max))
+}
+
 /// A leg counts as a straight from this far past its start...
 pub const STRAIGHT_FROM_M: f32 = 10.0;
 /// ...to this far before its end, on legs at least [`STRAIGHT_MIN_LEG_M`] long.
@@ -208,6 +249,30 @@ mod tests {
             "{}",
             t.summary(2)
         );
+    }
+
+    #[test]
+    fn the_true_distance_is_taken_on_the_straights_only() {
+        let at = |north_m, east_m| VehicleState {
+            north_m,
+            east_m,
+            ..VehicleState::default()
+        };
+        let square = [(0.0, 0.0), (40.0, 0.0), (40.0, 40.0)];
+        // Off the straights: near the start, the corner, and 5 m or more off the track.
+        let off = [at(2.0, 0.3), at(39.0, 1.0), at(20.0, 6.0)];
+        assert_eq!(true_straights(&off, &square), None);
+        let on = [at(20.0, 0.3), at(40.4, 20.0), at(0.0, 0.0)];
+        let (rms, max) = true_straights(&on, &square).unwrap();
+        assert!((rms - (0.25f64 / 2.0).sqrt()).abs() < 1e-9, "{rms}");
+        assert!((max - 0.4).abs() < 1e-9);
+        let (n, e) = model_frame(
+            48.0,
+            11.0,
+            48.0 + (40.0 / EARTH_RADIUS_M).to_degrees(),
+            11.0,
+        );
+        assert!((n - 40.0).abs() < 1e-9 && e == 0.0);
     }
 
     #[test]

@@ -164,8 +164,8 @@ pub struct SimOptions {
     /// in place of the simulated board ([`crate::firmware`]); `None`: the Rust board.
     pub firmware: Option<PathBuf>,
     /// The mission (`--mission FILE.plan`): the robot's `[navigation] mission_file`, and its
-    /// number of waypoints.
-    pub mission: Option<(PathBuf, usize)>,
+    /// waypoints in the model's frame (metres north and east of the start).
+    pub mission: Option<(PathBuf, Vec<(f64, f64)>)>,
 }
 
 impl SimOptions {
@@ -728,12 +728,19 @@ impl<'a> SimRun<'a> {
                 o.bounded_evidence,
             ));
         }
-        let mission_summary = o.mission.as_ref().map(|&(_, waypoints)| {
+        let mission_summary = o.mission.as_ref().map(|(_, waypoints)| {
             checks.push((
                 "mission: the last waypoint is reached".to_owned(),
-                Some(mission.verdict(waypoints, ran_s)),
+                Some(mission.verdict(waypoints.len(), ran_s)),
             ));
-            mission.summary(waypoints)
+            let mut s = mission.summary(waypoints.len());
+            if let Some((rms, max)) = crate::mission::true_straights(&evidence.truth, waypoints) {
+                s += &format!(
+                    "\nmission: the model's true distance from the legs on the straights: RMS \
+                     {rms:.3} m, max {max:.3} m"
+                );
+            }
+            s
         });
         let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
         Ok(SimReport {

@@ -374,27 +374,30 @@ impl Scenario {
         }
     }
 
-    /// `--scenario mission`: the station revives at 1 s and enters AUTO at 2 s with a speed
-    /// setpoint of `speed_cap_mm_s` (the mission's speeds are capped by it), then only sends
-    /// heartbeats; the car starts heading `start_heading_deg`. The run ends when the robot
+    /// `--scenario mission`: the station revives at 1, 2 and 3 s and enters AUTO at 4 s (again
+    /// at 5 s) with a speed setpoint of `speed_cap_mm_s` (the mission's speeds are capped by
+    /// it), then only sends heartbeats; the car starts heading `start_heading_deg`. The run ends when the robot
     /// reports the last waypoint reached or a failsafe, else after `timeout_s`; its verdict is
     /// [`crate::mission::MissionTrack::verdict`].
     pub fn mission(timeout_s: f64, start_heading_deg: f64, speed_cap_mm_s: i32) -> Scenario {
+        let speed = Command::SpeedSetpoint {
+            mm_s: speed_cap_mm_s,
+        };
         Scenario {
             name: "mission",
             duration_s: timeout_s,
             start_heading_deg,
+            // A revive the robot refuses (its sensor link not yet healthy on a loaded machine)
+            // is repeated; a revive in MANUAL and a speed setpoint in AUTO change nothing.
             script: vec![
                 send(1.0, Command::Revive),
-                send(
-                    2.0,
-                    Command::SpeedSetpoint {
-                        mm_s: speed_cap_mm_s,
-                    },
-                ),
+                send(2.0, Command::Revive),
+                send(3.0, Command::Revive),
+                send(4.0, speed),
+                send(5.0, speed),
             ],
             heartbeat: Command::Heartbeat.encode(),
-            phases: vec![(0.0, "standing"), (1.0, "revived"), (2.0, "mission")],
+            phases: vec![(0.0, "standing"), (1.0, "reviving"), (4.0, "mission")],
             checks: Vec::new(),
         }
     }
