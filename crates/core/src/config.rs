@@ -34,12 +34,13 @@ pub struct Config {
     pub control: ControlConfig,
     /// The state estimate the controllers read.
     pub estimator: EstimatorConfig,
+    /// Navigation: the protections that judge where the car is and how it lies (rollover,
+    /// geofence), and the waypoint mission AUTO follows.
+    pub navigation: NavigationConfig,
     /// MCAP log.
     pub log: LogConfig,
     /// Live view of the log's channels over the Foxglove WebSocket protocol.
     pub foxglove: FoxgloveConfig,
-    /// Protections that judge where the car is and how it lies: rollover and geofence.
-    pub navigation: NavigationConfig,
 }
 
 /// Sensor-board link: UART and request line.
@@ -649,7 +650,8 @@ impl Default for EstimatorConfig {
     }
 }
 
-/// `[navigation]`: the protections that judge where the car is and how it lies.
+/// `[navigation]`: the protections that judge where the car is and how it lies, and the
+/// waypoint mission (see `dima_core::mission`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct NavigationConfig {
@@ -662,6 +664,21 @@ pub struct NavigationConfig {
     pub rollover_ms: u32,
     /// The geofence (`[navigation.fence]`); none by default.
     pub fence: FenceConfig,
+    /// QGroundControl plan file (`.plan`) the robot reads at start-up; a file that cannot be
+    /// read or followed refuses the start. Empty: no mission (AUTO holds the operator's
+    /// setpoints).
+    pub mission_file: PathBuf,
+    /// Ground speed where the plan sets none (`DO_CHANGE_SPEED`), m/s, 0.1..=20.
+    pub mission_speed_m_s: f64,
+    /// Acceptance radius where a waypoint sets none, m, 0.1..=50.
+    pub mission_acceptance_m: f64,
+    /// Shortest lookahead distance of the path follower, m, 0.5..=50 (the lookahead is 1 s
+    /// of travel, at least this).
+    pub mission_lookahead_m: f64,
+    /// Lateral acceleration allowed in a corner, m/s², 0.5..=20.
+    pub mission_lateral_accel_m_s2: f64,
+    /// Deceleration allowed before a corner or the last waypoint, m/s², 0.2..=10.
+    pub mission_decel_m_s2: f64,
 }
 
 /// `[navigation.fence]`: where the car may drive. Leaving it in MANUAL or AUTO trips FAILSAFE
@@ -706,10 +723,17 @@ pub const FENCE_POLYGON_SPAN_M: f64 = 50_000.0;
 
 impl Default for NavigationConfig {
     fn default() -> Self {
+        let f = crate::mission::FollowerParams::default();
         NavigationConfig {
             rollover_tilt_deg: 60.0,
             rollover_ms: 500,
             fence: FenceConfig::default(),
+            mission_file: PathBuf::new(),
+            mission_speed_m_s: f.default_speed_m_s,
+            mission_acceptance_m: f.default_acceptance_m,
+            mission_lookahead_m: f.lookahead_min_m,
+            mission_lateral_accel_m_s2: f.lateral_accel_m_s2,
+            mission_decel_m_s2: f.decel_m_s2,
         }
     }
 }
@@ -718,6 +742,25 @@ impl Default for NavigationConfig {
 pub const ROLLOVER_TILT_DEG: std::ops::RangeInclusive<f32> = 20.0..=90.0;
 /// `navigation.rollover_ms`, ms: a rollover trips within a second, like every protection.
 pub const ROLLOVER_MS: std::ops::RangeInclusive<u32> = 100..=1_000;
+
+impl NavigationConfig {
+    /// The path follower's settings.
+    pub fn follower_params(&self) -> crate::mission::FollowerParams {
+        crate::mission::FollowerParams {
+            default_speed_m_s: self.mission_speed_m_s,
+            default_acceptance_m: self.mission_acceptance_m,
+            lookahead_min_m: self.mission_lookahead_m,
+            lateral_accel_m_s2: self.mission_lateral_accel_m_s2,
+            decel_m_s2: self.mission_decel_m_s2,
+            ..crate::mission::FollowerParams::default()
+        }
+    }
+
+    /// The mission file, if one is configured.
+    pub fn mission_file(&self) -> Option<&std::path::Path> {
+        (!self.mission_file.as_os_str().is_empty()).then_some(self.mission_file.as_path())
+    }
+}
 
 /// MCAP log.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -1038,8 +1081,8 @@ impl Config {
         self.validate_channels()?;
         self.validate_control()?;
         self.validate_estimator()?;
-        self.validate_log()?;
         self.validate_navigation()?;
+        self.validate_log()?;
         self.validate_foxglove()
     }
 
@@ -1051,7 +1094,8 @@ impl Config {
             ROLLOVER_TILT_DEG,
         )?;
         within("navigation.rollover_ms", n.rollover_ms, ROLLOVER_MS)?;
-        validate_fence(&n.fence)
+        validate_fence(&n.fence)?;
+        self.validate_mission()
     }
 
     fn validate_foxglove(&self) -> Result<(), ConfigError> {
@@ -1063,6 +1107,43 @@ impl Config {
             ));
         }
         Ok(())
+    }
+
+    fn validate_mission(&self) -> Result<(), ConfigError> {
+        let n = &self.navigation;
+        within(
+            "navigation.mission_speed_m_s",
+            n.mission_speed_m_s,
+            0.1..=20.0,
+        )?;
+        let max_m_s = f64::from(self.control.max_speed_mm_s) * 1e-3;
+        if n.mission_speed_m_s > max_m_s {
+            return Err(invalid(
+                "navigation.mission_speed_m_s",
+                n.mission_speed_m_s,
+                &format!("expected at most control.max_speed_mm_s ({max_m_s} m/s)"),
+            ));
+        }
+        within(
+            "navigation.mission_acceptance_m",
+            n.mission_acceptance_m,
+            0.1..=50.0,
+        )?;
+        within(
+            "navigation.mission_lookahead_m",
+            n.mission_lookahead_m,
+            0.5..=50.0,
+        )?;
+        within(
+            "navigation.mission_lateral_accel_m_s2",
+            n.mission_lateral_accel_m_s2,
+            0.5..=20.0,
+        )?;
+        within(
+            "navigation.mission_decel_m_s2",
+            n.mission_decel_m_s2,
+            0.2..=10.0,
+        )
     }
 
     fn validate_log(&self) -> Result<(), ConfigError> {

@@ -7,6 +7,7 @@
 //! - [`monitor`]: request/answer pairing, GNSS freshness, stuck IMU, overruns by rate;
 //! - [`estimate`]: the state estimate (speed, heading, yaw rate, accelerations) the controllers
 //!   read;
+//! - [`mission`]: waypoint missions from QGroundControl plan files and the path follower;
 //! - [`control`]: the [`Controller`](control::Controller) trait, the controllers by name, and
 //!   the mapping from modes to servo targets;
 //! - [`step`]: [`Core::step`], one cycle as a pure function of state, inputs, time and
@@ -41,6 +42,7 @@ pub mod control;
 pub mod counters;
 pub mod estimate;
 pub mod geo;
+pub mod mission;
 pub mod monitor;
 pub mod safety;
 pub mod step;

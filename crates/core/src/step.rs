@@ -16,12 +16,16 @@ use crate::control::{
 use crate::counters::Counters;
 use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
 use crate::geo::LatLon;
+use crate::mission::{
+    AutoSource, Follower, FollowerParams, LocalPoint, Mission, MissionProgress, MissionStatus,
+};
 use crate::monitor::{
     AnswerWindow, FenceMonitor, Geofence, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule,
     OverrunWindow, PacketVerdict, RolloverMonitor, RolloverRule,
 };
 use crate::safety::{
     CycleHealth, FailsafeCause, Mode, ReceivedCommand, ReviveRefusal, SafetyLimits, SafetyState,
+    Setpoints,
 };
 use crate::Nanos;
 
@@ -97,6 +101,10 @@ pub struct CycleOutputs {
     pub values: SensorValues,
     /// The state estimate after this cycle.
     pub estimate: StateEstimate,
+    /// Where AUTO's setpoints came from (`None` outside AUTO).
+    pub auto_source: Option<AutoSource>,
+    /// The mission's status, while AUTO follows one.
+    pub mission: Option<MissionStatus>,
 }
 
 /// Everything the step remembers between cycles.
@@ -128,6 +136,8 @@ pub struct CoreState {
     pub realtime_fault: bool,
     /// Decision counters (the application adds its I/O counters to the same struct).
     pub counters: Counters,
+    /// The waypoint mission's progress.
+    pub mission: MissionProgress,
 }
 
 impl CoreState {
@@ -153,6 +163,8 @@ pub struct Core {
     overrun: OverrunRule,
     rollover: RolloverRule,
     fence: Geofence,
+    follower_params: FollowerParams,
+    follower: Option<Follower>,
 }
 
 impl Core {
@@ -189,7 +201,63 @@ impl Core {
                 -config.estimator.gyro_yaw_sign,
             ),
             fence: Geofence::new(&config.navigation.fence),
+            follower_params: config.navigation.follower_params(),
+            follower: None,
         })
+    }
+
+    /// Loads the waypoint mission (`[navigation]`'s settings): from the next time AUTO is
+    /// entered, AUTO follows it (see [`MissionProgress`]). Allocates: call it before the loop.
+    pub fn set_mission(&mut self, mission: &Mission) {
+        self.follower = Some(Follower::new(mission, self.follower_params));
+    }
+
+    /// The loaded mission's follower.
+    pub fn follower(&self) -> Option<&Follower> {
+        self.follower.as_ref()
+    }
+
+    /// The mission's setpoints for this cycle: the follower's heading, and its speed capped by
+    /// the operator's speed setpoint (without one the speed controller holds neutral, as in
+    /// AUTO on setpoints). Neither without a fresh GNSS position.
+    fn mission_setpoints(&self, state: &mut CoreState, now: Nanos) -> Setpoints {
+        let operator = state.safety.setpoints;
+        let steer_nowhere = Setpoints {
+            speed_mm_s: None,
+            heading_deg_e5: None,
+            ..operator
+        };
+        let (Some(follower), Some(fix)) = (&self.follower, state.values.gnss) else {
+            state.mission.guidance = None;
+            return steer_nowhere;
+        };
+        let mut car = follower.frame().to_local(
+            f64::from(fix.lat_deg_e7) * 1e-7,
+            f64::from(fix.lon_deg_e7) * 1e-7,
+        );
+        let speed_m_s = state
+            .estimate
+            .speed_mm_s
+            .map_or(f64::from(fix.g_speed_mm_s.max(0)) * 1e-3, |s| {
+                f64::from(s.value) * 1e-3
+            });
+        // Carried forward from the fix (10 Hz) to now along the estimated heading.
+        if let Some(heading) = state.estimate.heading_deg {
+            let travelled_m = speed_m_s * now.saturating_sub(fix.at_ns) as f64 * 1e-9;
+            let h = f64::from(heading.value).to_radians();
+            car = LocalPoint {
+                north_m: car.north_m + travelled_m * h.cos(),
+                east_m: car.east_m + travelled_m * h.sin(),
+            };
+        }
+        let g = follower.update(&mut state.mission.follower, car, speed_m_s);
+        state.mission.guidance = Some(g);
+        let mission_mm_s = (g.speed_m_s * 1e3).round() as i32;
+        Setpoints {
+            speed_mm_s: operator.speed_mm_s.map(|cap| cap.min(mission_mm_s)),
+            heading_deg_e5: Some(((g.heading_deg * 1e5).round() as i32).rem_euclid(36_000_000)),
+            ..operator
+        }
     }
 
     /// The channel table.
@@ -300,21 +368,31 @@ impl Core {
             self.controllers.reset();
             state.action = Actuation::default();
             state.last_step_ns = None;
+            state.mission = MissionProgress::default();
         }
         if state.safety.mode != Mode::Auto {
             state.action = Actuation::default();
             state.last_step_ns = None;
+            state.mission = MissionProgress::default();
             return;
+        }
+        if transitioned && self.follower.is_some() {
+            state.mission.active = true;
         }
         if !packet_ok {
             return;
         }
+        let setpoints = if state.mission.active {
+            self.mission_setpoints(state, now)
+        } else {
+            state.safety.setpoints
+        };
         let dt_ns = state
             .last_step_ns
             .map_or(self.period_ns, |t| now.saturating_sub(t));
         state.action = self.controllers.update(ControlInput {
             estimate: &state.estimate,
-            setpoints: &state.safety.setpoints,
+            setpoints: &setpoints,
             mode: state.safety.mode,
             dt_s: dt_ns as f32 * 1e-9,
             earlier: Actuation::default(),
@@ -401,6 +479,8 @@ impl Core {
             action: state.action,
             values: state.values,
             estimate: state.estimate,
+            auto_source: (state.safety.mode == Mode::Auto).then(|| state.mission.source()),
+            mission: state.mission.status(),
         }
     }
 

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use dima_core::counters::Counters;
 use dima_core::estimate::StateEstimate;
+use dima_core::mission::AutoSource;
 use dima_core::monitor::PacketVerdict;
 use dima_core::safety::{FailsafeCause, Mode, ReceivedCommand, ReviveRefusal};
 
@@ -131,6 +132,19 @@ pub struct CycleMessage {
     /// (absent from logs written before ground link v2: read as zeros).
     #[serde(default)]
     pub link: GroundLinkCounters,
+    /// Where AUTO's heading and speed setpoints came from: `setpoints` (the operator's) or
+    /// `mission` (the path follower, along `navigation.mission_file`); null outside AUTO (and
+    /// in logs written before missions).
+    #[serde(default)]
+    pub auto_source: Option<AutoSource>,
+    /// Index of the mission's current waypoint while AUTO follows a mission (the last one once
+    /// it is finished); null otherwise.
+    #[serde(default)]
+    pub waypoint: Option<u32>,
+    /// Distance from the mission's current leg, m, positive right of the track, while AUTO
+    /// follows a mission; null otherwise.
+    #[serde(default)]
+    pub cross_track_m: Option<f64>,
 }
 
 /// What the telemetry thread did with the command frames it received since start-up.

@@ -87,6 +87,9 @@ pub fn cycle_message(r: &CycleRecord) -> CycleMessage {
         targets_us: out.targets.pulse_us,
         counters: r.counters,
         link: r.link,
+        auto_source: out.auto_source,
+        waypoint: out.mission.map(|m| m.waypoint),
+        cross_track_m: out.mission.map(|m| f64::from(m.cross_track_m)),
     }
 }
 

@@ -40,7 +40,7 @@ pub const RHALL: u16 = 7_000;
 /// Standard gravity, m/s².
 const G: f64 = 9.806_65;
 /// Mean Earth radius, m (local flat-Earth conversion to degrees).
-const EARTH_RADIUS_M: f64 = 6_371_000.0;
+pub const EARTH_RADIUS_M: f64 = 6_371_000.0;
 /// GPS time of week at the simulated start (Sunday 08:00:00 UTC plus 18 leap seconds), ms.
 const START_ITOW_MS: u32 = 8 * 3_600_000 + 18_000;
 /// Bytes of an answer: a packet and, most of the time, an info piece.

@@ -16,8 +16,10 @@ use crate::scenario::Scenario;
 #[derive(Debug, Clone, Args, Default)]
 pub struct SimArgs {
     /// Scenario: `default` (about 20 s: revive, manual, AUTO, comms loss, revive, kill),
-    /// `manual` (revive and drive) or `soak` (drive until --duration, default 60 s, reviving
-    /// after every fault window; with --random-faults).
+    /// `manual` (revive and drive), `soak` (drive until --duration, default 60 s, reviving
+    /// after every fault window; with --random-faults) or `mission` (with --mission: revive,
+    /// AUTO, follow the plan until its last waypoint; --duration is the timeout, default
+    /// 300 s).
     #[arg(long, default_value = "default", value_name = "NAME")]
     pub scenario: String,
     /// Stop after this many seconds (default: the scenario's length; with --ground-pty: run
@@ -83,6 +85,11 @@ pub struct SimArgs {
     /// directory) under qemu-system-arm, fed by the same vehicle model.
     #[arg(long, value_name = "ELF")]
     pub firmware: Option<PathBuf>,
+    /// With `--scenario mission`: the QGroundControl plan file the robot follows (its
+    /// `[navigation] mission_file`); the car starts at its first waypoint, heading for the
+    /// second.
+    #[arg(long, value_name = "FILE.plan")]
+    pub mission: Option<PathBuf>,
 }
 
 impl SimArgs {
@@ -90,7 +97,7 @@ impl SimArgs {
     pub fn options(&self) -> anyhow::Result<SimOptions> {
         let mut scenario = Scenario::by_name(&self.scenario, self.duration).ok_or_else(|| {
             anyhow::anyhow!(
-                "unknown scenario `{}` (default, manual, soak)",
+                "unknown scenario `{}` (default, manual, soak, mission)",
                 self.scenario
             )
         })?;
@@ -115,7 +122,19 @@ impl SimArgs {
                 anyhow::bail!("--duration must be a positive number of seconds");
             }
         }
+        let mission = match (&self.mission, scenario.name) {
+            (Some(plan), "mission") => Some(mission_start(plan)?),
+            (None, "mission") => anyhow::bail!("--scenario mission needs --mission FILE.plan"),
+            (Some(_), _) => anyhow::bail!("--mission needs --scenario mission"),
+            (None, _) => None,
+        };
         let mut o = SimOptions::new(scenario);
+        if let (Some(start), Some(plan)) = (mission, &self.mission) {
+            o.board.start_lat_deg = start.lat_deg;
+            o.board.start_lon_deg = start.lon_deg;
+            o.scenario.start_heading_deg = start.heading_deg;
+            o.mission = Some((plan.clone(), start.waypoints));
+        }
         o.duration_s = self.duration;
         o.seed = self.seed;
         o.faults = faults;
@@ -160,6 +179,43 @@ impl SimArgs {
 
 /// The loop rate without `--loop-rate` or a configuration file, Hz.
 pub const DEFAULT_LOOP_RATE_HZ: u32 = 250;
+
+/// Where a mission's car starts: at the first waypoint, heading for the second.
+#[derive(Debug, Clone, PartialEq)]
+struct MissionStart {
+    lat_deg: f64,
+    lon_deg: f64,
+    heading_deg: f64,
+    /// The waypoints in the model's frame: metres north and east of the first.
+    waypoints: Vec<(f64, f64)>,
+}
+
+/// Reads and checks the plan as the robot will, and where the car starts.
+fn mission_start(plan: &std::path::Path) -> anyhow::Result<MissionStart> {
+    use anyhow::Context;
+    use dima_core::mission::{parse_plan, Follower, FollowerParams};
+    let text = std::fs::read_to_string(plan)
+        .with_context(|| format!("--mission {}: cannot be read", plan.display()))?;
+    let mission = parse_plan(&text).with_context(|| format!("--mission {}", plan.display()))?;
+    let follower = Follower::new(&mission, FollowerParams::default());
+    let first = mission.waypoints[0];
+    let heading_deg = match (follower.waypoint(0), follower.waypoint(1)) {
+        (Some(a), Some(b)) => a.bearing_to(b),
+        _ => 0.0,
+    };
+    Ok(MissionStart {
+        lat_deg: first.lat_deg,
+        lon_deg: first.lon_deg,
+        heading_deg,
+        waypoints: mission
+            .waypoints
+            .iter()
+            .map(|w| {
+                crate::mission::model_frame(first.lat_deg, first.lon_deg, w.lat_deg, w.lon_deg)
+            })
+            .collect(),
+    })
+}
 
 /// The random stream of `--random-faults` (apart from the devices' noise).
 const RANDOM_FAULTS_STREAM: u64 = 20;
@@ -342,5 +398,37 @@ mod tests {
         assert!(soak(&["sim", "--random-faults"]).is_err());
         let gui = Wrapper::try_parse_from(["sim", "--ground-pty"]).unwrap();
         assert_eq!(gui.sim.options().unwrap().run_length_s(), None);
+    }
+
+    #[test]
+    fn a_mission_run_starts_at_the_plans_first_waypoint_heading_for_the_second() {
+        let args = |a: &[&str]| Wrapper::try_parse_from(a).unwrap().sim.options();
+        let plan = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../core/tests/fixtures/square-40m.plan"
+        );
+        let o = args(&["sim", "--scenario", "mission", "--mission", plan]).unwrap();
+        assert_eq!((o.board.start_lat_deg, o.board.start_lon_deg), (48.1, 11.5));
+        assert!(
+            o.scenario.start_heading_deg.abs() < 0.01,
+            "{}",
+            o.scenario.start_heading_deg
+        );
+        let waypoints = &o.mission.as_ref().unwrap().1;
+        assert_eq!(waypoints.len(), 5);
+        assert!((waypoints[2].0 - 40.0).abs() < 0.2 && (waypoints[2].1 - 40.0).abs() < 0.2);
+        assert_eq!(o.scenario.duration_s, 300.0);
+        let err = args(&["sim", "--scenario", "mission"]).unwrap_err();
+        assert!(err.to_string().contains("needs --mission"), "{err}");
+        assert!(args(&["sim", "--mission", plan]).is_err());
+        let err = args(&[
+            "sim",
+            "--scenario",
+            "mission",
+            "--mission",
+            "/nonexistent.plan",
+        ])
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("cannot be read"), "{err:#}");
     }
 }

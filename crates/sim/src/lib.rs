@@ -52,6 +52,7 @@ pub mod faults;
 pub mod firmware;
 pub mod host_load;
 pub mod logcheck;
+pub mod mission;
 pub mod model;
 pub mod pty;
 pub mod request;

@@ -94,6 +94,7 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
     };
     let status = launch.status.clone();
     let mut last_mode = dima_core::Mode::Killed;
+    let stop_at_mission_end = launch.stop.clone();
     let observer: app::run::Observer = Box::new(move |r| {
         use std::sync::atomic::Ordering::Relaxed;
         *status.mode.lock().unwrap_or_else(|e| e.into_inner()) = Some(r.outputs.mode);
@@ -109,6 +110,11 @@ pub fn run_app(launch: AppLaunch) -> anyhow::Result<AppOutcome> {
         let missing =
             r.counters.packets_missing + r.counters.packets_stale + r.counters.packets_late;
         status.packets_missing.store(missing, Relaxed);
+        let mut mission = status.mission.lock().unwrap_or_else(|e| e.into_inner());
+        if mission.record(&r.outputs, r.tick.wake_ns) {
+            // The mission finished or a failsafe stopped it: the run ends here.
+            stop_at_mission_end.store(true, Relaxed);
+        }
     });
     let options = RunOptions {
         duration: None,

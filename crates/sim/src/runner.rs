@@ -56,6 +56,8 @@ pub struct AppStatus {
     pub packets_missing: AtomicU64,
     /// Revives seen: changes from KILLED or FAILSAFE to MANUAL.
     pub revives: AtomicU64,
+    /// What the cycles showed of the mission (`--scenario mission`).
+    pub mission: Mutex<crate::mission::MissionTrack>,
 }
 
 impl AppStatus {
@@ -162,6 +164,9 @@ pub struct SimOptions {
     /// The sensor board's firmware (its `qemu` build, an ELF) to run under `qemu-system-arm`
     /// in place of the simulated board ([`crate::firmware`]); `None`: the Rust board.
     pub firmware: Option<PathBuf>,
+    /// The mission (`--mission FILE.plan`): the robot's `[navigation] mission_file`, and its
+    /// waypoints in the model's frame (metres north and east of the start).
+    pub mission: Option<(PathBuf, Vec<(f64, f64)>)>,
 }
 
 impl SimOptions {
@@ -188,6 +193,7 @@ impl SimOptions {
             bounded_evidence: false,
             foxglove: None,
             firmware: None,
+            mission: None,
         }
     }
 
@@ -300,6 +306,8 @@ pub struct SimReport {
     /// The ground link was left to an external station (`--ground-pty`): the scripted one
     /// did not run.
     pub ground_external: bool,
+    /// With `--mission`: waypoints, cross-track error and lap time.
+    pub mission: Option<String>,
 }
 
 /// The summary's ground-link part: the scripted station's counts, or, when an external
@@ -344,6 +352,10 @@ impl SimReport {
         );
         if let Some(line) = &self.firmware {
             s.push_str(line);
+            s.push('\n');
+        }
+        if let Some(lines) = &self.mission {
+            s.push_str(lines);
             s.push('\n');
         }
         if self.evidence_bounded {
@@ -497,6 +509,9 @@ impl<'a> SimRun<'a> {
             &o.log_dir,
         )?;
         crate::app_config::set_live_view(&mut config, o.foxglove.as_deref())?;
+        if let Some((plan, _)) = &o.mission {
+            config.navigation.mission_file = plan.clone();
+        }
         let key = link_key(o, &mut config)?;
         let outputs = OutputMap::new(&config.channels);
         let run = SimRun {
@@ -680,8 +695,10 @@ impl<'a> SimRun<'a> {
     /// Reads the log back, evaluates the scenario's checks against the evidence and reports.
     fn judge(&self, app: AppOutcome, ran_s: f64) -> anyhow::Result<SimReport> {
         let o = self.o;
-        let interrupted =
-            !self.ended_by_runner.load(Ordering::Relaxed) && o.run_length_s().is_some();
+        let mission = lock(&self.app_status.mission).clone();
+        let interrupted = !self.ended_by_runner.load(Ordering::Relaxed)
+            && o.run_length_s().is_some()
+            && !mission.ended();
         let log = match &app.log_path {
             Some(p) => Some(LogSummary::read_run(p)?),
             None => None,
@@ -731,6 +748,20 @@ impl<'a> SimRun<'a> {
                 o.bounded_evidence,
             ));
         }
+        let mission_summary = o.mission.as_ref().map(|(_, waypoints)| {
+            checks.push((
+                "mission: the last waypoint is reached".to_owned(),
+                Some(mission.verdict(waypoints.len(), ran_s)),
+            ));
+            let mut s = mission.summary(waypoints.len());
+            if let Some((rms, max)) = crate::mission::true_straights(&evidence.truth, waypoints) {
+                s += &format!(
+                    "\nmission: the model's true distance from the legs on the straights: RMS \
+                     {rms:.3} m, max {max:.3} m"
+                );
+            }
+            s
+        });
         let passed = false_accepts == 0 && checks.iter().all(|(_, r)| !matches!(r, Some(Err(_))));
         let host_hint = log
             .as_ref()
@@ -759,6 +790,7 @@ impl<'a> SimRun<'a> {
                 .map(|_| self.firmware_stats.summary(logged_intact)),
             host_hint,
             ground_external: o.ground_pty,
+            mission: mission_summary,
         })
     }
 

@@ -21,6 +21,12 @@ pub const SOAK_REVIVE_AFTER_S: f64 = 2.0;
 /// How often the soak's operator revives while no fault is on, s.
 pub const SOAK_REVIVE_EVERY_S: f64 = 1.0;
 
+/// Longest `--scenario mission` without `--duration`, s.
+pub const MISSION_TIMEOUT_S: f64 = 300.0;
+
+/// The speed setpoint that starts a mission, mm/s: the cap on the plan's speeds.
+pub const MISSION_SPEED_CAP_MM_S: i32 = 5_000;
+
 /// Length of `--scenario soak` without `--duration`, s.
 pub const SOAK_DEFAULT_S: f64 = 60.0;
 
@@ -368,6 +374,34 @@ impl Scenario {
         }
     }
 
+    /// `--scenario mission`: the station revives at 1, 2 and 3 s and enters AUTO at 4 s (again
+    /// at 5 s) with a speed setpoint of `speed_cap_mm_s` (the mission's speeds are capped by
+    /// it), then only sends heartbeats; the car starts heading `start_heading_deg`. The run ends when the robot
+    /// reports the last waypoint reached or a failsafe, else after `timeout_s`; its verdict is
+    /// [`crate::mission::MissionTrack::verdict`].
+    pub fn mission(timeout_s: f64, start_heading_deg: f64, speed_cap_mm_s: i32) -> Scenario {
+        let speed = Command::SpeedSetpoint {
+            mm_s: speed_cap_mm_s,
+        };
+        Scenario {
+            name: "mission",
+            duration_s: timeout_s,
+            start_heading_deg,
+            // A revive the robot refuses (its sensor link not yet healthy on a loaded machine)
+            // is repeated; a revive in MANUAL and a speed setpoint in AUTO change nothing.
+            script: vec![
+                send(1.0, Command::Revive),
+                send(2.0, Command::Revive),
+                send(3.0, Command::Revive),
+                send(4.0, speed),
+                send(5.0, speed),
+            ],
+            heartbeat: Command::Heartbeat.encode(),
+            phases: vec![(0.0, "standing"), (1.0, "reviving"), (4.0, "mission")],
+            checks: Vec::new(),
+        }
+    }
+
     /// An empty scenario of `duration_s` (build the script and checks yourself).
     pub fn custom(name: &'static str, duration_s: f64) -> Scenario {
         Scenario {
@@ -382,12 +416,18 @@ impl Scenario {
     }
 
     /// A scenario by name: `default`, `manual` or `soak` (without fault windows: see
-    /// [`Scenario::soak`]).
+    /// [`Scenario::soak`]; `mission` is [`Scenario::mission`] with a start heading of north
+    /// and a 300 s timeout: `dima sim --mission` sets both from the plan).
     pub fn by_name(name: &str, duration_s: Option<f64>) -> Option<Scenario> {
         match name {
             "default" | "tour" => Some(Scenario::default_tour()),
             "manual" => Some(Scenario::manual_drive(duration_s.unwrap_or(10.0))),
             "soak" => Some(Scenario::soak(duration_s.unwrap_or(SOAK_DEFAULT_S), &[])),
+            "mission" => Some(Scenario::mission(
+                duration_s.unwrap_or(MISSION_TIMEOUT_S),
+                0.0,
+                MISSION_SPEED_CAP_MM_S,
+            )),
             _ => None,
         }
     }

@@ -87,6 +87,9 @@ fn cycle(n: u64) -> CycleMessage {
             ..Counters::default()
         },
         link: GroundLinkCounters::default(),
+        auto_source: None,
+        waypoint: None,
+        cross_track_m: None,
     }
 }
 

@@ -282,6 +282,8 @@ mod tests {
                     head_mot_deg_e5: ((truth.heading_deg
                         + f64::from(sensors.noise.normal(sensors.gnss_heading_sigma_deg)))
                         * 1e5) as i32,
+                    lat_deg_e7: 0,
+                    lon_deg_e7: 0,
                     at_ns: now,
                 });
             }
@@ -389,6 +391,8 @@ mod tests {
                 itow_ms: 1_000,
                 g_speed_mm_s: 2_000,
                 head_mot_deg_e5: 0,
+                lat_deg_e7: 0,
+                lon_deg_e7: 0,
                 at_ns: 5_000_000_000,
             }),
             true,
@@ -496,6 +500,8 @@ mod tests {
                 itow_ms: 1_000,
                 g_speed_mm_s: -3_000,
                 head_mot_deg_e5: 0,
+                lat_deg_e7: 0,
+                lon_deg_e7: 0,
                 at_ns: 0,
             };
             let e = est.update(&mut state, Some(ImuSample::default()), Some(fix), true, 0);

@@ -32,6 +32,10 @@ pub struct FreshFix {
     pub g_speed_mm_s: i32,
     /// Heading of motion, 1e-5 degrees.
     pub head_mot_deg_e5: i32,
+    /// Latitude, 1e-7 degrees.
+    pub lat_deg_e7: i32,
+    /// Longitude, 1e-7 degrees.
+    pub lon_deg_e7: i32,
     /// When the packet carrying it was judged, ns.
     pub at_ns: Nanos,
 }
@@ -133,6 +137,8 @@ impl GnssFreshness {
             itow_ms: pvt.itow_ms,
             g_speed_mm_s: pvt.g_speed_mm_s,
             head_mot_deg_e5: pvt.head_mot_deg_e5,
+            lat_deg_e7: pvt.lat_deg_e7,
+            lon_deg_e7: pvt.lon_deg_e7,
             at_ns: now,
         };
         self.fix = Some(fix);

@@ -1,5 +1,6 @@
 //! The application: the realtime loop, the telemetry and logger threads, and their wiring.
 
+pub mod mission;
 pub mod record;
 pub mod rt_loop;
 

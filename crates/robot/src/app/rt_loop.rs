@@ -570,6 +570,8 @@ impl<P: OutputPin, S: ServoOutput> RealtimeLoop<P, S> {
             action: Default::default(),
             values: self.state.values,
             estimate: self.state.estimate,
+            auto_source: None,
+            mission: None,
         };
         self.publish(CycleRecord {
             cycle: self.cycle,

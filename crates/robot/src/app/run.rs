@@ -146,6 +146,9 @@ where
     config.validate()?;
     let security = LinkSecurity::from_config(&config.xbee)?;
     let mut params = LoopParams::from_config(config)?;
+    if let Some(mission) = super::mission::load_mission(config)? {
+        params.core.set_mission(&mission);
+    }
     params.busy = options.busy;
     prepare_allocator(&config.realtime);
     let rt = &config.realtime;
