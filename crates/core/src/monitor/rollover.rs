@@ -4,8 +4,14 @@
 //!
 //! The accelerometer measures the specific force: standing level it reads 1 g along the up
 //! axis, whatever the car's heading. The tilt is the angle between the reading and that axis:
-//! 0° level, 90° on its side, 180° upside down. A bump or a hard corner tilts the reading for a
-//! few packets only; the car must stay tilted for the hold time to count as rolled over.
+//! 0° level, 90° on its side, 180° upside down. A bump tilts the reading for a few packets
+//! only; the car must stay tilted for the hold time to count as rolled over.
+//!
+//! Only a reading of about 1 g is judged ([`GRAVITY_BAND_MG`]): a car lying on its side or
+//! roof reads gravity alone, while a reading tilted as far by a corner or a bump carries the
+//! car's own acceleration as well (a corner that tilts the reading by 60° pulls 1.7 g
+//! sideways: 2 g in all), and an airborne car reads almost nothing. Such readings say nothing
+//! about a rollover, like a missing packet.
 //!
 //! Missing packets: the monitor judges only packets. A gap in the packets neither ends a tilt
 //! nor starts one: the tilt is timed from the first tilted packet, so when the packets on both
@@ -15,7 +21,13 @@
 //! matter trips `SensorLoss` anyway), and once declared it lasts until a packet shows the car
 //! within the angle.
 
+use core::ops::RangeInclusive;
+
 use crate::Nanos;
+
+/// The magnitudes of an accelerometer reading, mg, that are judged for a rollover: about 1 g,
+/// what a car at rest in any attitude reads.
+pub const GRAVITY_BAND_MG: RangeInclusive<f32> = 500.0..=1_500.0;
 
 /// The rollover thresholds, in the units the monitor uses.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -41,12 +53,12 @@ impl RolloverRule {
         }
     }
 
-    /// Whether an accelerometer reading (any unit, X, Y, Z) is tilted beyond the angle. A
-    /// reading with no direction (zero, or not finite: free fall or a broken word) says nothing
-    /// and is `None`.
+    /// Whether an accelerometer reading (mg, X, Y, Z) is tilted beyond the angle. A reading
+    /// outside [`GRAVITY_BAND_MG`] (a corner, a bump, a jump, not finite: not gravity alone)
+    /// says nothing and is `None`.
     pub fn is_tilted(&self, accel: [f32; 3]) -> Option<bool> {
         let norm = (accel[0] * accel[0] + accel[1] * accel[1] + accel[2] * accel[2]).sqrt();
-        if !norm.is_finite() || norm <= f32::EPSILON {
+        if !norm.is_finite() || !GRAVITY_BAND_MG.contains(&norm) {
             return None;
         }
         Some(self.up_sign * accel[2] / norm < self.cos_max_tilt)
@@ -128,6 +140,21 @@ mod tests {
             t += PERIOD;
         }
         (t, rolled)
+    }
+
+    #[test]
+    fn a_hard_corner_or_a_jump_is_not_a_rollover() {
+        let mut m = RolloverMonitor::default();
+        // Full lock at speed: 1.9 g sideways with the ±2 g range's 1 g up, a reading tilted by
+        // 62° for two seconds (2.1 g in all).
+        let (_, rolled) = hold(&mut m, [0.0, 1_900.0, 1_000.0], 0, 2_000 * MS);
+        assert!(!rolled && !m.is_tilted());
+        // Airborne for a second: almost nothing, in no direction that means anything.
+        let (_, rolled) = hold(&mut m, [30.0, 40.0, -20.0], 0, 1_000 * MS);
+        assert!(!rolled && !m.is_tilted());
+        // A car on its side after the corner is still found.
+        let (_, rolled) = hold(&mut m, tilted(90.0), 3_000 * MS, 600 * MS);
+        assert!(rolled);
     }
 
     #[test]
