@@ -33,6 +33,26 @@ use dima_log::schema::{CycleMessage, StateMessage, CYCLE, STATE};
 /// The throttle's neutral pulse width in the robot's (default) channel table, µs.
 const THROTTLE_NEUTRAL_US: u16 = 1500;
 
+/// Waits until the station has saved a state screenshot whose name contains `state`.
+fn wait_for_state_shot(dir: &Path, state: &str, timeout: Duration) {
+    let t0 = Instant::now();
+    loop {
+        let seen = std::fs::read_dir(dir)
+            .into_iter()
+            .flatten()
+            .flatten()
+            .any(|e| e.file_name().to_string_lossy().contains(state));
+        if seen {
+            return;
+        }
+        assert!(
+            t0.elapsed() < timeout,
+            "the station showed no `{state}` state within {timeout:?}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
 fn now_ns() -> u64 {
     SystemTime::now()
         .duration_since(UNIX_EPOCH)
@@ -187,7 +207,11 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
     xdotool(&["keydown", "r"]);
     std::thread::sleep(Duration::from_millis(1_600));
     xdotool(&["keyup", "r"]);
-    std::thread::sleep(Duration::from_millis(500));
+    // Drive once the station shows the robot live (MANUAL in a fresh report: its state
+    // screenshot is named so), not after a fixed pause: on a busy machine the revive and the
+    // report that shows it can take seconds, and a key held before the revive is
+    // acknowledged does not drive until it is pressed again (by design).
+    wait_for_state_shot(&shots, "-live-", Duration::from_secs(15));
     let up_pressed = now_ns();
     xdotool(&["keydown", "Up"]);
     std::thread::sleep(Duration::from_millis(2_500));
@@ -594,10 +618,21 @@ fn check_truth_and_alerts(path: &Path, robot: &RobotLog, t: &Timeline) {
             within(space, "alert", "killed"),
             "no KILLED alert after the {name} Space: {events:?}"
         );
-        // Greyed 2 s after it (already, if the robot was not driving when Space went down).
+        // Greyed by the kill: the controls' state as the KILLED alert was raised (their change
+        // is recorded right after the alert's). A revive held right after the kill may turn
+        // them live again within seconds, so a later state says nothing about the kill.
+        let alert_at = events
+            .iter()
+            .find(|(at, l)| {
+                *at >= space
+                    && l.event == "alert"
+                    && l.detail.as_deref().is_some_and(|d| d.contains("killed"))
+            })
+            .map(|(at, _)| *at)
+            .unwrap_or(space);
         let controls = events
             .iter()
-            .filter(|(at, l)| *at <= space + 2_000_000_000 && l.event == "controls")
+            .filter(|(at, l)| *at <= alert_at + 100_000_000 && l.event == "controls")
             .filter_map(|(_, l)| l.detail.as_deref())
             .next_back();
         assert!(

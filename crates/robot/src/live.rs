@@ -432,8 +432,18 @@ mod tests {
                     continue;
                 }
                 let v: serde_json::Value = serde_json::from_slice(&payload).unwrap();
-                if v["op"] == "advertise" {
-                    break v["channels"][0]["id"].as_u64().unwrap();
+                if v["op"] != "advertise" {
+                    continue;
+                }
+                // The server also serves `/dima/location`, and the advertisement lists the
+                // channels in no fixed order: take the test's own by its topic.
+                let ours = v["channels"]
+                    .as_array()
+                    .into_iter()
+                    .flatten()
+                    .find(|c| c["topic"] == "/test");
+                if let Some(channel) = ours {
+                    break channel["id"].as_u64().unwrap();
                 }
             };
             s.write_all(&text_frame(&format!(
@@ -442,7 +452,7 @@ mod tests {
             .unwrap();
             // Subscribed once a message arrives: one message published and at most one whole
             // frame read per round, so nothing piles up in the client's outbox while it waits
-            // (a byte-wise scan fell behind and mistook JSON bytes for a binary frame's head).
+            // (a byte-wise scan could take a JSON byte for a binary frame's head).
             let deadline = Instant::now() + Duration::from_secs(60);
             loop {
                 assert!(
