@@ -225,7 +225,10 @@ fn keys_drive_the_simulated_robot_and_the_log_shows_it() {
     std::thread::sleep(Duration::from_millis(300));
     let space = now_ns();
     xdotool(&["key", "space"]);
-    std::thread::sleep(Duration::from_millis(1_000));
+    // Held 1.9 s in all: the revive comes due after 1 s of holding, at the first frame the
+    // station draws after that, and the frame after a kill can be late (it saves a state
+    // screenshot with software GL).
+    std::thread::sleep(Duration::from_millis(1_600));
     xdotool(&["keyup", "r"]);
     std::thread::sleep(Duration::from_millis(2_500));
     let second_space = now_ns();
