@@ -7,7 +7,7 @@
 //! 0° level, 90° on its side, 180° upside down. A bump tilts the reading for a few packets
 //! only; the car must stay tilted for the hold time to count as rolled over.
 //!
-//! Only a reading of about 1 g is judged ([`GRAVITY_BAND_MG`]): a car lying on its side or
+//! Only a reading of about 1 g is judged (`GRAVITY_BAND_MG`): a car lying on its side or
 //! roof reads gravity alone, while a reading tilted as far by a corner or a bump carries the
 //! car's own acceleration as well (a corner that tilts the reading by 60° pulls 1.7 g
 //! sideways: 2 g in all), and an airborne car reads almost nothing. Such readings say nothing
@@ -54,7 +54,8 @@ impl RolloverRule {
     }
 
     /// Whether an accelerometer reading (mg, X, Y, Z) is tilted beyond the angle. A reading
-    /// outside [`GRAVITY_BAND_MG`] (a corner, a bump, a jump, not finite: not gravity alone)
+    /// outside `GRAVITY_BAND_MG` (about 1 g: a corner, a bump, a jump, not finite: not
+    /// gravity alone)
     /// says nothing and is `None`.
     pub fn is_tilted(&self, accel: [f32; 3]) -> Option<bool> {
         let norm = (accel[0] * accel[0] + accel[1] * accel[1] + accel[2] * accel[2]).sqrt();
