@@ -915,31 +915,53 @@ fn fence_point(key: &str, lat_deg: f64, lon_deg: f64) -> Result<crate::geo::LatL
     }
 }
 
-/// Checks `[navigation.fence]`.
-fn validate_fence(fence: &FenceConfig) -> Result<(), ConfigError> {
+impl FenceConfig {
+    /// Checks the fence's bounds; an error names the offending key under `prefix` (e.g.
+    /// `navigation.fence`, or `geoFence` for a plan file's fence).
+    pub fn validate_at(&self, prefix: &str) -> Result<(), ConfigError> {
+        validate_fence(self, prefix)
+    }
+
+    /// This fence's inclusion areas and `other`'s (the car may be in any of them), and the
+    /// smaller of the two largest distances from the revive point.
+    pub fn joined(&self, other: &FenceConfig) -> FenceConfig {
+        FenceConfig {
+            max_distance_m: match (self.max_distance_m, other.max_distance_m) {
+                (Some(a), Some(b)) => Some(a.min(b)),
+                (a, b) => a.or(b),
+            },
+            circles: self.circles.iter().chain(&other.circles).cloned().collect(),
+            polygons: self
+                .polygons
+                .iter()
+                .chain(&other.polygons)
+                .cloned()
+                .collect(),
+        }
+    }
+}
+
+/// Checks a fence; errors name keys under `prefix`.
+fn validate_fence(fence: &FenceConfig, prefix: &str) -> Result<(), ConfigError> {
     if let Some(max) = fence.max_distance_m {
-        within("navigation.fence.max_distance_m", max, FENCE_DISTANCE_M)?;
+        within(&format!("{prefix}.max_distance_m"), max, FENCE_DISTANCE_M)?;
     }
     for (key, count) in [
-        ("navigation.fence.circles", fence.circles.len()),
-        ("navigation.fence.polygons", fence.polygons.len()),
+        (format!("{prefix}.circles"), fence.circles.len()),
+        (format!("{prefix}.polygons"), fence.polygons.len()),
     ] {
-        within(key, count, 0..=FENCE_MAX_AREAS)?;
+        within(&key, count, 0..=FENCE_MAX_AREAS)?;
     }
     for (i, c) in fence.circles.iter().enumerate() {
-        fence_point(
-            &format!("navigation.fence.circles[{i}]"),
-            c.lat_deg,
-            c.lon_deg,
-        )?;
+        fence_point(&format!("{prefix}.circles[{i}]"), c.lat_deg, c.lon_deg)?;
         within(
-            &format!("navigation.fence.circles[{i}].radius_m"),
+            &format!("{prefix}.circles[{i}].radius_m"),
             c.radius_m,
             FENCE_DISTANCE_M,
         )?;
     }
     for (i, polygon) in fence.polygons.iter().enumerate() {
-        let key = format!("navigation.fence.polygons[{i}]");
+        let key = format!("{prefix}.polygons[{i}]");
         within_because(
             &format!("{key} vertices"),
             polygon.len(),
@@ -1094,7 +1116,7 @@ impl Config {
             ROLLOVER_TILT_DEG,
         )?;
         within("navigation.rollover_ms", n.rollover_ms, ROLLOVER_MS)?;
-        validate_fence(&n.fence)?;
+        validate_fence(&n.fence, "navigation.fence")?;
         self.validate_mission()
     }
 

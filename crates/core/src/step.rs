@@ -18,6 +18,7 @@ use crate::estimate::{Estimator, EstimatorState, ImuSample, StateEstimate};
 use crate::geo::LatLon;
 use crate::mission::{
     AutoSource, Follower, FollowerParams, LocalPoint, Mission, MissionProgress, MissionStatus,
+    Navigation,
 };
 use crate::monitor::{
     AnswerWindow, FenceMonitor, Geofence, GnssEpoch, GnssFreshness, ImuStuckDetector, OverrunRule,
@@ -210,6 +211,16 @@ impl Core {
     /// entered, AUTO follows it (see [`MissionProgress`]). Allocates: call it before the loop.
     pub fn set_mission(&mut self, mission: &Mission) {
         self.follower = Some(Follower::new(mission, self.follower_params));
+    }
+
+    /// Loads the mission and the fence in force (see [`Navigation`]): the fence from the next
+    /// fix, the mission from the next time AUTO is entered. Allocates: call it before the loop.
+    pub fn set_navigation(&mut self, navigation: &Navigation) {
+        self.fence = Geofence::new(&navigation.fence);
+        self.follower = navigation
+            .mission
+            .as_ref()
+            .map(|m| Follower::new(m, self.follower_params));
     }
 
     /// The loaded mission's follower.

@@ -3,7 +3,8 @@
 //! progress.
 
 use dima_core::config::Config;
-use dima_core::mission::{parse_plan, AutoSource, LocalPoint};
+use dima_core::mission::{parse_plan, parse_plan_file, AutoSource, LocalPoint, Navigation};
+use dima_core::FailsafeCause;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
 use dima_core::{Command, Core, CoreState, Mode, Nanos, ReceivedCommand};
 use dima_groundlink::Percent;
@@ -13,6 +14,7 @@ use dima_sensorboard::{GnssFrame, NavPvt, RawPacket, SensorPacket};
 const MS: Nanos = 1_000_000;
 const PERIOD: Nanos = 4 * MS;
 const SQUARE: &str = include_str!("fixtures/square-40m.plan");
+const SQUARE_FENCED: &str = include_str!("fixtures/square-40m-fenced.plan");
 
 /// The step with a board whose GNSS puts the car at `at` (local frame of the mission).
 struct Rig {
@@ -33,6 +35,21 @@ impl Rig {
         if with_mission {
             core.set_mission(&parse_plan(SQUARE).unwrap());
         }
+        Rig::settled(core, &config)
+    }
+
+    /// With the mission and the fence of the square plan with a `geoFence` polygon 10 m
+    /// outside the square.
+    fn fenced() -> Rig {
+        let config = Config::default();
+        let mut core = Core::new(&config).unwrap();
+        let plan = parse_plan_file(SQUARE_FENCED).unwrap();
+        core.set_navigation(&Navigation::with_plan(&config.navigation, plan).unwrap());
+        Rig::settled(core, &config)
+    }
+
+    /// After enough good packets for a revive.
+    fn settled(core: Core, config: &Config) -> Rig {
         let mut rig = Rig {
             core,
             state: CoreState::new(),
@@ -196,4 +213,39 @@ fn a_failsafe_stops_the_mission() {
         (Mode::Failsafe, None, None)
     );
     assert!(!rig.state.mission.active);
+}
+
+#[test]
+fn the_plans_fence_trips_geofence_within_a_gnss_period_and_refuses_a_revive_outside() {
+    let mut rig = Rig::fenced();
+    let out = rig.enter_auto();
+    assert_eq!(out.auto_source, Some(AutoSource::Mission));
+    // 9 m beyond the square's north side: inside the polygon (10 m margin).
+    rig.at = LocalPoint {
+        north_m: 49.0,
+        east_m: 20.0,
+    };
+    assert_eq!(rig.run(50).mode, Mode::Auto);
+    // 12 m beyond it: outside. FAILSAFE within one GNSS period (100 ms) and one cycle.
+    rig.at.north_m = 52.0;
+    let mut cycles = 0;
+    let out = loop {
+        let out = rig.cycle(&[Command::Heartbeat]);
+        cycles += 1;
+        if out.mode != Mode::Auto || cycles > 100 {
+            break out;
+        }
+    };
+    assert_eq!(
+        (out.mode, out.cause),
+        (Mode::Failsafe, Some(FailsafeCause::Geofence))
+    );
+    assert!(cycles as Nanos * PERIOD <= 100 * MS + PERIOD, "{cycles} cycles");
+    assert_eq!(out.mission, None);
+    // No revive while outside; back inside, the revive is accepted.
+    rig.run(300);
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Failsafe);
+    rig.at.north_m = 20.0;
+    rig.run(30);
+    assert_eq!(rig.cycle(&[Command::Revive]).mode, Mode::Manual);
 }

@@ -9,16 +9,19 @@
 
 pub mod follower;
 pub mod local;
+pub mod navigation;
 pub mod plan;
+mod plan_fence;
 pub mod progress;
 
 pub use follower::{Follower, FollowerParams, FollowerState, Guidance};
 pub use local::{LocalFrame, LocalPoint};
-pub use plan::{parse_plan, PlanError};
+pub use navigation::Navigation;
+pub use plan::{parse_plan, parse_plan_file, Plan, PlanError};
 pub use progress::{AutoSource, MissionProgress, MissionStatus};
 
 /// One waypoint of a mission, as the plan gives it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Waypoint {
     /// Latitude, degrees (WGS84).
     pub lat_deg: f64,
@@ -34,7 +37,7 @@ pub struct Waypoint {
 }
 
 /// A mission: waypoints in the order they are followed (at least one).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Mission {
     /// The waypoints.
     pub waypoints: Vec<Waypoint>,

@@ -1,8 +1,8 @@
 //! The QGroundControl plan file (`.plan`, JSON) as a [`Mission`].
 //!
 //! The file is an object with `fileType: "Plan"`, a `mission` object whose `items` are the
-//! mission items, and `geoFence` and `rallyPoints` objects (accepted here and not read: the
-//! geofence comes from the robot's configuration). Each item is a `SimpleItem` with a MAVLink
+//! mission items, a `geoFence` object (read by [`parse_plan_file`]: see `plan_fence`) and a
+//! `rallyPoints` object (accepted and not read: a car has no rally point). Each item is a `SimpleItem` with a MAVLink
 //! `command` and seven `params` `[param1, param2, param3, param4, latitude, longitude,
 //! altitude]` (QGroundControl writes a NaN parameter as `null`); files of the older format give
 //! the position as `coordinate: [latitude, longitude, altitude]` and the parameters as
@@ -17,7 +17,9 @@
 
 use serde_json::Value;
 
+use super::plan_fence::parse_geofence;
 use super::{Mission, Waypoint};
+use crate::config::FenceConfig;
 
 /// `MAV_CMD_NAV_WAYPOINT`.
 pub const MAV_CMD_NAV_WAYPOINT: u64 = 16;
@@ -35,7 +37,7 @@ pub struct PlanError {
 }
 
 impl PlanError {
-    fn new(location: impl Into<String>, message: impl Into<String>) -> PlanError {
+    pub(super) fn new(location: impl Into<String>, message: impl Into<String>) -> PlanError {
         PlanError {
             location: location.into(),
             message: message.into(),
@@ -125,8 +127,32 @@ fn coordinate(item: &Value, index: usize, at: &str) -> Result<f64, PlanError> {
     Ok(value)
 }
 
-/// Parses a QGroundControl plan file's text into the mission a ground vehicle follows.
+/// A whole plan file: the mission and the plan's own fence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// The waypoints.
+    pub mission: Mission,
+    /// The plan's `geoFence` (inclusion areas; empty when the plan has none).
+    pub fence: FenceConfig,
+}
+
+/// Parses a QGroundControl plan file's text into the mission a ground vehicle follows (its
+/// `geoFence` is not read: see [`parse_plan_file`]).
 pub fn parse_plan(text: &str) -> Result<Mission, PlanError> {
+    mission_of(&plan_root(text)?)
+}
+
+/// Parses a QGroundControl plan file's text into its mission and its fence.
+pub fn parse_plan_file(text: &str) -> Result<Plan, PlanError> {
+    let root = plan_root(text)?;
+    Ok(Plan {
+        mission: mission_of(&root)?,
+        fence: parse_geofence(&root)?,
+    })
+}
+
+/// The root object of a plan file.
+fn plan_root(text: &str) -> Result<Value, PlanError> {
     let root: Value = serde_json::from_str(text)
         .map_err(|e| PlanError::new("plan", format!("not valid JSON: {e}")))?;
     match root.get("fileType").and_then(Value::as_str) {
@@ -139,6 +165,11 @@ pub fn parse_plan(text: &str) -> Result<Mission, PlanError> {
         }
         None => return Err(PlanError::new("fileType", "missing (expected \"Plan\")")),
     }
+    Ok(root)
+}
+
+/// The mission of a plan's root object.
+fn mission_of(root: &Value) -> Result<Mission, PlanError> {
     let items = root
         .get("mission")
         .ok_or_else(|| PlanError::new("mission", "missing"))?
