@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command as Process;
 
+use dima_core::mission::AutoSource;
 use dima_core::Mode;
 use dima_e2e::{run_app, ONE_AT_A_TIME};
 use dima_groundlink::Command;
@@ -197,5 +198,56 @@ fn export_replay_cut_files_plots_and_the_python_reader() {
             format!("{} {}", run.cycles.len(), other.cycles.len())
         );
     }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The square mission with a fence polygon 10 m outside it.
+const FENCED_SQUARE: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../crates/core/tests/fixtures/square-40m-fenced.plan"
+);
+
+#[test]
+fn a_mission_run_logs_its_mission_and_fence_replays_with_them_and_plots_its_track() {
+    let _guard = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = std::env::temp_dir().join(format!("dima-e2e-mission-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    // Eight seconds of the mission: revive, AUTO, the first leg (then the timeout).
+    let args = dima_sim::cli::SimArgs {
+        scenario: "mission".into(),
+        mission: Some(PathBuf::from(FENCED_SQUARE)),
+        duration: Some(8.0),
+        ..Default::default()
+    };
+    let mut o = args.options().unwrap();
+    o.run_dir = dir.join("dev");
+    o.log_dir = dir.join("logs");
+    o.status = StatusMode::Quiet;
+    let r = run_simulation(&o, run_app).expect("the simulation runs");
+    let log = r.app.log_path.clone().expect("a log");
+    let run = LoggedRun::read(&log).unwrap();
+    assert!(run.warnings.is_empty(), "{:?}", run.warnings);
+
+    // The log holds the mission and the plan's fence the robot ran with.
+    let navigation = run.navigation.clone().expect("the navigation record");
+    assert_eq!(navigation.mission.map(|m| m.waypoints.len()), Some(5));
+    assert_eq!(navigation.fence.polygons.len(), 1);
+    let following = run
+        .cycles
+        .iter()
+        .filter(|c| c.msg.auto_source == Some(AutoSource::Mission))
+        .count();
+    assert!(following > 250, "{following} cycles following the mission");
+
+    // Replay with the recorded configuration: identical, the mission included (the plan
+    // file is not read again).
+    let config = run.config.clone().expect("the configuration is in the log");
+    let same = replay::replay(&run, &config).unwrap();
+    assert_eq!(same.first_difference, None);
+
+    // The track plot draws it.
+    let png = dir.join("track.png");
+    plot::plot(&run, What::Track, &png, (800, 600)).unwrap();
+    assert_eq!(png_size(&png), (800, 600));
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -4,8 +4,8 @@
 
 use dima_core::config::Config;
 use dima_core::mission::{parse_plan, parse_plan_file, AutoSource, LocalPoint, Navigation};
-use dima_core::FailsafeCause;
 use dima_core::step::{CycleInputs, CycleOutputs, SensorInput};
+use dima_core::FailsafeCause;
 use dima_core::{Command, Core, CoreState, Mode, Nanos, ReceivedCommand};
 use dima_groundlink::Percent;
 use dima_sensorboard::nav_pvt::FLAG_GNSS_FIX_OK;
@@ -240,7 +240,10 @@ fn the_plans_fence_trips_geofence_within_a_gnss_period_and_refuses_a_revive_outs
         (out.mode, out.cause),
         (Mode::Failsafe, Some(FailsafeCause::Geofence))
     );
-    assert!(cycles as Nanos * PERIOD <= 100 * MS + PERIOD, "{cycles} cycles");
+    assert!(
+        cycles as Nanos * PERIOD <= 100 * MS + PERIOD,
+        "{cycles} cycles"
+    );
     assert_eq!(out.mission, None);
     // No revive while outside; back inside, the revive is accepted.
     rig.run(300);

@@ -10,6 +10,7 @@ use std::sync::Arc;
 
 use anyhow::Context;
 use dima_core::config::Config;
+use dima_core::mission::Navigation;
 use dima_sensorboard::PACKET_LEN;
 use mcap::records::Record;
 
@@ -196,6 +197,9 @@ pub struct LoggedRun {
     pub config: Option<Config>,
     /// The application's version (metadata `dima`).
     pub version: Option<String>,
+    /// The mission and the fence the robot ran with (metadata `navigation`; absent in logs
+    /// written before it).
+    pub navigation: Option<Navigation>,
     /// The realtime setup report, as text (metadata `rt_setup`).
     pub rt_setup: Option<String>,
     /// The totals at exit (metadata `summary`; absent in a cut file).
@@ -325,6 +329,14 @@ impl LoggedRun {
                     match Config::from_toml(text, "the log's configuration") {
                         Ok(c) => self.config = Some(c),
                         Err(e) => self.warnings.push(e.to_string()),
+                    }
+                }
+            }
+            schema::METADATA_NAVIGATION => {
+                if let Some(json) = pairs.get("json") {
+                    match serde_json::from_str(json) {
+                        Ok(n) => self.navigation = Some(n),
+                        Err(e) => self.warnings.push(format!("navigation record: {e}")),
                     }
                 }
             }

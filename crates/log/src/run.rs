@@ -47,6 +47,7 @@ fn append(run: &mut LoggedRun, part: LoggedRun, file: &Path) {
     run.raw.extend(part.raw);
     run.config = run.config.take().or(part.config);
     run.version = run.version.take().or(part.version);
+    run.navigation = run.navigation.take().or(part.navigation);
     run.rt_setup = run.rt_setup.take().or(part.rt_setup);
     run.summary = part.summary.or(run.summary.take());
     run.ground_link = part.ground_link.or(run.ground_link.take());

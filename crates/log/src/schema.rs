@@ -56,6 +56,10 @@ pub const CHANNELS: [ChannelSpec; 4] = [SENSOR_RAW, CYCLE, STATE, SENSOR_INFO];
 
 /// Metadata record holding the version and the configuration that ran (`config`: TOML).
 pub const METADATA_DIMA: &str = "dima";
+/// Metadata record holding the mission and the fence the robot ran with (key `json`: a
+/// `dima_core::mission::Navigation`), so that a replay and a plot use what the robot used,
+/// not whatever the plan file holds today.
+pub const METADATA_NAVIGATION: &str = "navigation";
 /// Metadata record holding the realtime setup report.
 pub const METADATA_RT_SETUP: &str = "rt_setup";
 /// Metadata record holding the [`SummaryRecord`] (key `json`) at exit.

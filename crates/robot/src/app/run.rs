@@ -28,6 +28,7 @@ use crate::rt::{monotonic_ns, PeriodicClock, RtSettings, RtSetup, RtSetupReport}
 use crate::telemetry::{
     spawn_telemetry, LinkCounters, LinkSecurity, TelemetrySettings, TelemetryStats,
 };
+use dima_core::mission::Navigation;
 use dima_log::schema::{self, SummaryRecord};
 
 /// One opener per device.
@@ -146,9 +147,8 @@ where
     config.validate()?;
     let security = LinkSecurity::from_config(&config.xbee)?;
     let mut params = LoopParams::from_config(config)?;
-    if let Some(mission) = super::mission::load_mission(config)? {
-        params.core.set_mission(&mission);
-    }
+    let navigation = super::mission::load_navigation(config)?;
+    params.core.set_navigation(&navigation);
     params.busy = options.busy;
     prepare_allocator(&config.realtime);
     let rt = &config.realtime;
@@ -162,6 +162,7 @@ where
     let logger_stop = Arc::new(AtomicBool::new(false));
     let logger = start_logger(
         config,
+        &navigation,
         log_rx,
         report_rx,
         &logger_stop,
@@ -272,6 +273,7 @@ fn start_live_view(config: &Config) -> anyhow::Result<Option<Arc<LiveView>>> {
 /// once `stop` is set.
 fn start_logger(
     config: &Config,
+    navigation: &Navigation,
     records: rtrb::Consumer<CycleRecord>,
     rt_reports: mpsc::Receiver<RtSetupReport>,
     stop: &Arc<AtomicBool>,
@@ -286,13 +288,19 @@ fn start_logger(
     } else {
         None
     };
-    let header = vec![(
-        schema::METADATA_DIMA.to_owned(),
-        vec![
-            ("version", env!("CARGO_PKG_VERSION").to_owned()),
-            ("config", toml::to_string(config)?),
-        ],
-    )];
+    let header = vec![
+        (
+            schema::METADATA_DIMA.to_owned(),
+            vec![
+                ("version", env!("CARGO_PKG_VERSION").to_owned()),
+                ("config", toml::to_string(config)?),
+            ],
+        ),
+        (
+            schema::METADATA_NAVIGATION.to_owned(),
+            vec![("json", serde_json::to_string(navigation)?)],
+        ),
+    ];
     if let Some(l) = log.as_mut() {
         for (name, pairs) in &header {
             l.metadata(name, pairs)?;

@@ -8,6 +8,7 @@ pub mod inspect;
 pub mod parquet;
 pub mod plot;
 pub mod plot_math;
+pub mod plot_track;
 pub mod replay;
 
 /// The log reader, from `dima-log`.

@@ -1,7 +1,7 @@
 //! `dima log plot FILE -o OUT.png [--what imu|gnss|outputs|latency|track]`: a PNG with a real
 //! time axis from the recorded timestamps, units on the axes, a legend and the mode changes
-//! marked; `track` draws the GNSS path in local metres, `latency` the wake-up latency
-//! histogram.
+//! marked; `track` draws the GNSS path in local metres over the mission and the fence (see
+//! `plot_track`), `latency` the wake-up latency histogram.
 
 use std::ops::Range;
 use std::path::Path;
@@ -17,8 +17,8 @@ use plotters::prelude::*;
 use dima_log::schema::ReplayMessage;
 
 use super::plot_math::{
-    align_turns, angle_lines, heading_lines, latency_histogram, split_at_gaps, track_extent,
-    HEADING_MIN_SPEED_M_S, LATENCY_MAX_BUCKETS, MAX_GAP_S, TRACK_MIN_SPAN_M,
+    align_turns, angle_lines, heading_lines, latency_histogram, split_at_gaps,
+    HEADING_MIN_SPEED_M_S, LATENCY_MAX_BUCKETS, MAX_GAP_S,
 };
 use super::read::{LoggedRun, Timed};
 
@@ -33,7 +33,7 @@ pub enum What {
     Outputs,
     /// Wake-up latency histogram (µs).
     Latency,
-    /// The GNSS track in local metres (east, north).
+    /// The GNSS track in local metres (east, north), with the mission and the fence.
     Track,
 }
 
@@ -48,7 +48,8 @@ pub enum Source {
     Replay,
 }
 
-const FONT: &str = "sans-serif";
+/// The font family of every plot.
+pub(super) const FONT: &str = "sans-serif";
 
 /// Registers the bundled font once (text is drawn without system fonts).
 fn fonts() {
@@ -62,7 +63,8 @@ fn fonts() {
     });
 }
 
-fn mode_color(mode: Mode) -> RGBColor {
+/// The colour of `mode` in every plot.
+pub(super) fn mode_color(mode: Mode) -> RGBColor {
     match mode {
         Mode::Killed => RGBColor(90, 90, 90),
         Mode::Manual => RGBColor(30, 120, 220),
@@ -372,74 +374,6 @@ fn latency(
     Ok(())
 }
 
-fn track(
-    run: &LoggedRun,
-    root: &DrawingArea<BitMapBackend, plotters::coord::Shift>,
-) -> anyhow::Result<()> {
-    const EARTH_RADIUS_M: f64 = 6_371_000.0;
-    let fixes: Vec<(f64, f64, Mode)> = run
-        .cycles
-        .iter()
-        .filter_map(|c| {
-            let s = c.msg.sensor.as_ref()?;
-            Some((s.lat_deg?, s.lon_deg?, c.msg.mode)).filter(|_| s.gnss_fix_ok)
-        })
-        .collect();
-    let (lat0, lon0) = fixes.first().map_or((0.0, 0.0), |f| (f.0, f.1));
-    let local = |lat: f64, lon: f64| {
-        (
-            (lon - lon0).to_radians() * EARTH_RADIUS_M * lat0.to_radians().cos(),
-            (lat - lat0).to_radians() * EARTH_RADIUS_M,
-        )
-    };
-    let points: Vec<(f64, f64, Mode)> = fixes
-        .iter()
-        .map(|f| (local(f.0, f.1), f.2))
-        .map(|((e, n), m)| (e, n, m))
-        .collect();
-    // Same scale on both axes, at least TRACK_MIN_SPAN_M: standing noise stays small.
-    let en: Vec<(f64, f64)> = points.iter().map(|p| (p.0, p.1)).collect();
-    // The plotting area: the whole less the label areas, margins and caption.
-    let (w, h) = root.dim_in_pixel();
-    let aspect = f64::from(w.saturating_sub(70 + 24).max(1))
-        / f64::from(h.saturating_sub(44 + 24 + 30).max(1));
-    let (x, y) = track_extent(&en, TRACK_MIN_SPAN_M, aspect);
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            format!("GNSS track (coloured by mode; at least {TRACK_MIN_SPAN_M} m across)"),
-            (FONT, 22),
-        )
-        .margin(12)
-        .x_label_area_size(44)
-        .y_label_area_size(70)
-        .build_cartesian_2d(x, y)?;
-    chart
-        .configure_mesh()
-        .x_desc("east of the first fix (m)")
-        .y_desc("north of the first fix (m)")
-        .label_style((FONT, 15))
-        .draw()?;
-    for mode in [Mode::Killed, Mode::Manual, Mode::Auto, Mode::Failsafe] {
-        let c = mode_color(mode);
-        chart
-            .draw_series(
-                points
-                    .iter()
-                    .filter(|p| p.2 == mode)
-                    .map(move |p| Circle::new((p.0, p.1), 2, c.filled())),
-            )?
-            .label(mode.name())
-            .legend(move |(x, y)| Circle::new((x + 10, y), 4, c.filled()));
-    }
-    chart
-        .configure_series_labels()
-        .label_font((FONT, 15))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()?;
-    Ok(())
-}
-
 /// Bucket counts of a cyclictest-format histogram (`NNNNNN COUNT` lines, 1 µs buckets).
 pub fn parse_histogram(text: &str) -> Vec<u64> {
     let mut buckets = Vec::new();
@@ -616,7 +550,7 @@ pub fn plot(run: &LoggedRun, what: What, path: &Path, size: (u32, u32)) -> anyho
         What::Gnss => gnss(run, &root)?,
         What::Outputs => outputs(run, &root)?,
         What::Latency => latency(run, &root)?,
-        What::Track => track(run, &root)?,
+        What::Track => super::plot_track::track(run, &root)?,
     }
     root.present()
         .with_context(|| format!("writing {}", path.display()))?;

@@ -177,9 +177,14 @@ fn recorded_sensor(c: &CycleMessage, raw: Option<&[u8; 132]>) -> anyhow::Result<
     })
 }
 
-/// Replays `run` through the step configured by `config`.
+/// Replays `run` through the step configured by `config`, with the mission and the fence the
+/// robot ran with (the log's `navigation` record; logs written before it: the configured
+/// fence and no mission).
 pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
     let mut core = Core::new(config)?;
+    if let Some(navigation) = &run.navigation {
+        core.set_navigation(navigation);
+    }
     let (cycles, realtime_fault) = recorded_cycles(run)?;
     let mut state = CoreState {
         realtime_fault,
@@ -234,7 +239,8 @@ pub fn replay(run: &LoggedRun, config: &Config) -> anyhow::Result<Replay> {
 pub const METADATA_REPLAY: &str = "replay";
 
 /// Writes a comparison file at `path`: the recorded log (cycles on `/dima/cycle`, states,
-/// sensor info frames, raw packets and the recorded `dima` metadata with its configuration)
+/// sensor info frames, raw packets, the recorded `dima` metadata with its configuration and
+/// the `navigation` record)
 /// and the replayed cycles on `/replay/cycle`, on the recorded time axis, with the
 /// configuration of the replay in the metadata record [`METADATA_REPLAY`]. `dima log info`,
 /// `export`, `plot` and `config` read it as a log; `--channel replay` reads the replayed
@@ -259,17 +265,15 @@ pub fn write_mcap(
     let mut w = McapLog::create_with_channels(path, channels.to_vec())?;
     // The times given are log times already.
     w.set_time_offset(0);
-    if let Some(m) = run
-        .metadata
-        .iter()
-        .find(|m| m.name == schema::METADATA_DIMA)
-    {
-        let pairs: Vec<(&str, String)> = m
-            .pairs
-            .iter()
-            .map(|(k, v)| (k.as_str(), v.clone()))
-            .collect();
-        w.metadata(schema::METADATA_DIMA, &pairs)?;
+    for name in [schema::METADATA_DIMA, schema::METADATA_NAVIGATION] {
+        if let Some(m) = run.metadata.iter().find(|m| m.name == name) {
+            let pairs: Vec<(&str, String)> = m
+                .pairs
+                .iter()
+                .map(|(k, v)| (k.as_str(), v.clone()))
+                .collect();
+            w.metadata(name, &pairs)?;
+        }
     }
     w.metadata(METADATA_REPLAY, &[("config", toml::to_string(config)?)])?;
     for (t_ns, packet) in &run.raw {
