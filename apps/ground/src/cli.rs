@@ -102,6 +102,13 @@ pub struct Cli {
     /// not drawn.
     #[arg(long, value_name = "DIR")]
     pub map_tiles: Option<PathBuf>,
+    /// Show this QGroundControl plan on the Map panel: the mission's legs and waypoints and
+    /// the inclusion areas of its `geoFence`, read and checked as the robot reads its
+    /// `[navigation] mission_file`. For reference: the robot follows its own mission file (the
+    /// station does not upload a plan). In a replay of a robot log the map shows the mission
+    /// and fence the log records unless --plan is given.
+    #[arg(long, value_name = "FILE.plan")]
+    pub plan: Option<PathBuf>,
     /// The panel shown in the middle of the window at start (switch with its tabs).
     #[arg(long, value_enum, default_value_t = Panel::Plots, value_name = "PANEL")]
     pub panel: Panel,

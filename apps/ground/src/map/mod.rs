@@ -6,10 +6,12 @@
 //! - [`scale`]: the scale bar's round length;
 //! - [`tiles`]: offline tiles from a `z/x/y.png` directory, decoded, and a bounded cache;
 //! - [`origin`]: the first fix, or the revive point once known;
+//! - [`plan`]: the mission and the fence of a plan file or of the robot's log, in metres;
 //! - [`setpoint`]: the heading setpoint the map draws.
 
 pub mod mercator;
 pub mod origin;
+pub mod plan;
 pub mod scale;
 pub mod setpoint;
 pub mod tiles;

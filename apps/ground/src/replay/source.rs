@@ -71,6 +71,8 @@ pub struct ReplayLog {
     pub displays: Vec<(Duration, DisplayRecord)>,
     /// The robot's reported mode from each change on, for the timeline.
     pub modes: Vec<(Duration, RobotMode)>,
+    /// Robot logs: the mission and the fence the robot ran with, for the map.
+    pub navigation: Option<dima_core::mission::Navigation>,
 }
 
 impl ReplayLog {
@@ -172,6 +174,7 @@ impl ReplayLog {
             start_ns,
             displays,
             modes,
+            navigation: None,
         })
     }
 
@@ -238,6 +241,7 @@ impl ReplayLog {
             start_ns,
             displays: Vec::new(),
             modes,
+            navigation: run.navigation.clone(),
         })
     }
 

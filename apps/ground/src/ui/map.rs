@@ -1,7 +1,8 @@
 //! The middle of the window: the plots or the map, chosen by tabs; and the map panel: the
 //! track and the car on a metre grid around the origin (the first fix, or the revive point),
-//! over offline tiles when `--map-tiles` gives them, with a scale bar, the heading setpoint,
-//! zoom (wheel), pan (drag) and "follow the car".
+//! over offline tiles when `--map-tiles` gives them, with the mission and the fence of
+//! `--plan` (or of the replayed robot log), a scale bar, the heading setpoint, zoom (wheel),
+//! pan (drag) and "follow the car".
 
 use std::path::PathBuf;
 
@@ -10,6 +11,7 @@ use eframe::egui::{self, Align2, Color32, FontId, Pos2, Rect, Sense, Shape, Stro
 use crate::cli::Panel;
 use crate::map::mercator;
 use crate::map::origin::{MapOrigin, OriginKind};
+use crate::map::plan::PlanOverlay;
 use crate::map::scale::{scale_bar_m, scale_label};
 use crate::map::setpoint::{heading_setpoint_deg, shown_heading_setpoint_deg};
 use crate::map::tiles::{available_zooms, choose_zoom, load_tile, BoundedCache, TileKey};
@@ -35,6 +37,8 @@ const GRID_MIN_PX: f64 = 60.0;
 const TRACK: Color32 = Color32::from_rgb(40, 110, 230);
 const CAR: Color32 = Color32::from_rgb(220, 40, 40);
 const SETPOINT: Color32 = Color32::from_rgb(255, 150, 0);
+const MISSION: Color32 = Color32::from_rgb(70, 70, 70);
+const FENCE: Color32 = Color32::from_rgb(200, 30, 30);
 
 /// The map panel's state.
 pub struct MapPanel {
@@ -48,11 +52,14 @@ pub struct MapPanel {
     tile_zooms: Vec<u8>,
     /// Decoded tiles; `None` for a tile that is missing or unreadable.
     tiles: BoundedCache<Option<egui::TextureHandle>>,
+    /// The mission and the fence drawn under the track (`--plan`, or the replayed log's).
+    plan: Option<PlanOverlay>,
 }
 
 impl MapPanel {
-    /// Shows `shown` first; tiles from `tiles_dir` when given.
-    pub fn new(shown: Panel, tiles_dir: Option<PathBuf>) -> MapPanel {
+    /// Shows `shown` first; tiles from `tiles_dir` and the mission and fence of `plan` when
+    /// given.
+    pub fn new(shown: Panel, tiles_dir: Option<PathBuf>, plan: Option<PlanOverlay>) -> MapPanel {
         MapPanel {
             shown,
             view: MapView::default(),
@@ -64,6 +71,7 @@ impl MapPanel {
                 .unwrap_or_default(),
             tiles_dir,
             tiles: BoundedCache::new(TILE_CACHE),
+            plan,
         }
     }
 }
@@ -177,6 +185,9 @@ fn map(ui: &mut egui::Ui, app: &mut GroundApp) {
     };
     let view = panel.view;
     draw_grid(&painter, rect, &view);
+    if let (Some(plan), Some((o, _))) = (&panel.plan, origin) {
+        draw_plan(&painter, rect, &view, plan, o);
+    }
     if origin.is_some() {
         let o = view.to_screen(rect, [0.0, 0.0]);
         painter.circle_stroke(o, 5.0, Stroke::new(2.0, Color32::BLACK));
@@ -213,6 +224,10 @@ fn map(ui: &mut egui::Ui, app: &mut GroundApp) {
         painter.add(Shape::convex_polygon(marker, fill, outline));
     }
     draw_scale_bar(&painter, rect, &view);
+    let tile_note = match &panel.plan {
+        Some(plan) => format!("{} · {tile_note}", plan.note()),
+        None => tile_note,
+    };
     let note = painter.layout_no_wrap(tile_note, FontId::proportional(12.0), Color32::BLACK);
     let note_rect = Align2::RIGHT_BOTTOM
         .anchor_size(rect.right_bottom() + Vec2::new(-10.0, -10.0), note.size());
@@ -225,6 +240,36 @@ fn map(ui: &mut egui::Ui, app: &mut GroundApp) {
             "waiting for a GNSS position",
             FontId::proportional(16.0),
             Color32::from_gray(60),
+        );
+    }
+}
+
+/// Draws the fence's areas and the mission's legs and numbered waypoints.
+fn draw_plan(
+    painter: &egui::Painter,
+    rect: Rect,
+    view: &MapView,
+    plan: &PlanOverlay,
+    origin: (f64, f64),
+) {
+    let m = plan.in_metres(origin);
+    let screen = |points: &[[f64; 2]]| -> Vec<Pos2> {
+        points.iter().map(|&p| view.to_screen(rect, p)).collect()
+    };
+    for area in &m.areas {
+        painter.add(Shape::line(screen(area), Stroke::new(2.0, FENCE)));
+    }
+    if m.waypoints.len() >= 2 {
+        painter.add(Shape::line(screen(&m.waypoints), Stroke::new(1.5, MISSION)));
+    }
+    for (i, at) in screen(&m.waypoints).into_iter().enumerate() {
+        painter.circle_stroke(at, 4.0, Stroke::new(1.5, MISSION));
+        painter.text(
+            at + Vec2::new(6.0, -6.0),
+            Align2::LEFT_BOTTOM,
+            format!("{i}"),
+            FontId::proportional(12.0),
+            MISSION,
         );
     }
 }

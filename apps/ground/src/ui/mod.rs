@@ -29,6 +29,7 @@ use crate::control::{ManualControl, ManualInputs};
 use crate::downlink::DownlinkHealth;
 use crate::keys::KeyboardDriver;
 use crate::link::{LinkControl, LinkEvent, LinkHandle, LinkStatus};
+use crate::map::plan::{PlanOverlay, PlanSource};
 use crate::recording::{now_ns, LinkRecord, RecordEvent, Recorder};
 use crate::replay::Replay;
 use crate::robot_view::Liveness;
@@ -173,6 +174,15 @@ impl GroundApp {
                 baud: cli.baud,
             });
         }
+        let plan = match (&cli.plan, &replay) {
+            (Some(path), _) => Some(PlanOverlay::load(path)?),
+            (None, Some(r)) => r
+                .log()
+                .navigation
+                .as_ref()
+                .map(|n| PlanOverlay::of(n, PlanSource::RobotLog)),
+            (None, None) => None,
+        };
         let stop_requested = stop_on_signals()?;
         let started = Instant::now();
         Ok(GroundApp {
@@ -222,7 +232,7 @@ impl GroundApp {
             alerts: Alerts::default(),
             sounder: Sounder::new(cli.mute || replay.is_some()),
             controls_live: None,
-            map: map::MapPanel::new(cli.panel, cli.map_tiles.clone()),
+            map: map::MapPanel::new(cli.panel, cli.map_tiles.clone(), plan),
             screenshot: cli.screenshot.clone().map(|path| ScreenshotPlan {
                 path,
                 after: Duration::from_secs_f64(cli.after),
