@@ -85,6 +85,26 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+/// Writes each driver item once for the blocking `XBee` and, with the `async` feature, once more
+/// for `XBeeAsync` (`.await` on the transport calls), through `maybe-async-cfg`.
+macro_rules! blocking_and_async {
+    ($($item:item)*) => {
+        $(
+            #[maybe_async_cfg::maybe(
+                sync(),
+                async(feature = "async"),
+                idents(
+                    XBee(sync, async = "XBeeAsync"),
+                    FramePort(sync, async = "AsyncFramePort"),
+                    send_frame(sync, async = "send_frame_async")
+                )
+            )]
+            $item
+        )*
+    };
+}
+pub(crate) use blocking_and_async;
+
 mod at;
 mod codec;
 mod escape;
@@ -116,6 +136,8 @@ pub use xbee::{
     Api, CommandOutcome, CommandSession, CommandTiming, Mode, Transparent, XBee,
     DEFAULT_WRITE_POLLS_PER_BYTE, MAX_AT_PARAMETER_LEN, POLL_STEP_US,
 };
+#[cfg(feature = "async")]
+pub use xbee::{AsyncCommandSession, XBeeAsync};
 
 /// The README's code blocks, compiled as doctests so they keep matching the API.
 #[cfg(doctest)]
