@@ -39,7 +39,10 @@ crate::blocking_and_async! {
 /// per driver: they count time on different clocks.
 ///
 /// `XBeeAsync` (feature `async`) is the same driver over an `embedded-io-async` 0.7 port, with
-/// the I/O methods `async` and the guard times awaited on an embedded-hal-async `DelayNs`.
+/// the I/O methods `async`: in transparent mode it implements `embedded_io_async::{Read, Write}`
+/// and enters command mode with `command_mode(&mut delay).await`, the guard times awaited on an
+/// embedded-hal-async `DelayNs`; in API mode it has `send`, `transmit`, `send_at_command` and
+/// `read_frame`. (The paragraphs above describe `XBee`.)
 #[derive(Debug)]
 pub struct XBee<S, M> {
     serial: S,

@@ -16,8 +16,8 @@ use std::task::{Context, Poll, Wake, Waker};
 use digi_vectors::{frames, AT_NI_QUERY, AT_NI_RESPONSE, RX_API1, RX_API2, TX_API1, TX_API2};
 use embedded_io_async::{ErrorKind, Write as _};
 use xbee_driver::{
-    settings, Address16, Address64, Api, ApiEscaping, AtCommand, AtRequest, CommandTiming,
-    DeviceError, Error, Frame, Mode, Parameter, PowerLevel, Transparent, XBeeAsync,
+    encode, settings, Address16, Address64, Api, ApiEscaping, AtCommand, AtRequest, CommandTiming,
+    DeviceError, Error, Frame, FrameError, Mode, Parameter, PowerLevel, Transparent, XBeeAsync,
 };
 
 struct NoopWake;
@@ -189,6 +189,37 @@ fn send_writes_the_digi_bytes_in_both_api_modes() {
             radio.release().done();
         }
     }
+}
+
+#[test]
+fn a_long_frame_goes_out_as_the_encoder_writes_it() {
+    // Longer than the driver's write chunk, with bytes API 2 escapes at every position.
+    let data: Vec<u8> = (0..300u32)
+        .map(|i| [0x7E, 0x7D, 0x11, 0x13, 0x42][(i % 5) as usize])
+        .collect();
+    let frame = Frame::Unknown {
+        frame_type: 0x10,
+        data: &data,
+    };
+    for escaping in [ApiEscaping::Unescaped, ApiEscaping::Escaped] {
+        let mut expected = vec![0u8; 700];
+        let n = encode(&frame, escaping, &mut expected).unwrap();
+        expected.truncate(n);
+        let mut radio = api(vec![W(expected), F], escaping);
+        block_on(radio.send(&frame)).unwrap();
+        radio.release().done();
+    }
+    // Too long for the length field: refused before anything is written.
+    let data = vec![0u8; 65_535];
+    let mut radio = api(vec![], ApiEscaping::Escaped);
+    assert_eq!(
+        block_on(radio.send(&Frame::Unknown {
+            frame_type: 0xA1,
+            data: &data
+        })),
+        Err(Error::Device(DeviceError::Frame(FrameError::TooLong)))
+    );
+    radio.release().done();
 }
 
 #[test]

@@ -310,7 +310,9 @@ impl<S: Read + Write> XBeeAsync<S, Transparent> {
 /// (an async drop does not exist): the module then stays in command mode until its `CT` runs
 /// out, and the driver keeps refusing data with [`DeviceError::CommandModeActive`] until
 /// [`XBeeAsync::wait_until_transparent`] has waited that out (or a new session is left with
-/// `exit`). The same holds when a call's future is dropped before it completes.
+/// `exit`). The same holds when a call's future is dropped before it completes; the session's
+/// further calls are then refused with [`DeviceError::Busy`], since the module may or may not
+/// have seen that command.
 ///
 /// Settings are changed with the request builders of [`settings`] (the same as for the
 /// blocking session's helpers), e.g. `session.set(&settings::set_pan_id(0x1234)).await`.
