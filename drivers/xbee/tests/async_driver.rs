@@ -522,3 +522,30 @@ fn a_command_too_close_to_ct_is_refused_and_exit_waits_ct_out() {
     assert!(r.is_transparent());
     r.release().done();
 }
+
+#[test]
+fn a_reply_already_there_is_taken_even_with_a_zero_reply_timeout() {
+    let (port, mut delay) = port_and_delay(vec![
+        F,
+        W(b"+++".to_vec()),
+        R(b"OK\r".to_vec()),
+        W(b"ATPL\r".to_vec()),
+        R(b"4\r".to_vec()),
+        W(b"ATPL\r".to_vec()),
+    ]);
+    let timing = CommandTiming::default()
+        .with_guard_margin_ms(0)
+        .with_reply_timeout_ms(0);
+    let mut r = XBeeAsync::with_timing(port, timing);
+    let mut session = block_on(r.command_mode(&mut delay)).unwrap();
+    assert_eq!(
+        block_on(session.send(&AtRequest::query(AtCommand::PL))),
+        Ok(&b"4"[..])
+    );
+    // No reply waiting: the zero timeout ends the wait at once.
+    assert_eq!(
+        block_on(session.send(&AtRequest::query(AtCommand::PL))),
+        Err(Error::Device(DeviceError::Timeout))
+    );
+    r.release().done();
+}

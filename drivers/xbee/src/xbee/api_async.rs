@@ -17,7 +17,8 @@ impl<S: Write, const N: usize> XBeeAsync<S, Api<N>> {
     ///
     /// A port whose `write` returns `Ok(0)` (it will never take the bytes) is
     /// [`DeviceError::Timeout`](crate::DeviceError::Timeout), never a panic; the frame may then
-    /// be partly sent, which the module drops by its length and checksum.
+    /// be partly sent, which the module drops by its length and checksum. The same holds if
+    /// this future is dropped before it completes.
     pub async fn send(&mut self, frame: &Frame<'_>) -> Result<(), Error<S::Error>> {
         let escaping = self.mode.escaping();
         let mut port = IoPort {

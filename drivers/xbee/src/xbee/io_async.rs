@@ -100,8 +100,9 @@ pub(crate) async fn within<D: DelayNs, F: Future>(
 ) -> Raced<F::Output> {
     let mut work = pin!(work);
     let mut waited_ms = 0;
-    while waited_ms < timeout_ms {
-        let step = WAIT_STEP_MS.min(timeout_ms - waited_ms);
+    loop {
+        // A zero timeout still polls `work` once.
+        let step = WAIT_STEP_MS.min(timeout_ms.saturating_sub(waited_ms));
         let mut expire = pin!(delay.delay_ms(step));
         let output = poll_fn(|cx| {
             if let Poll::Ready(out) = work.as_mut().poll(cx) {
@@ -118,10 +119,12 @@ pub(crate) async fn within<D: DelayNs, F: Future>(
             };
         }
         waited_ms += step;
-    }
-    Raced {
-        output: None,
-        waited_ms,
-        bound_ms: waited_ms,
+        if waited_ms >= timeout_ms {
+            return Raced {
+                output: None,
+                waited_ms,
+                bound_ms: waited_ms,
+            };
+        }
     }
 }
