@@ -342,6 +342,10 @@ fn command_mode_dialogue_waits_the_guard_times() {
         R(b"OK\r".to_vec()),
         W(b"ATID\r".to_vec()),
         R(b"7FFF\r".to_vec()),
+        W(b"ATPL\r".to_vec()),
+        R(b"2\r".to_vec()),
+        W(b"ATCH\r".to_vec()),
+        R(b"ZZ\r".to_vec()),
         W(b"ATCN\r".to_vec()),
         R(b"OK\r".to_vec()),
         W(b"$".to_vec()),
@@ -350,6 +354,14 @@ fn command_mode_dialogue_waits_the_guard_times() {
     let mut session = block_on(r.command_mode(&mut delay)).unwrap();
     block_on(session.set(&settings::set_power_level(PowerLevel::Medium))).unwrap();
     assert_eq!(block_on(session.query_number(AtCommand::ID)), Ok(0x7FFF));
+    assert_eq!(
+        block_on(session.query(AtCommand::PL, settings::parse_power_level)),
+        Ok(PowerLevel::Medium)
+    );
+    assert_eq!(
+        block_on(session.query(AtCommand::CH, settings::parse_channel)),
+        Err(Error::Device(DeviceError::InvalidReply))
+    );
     block_on(session.exit()).unwrap();
     assert_eq!(r.mode(), Mode::Transparent);
     block_on(r.write_all(b"$")).unwrap();
@@ -365,6 +377,8 @@ fn command_mode_dialogue_waits_the_guard_times() {
             (b"+++", 1000 * MS),
             (b"ATPL2\r", 1000 * MS),
             (b"ATID\r", 1000 * MS),
+            (b"ATPL\r", 1000 * MS),
+            (b"ATCH\r", 1000 * MS),
             (b"ATCN\r", 1000 * MS),
             (b"$", 1000 * MS),
         ]

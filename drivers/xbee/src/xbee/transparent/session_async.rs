@@ -314,8 +314,10 @@ impl<S: Read + Write> XBeeAsync<S, Transparent> {
 /// further calls are then refused with [`DeviceError::Busy`], since the module may or may not
 /// have seen that command.
 ///
-/// Settings are changed with the request builders of [`settings`] (the same as for the
-/// blocking session's helpers), e.g. `session.set(&settings::set_pan_id(0x1234)).await`.
+/// Settings are changed and read with the request builders and reply parsers of [`settings`]
+/// (the same the blocking session's helpers use), e.g.
+/// `session.set(&settings::set_pan_id(0x1234)).await` and
+/// `session.query(AtCommand::CH, settings::parse_channel).await`.
 pub struct AsyncCommandSession<'a, S, D> {
     xbee: &'a mut XBeeAsync<S, Transparent>,
     delay: &'a mut D,
@@ -341,10 +343,21 @@ impl<S: Read + Write, D: DelayNs> AsyncCommandSession<'_, S, D> {
             .ok_or(Error::Device(DeviceError::InvalidReply))
     }
 
+    /// Queries a setting and reads the reply with `parse`, one of the parsers of [`settings`]
+    /// (e.g. `session.query(AtCommand::CH, settings::parse_channel).await`); a reply it does
+    /// not accept is [`DeviceError::InvalidReply`].
+    pub async fn query<T>(
+        &mut self,
+        command: AtCommand,
+        parse: fn(&[u8]) -> Option<T>,
+    ) -> Result<T, Error<S::Error>> {
+        let reply = self.send(&AtRequest::query(command)).await?;
+        parse(reply).ok_or(Error::Device(DeviceError::InvalidReply))
+    }
+
     /// Queries a numeric setting (the module answers in hexadecimal).
     pub async fn query_number(&mut self, command: AtCommand) -> Result<u64, Error<S::Error>> {
-        let reply = self.send(&AtRequest::query(command)).await?;
-        settings::parse_number(reply).ok_or(Error::Device(DeviceError::InvalidReply))
+        self.query(command, settings::parse_number).await
     }
 
     /// Leaves command mode (`ATCN`); data passes again afterwards. If `CT` is too close for
