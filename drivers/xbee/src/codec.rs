@@ -141,6 +141,52 @@ pub fn encode(
     Ok(sink.len())
 }
 
+/// A sink that keeps only the encoded bytes from `skip` on, until `out` is full.
+struct WindowSink<'a> {
+    skip: usize,
+    out: &'a mut [u8],
+    len: usize,
+}
+
+/// `out` of a [`WindowSink`] is full: the rest of the frame belongs to a later chunk.
+struct WindowFull;
+
+impl ByteSink for WindowSink<'_> {
+    type Error = WindowFull;
+    fn put(&mut self, byte: u8) -> Result<(), WindowFull> {
+        if self.skip > 0 {
+            self.skip -= 1;
+            return Ok(());
+        }
+        let slot = self.out.get_mut(self.len).ok_or(WindowFull)?;
+        *slot = byte;
+        self.len += 1;
+        Ok(())
+    }
+}
+
+/// Encodes the part of `frame` that starts `offset` bytes into its encoded form, as much as
+/// fits `out`; returns the number of bytes written (0 once the whole frame was handed out).
+///
+/// A frame of any length goes out through a small buffer this way: the blocking and the async
+/// driver both write chunk after chunk, and differ only in how they wait for the port.
+pub(crate) fn encode_chunk(
+    frame: &Frame<'_>,
+    escaping: ApiEscaping,
+    offset: usize,
+    out: &mut [u8],
+) -> Result<usize, FrameError> {
+    let mut sink = WindowSink {
+        skip: offset,
+        out,
+        len: 0,
+    };
+    match write_frame(frame, escaping, &mut sink) {
+        Ok(()) | Err(WriteError::Sink(WindowFull)) => Ok(sink.len),
+        Err(WriteError::TooLong) => Err(FrameError::TooLong),
+    }
+}
+
 /// Number of bytes [`encode`] will write for `frame` (escape bytes included).
 pub fn encoded_len(frame: &Frame<'_>, escaping: ApiEscaping) -> usize {
     let mut count = CountingSink::default();
@@ -451,6 +497,37 @@ mod tests {
     fn checksum_of_digi_example() {
         // 7E 00 04 08 01 4E 49 5F (digi-xbee, AT NI query).
         assert_eq!(checksum(&[0x08, 0x01, 0x4E, 0x49]), 0x5F);
+    }
+
+    #[test]
+    fn chunks_put_together_are_the_whole_frame() {
+        let frame = Frame::Unknown {
+            frame_type: 0x10,
+            data: &[0x7E, 0x7D, 0x11, 0x13, 0x00, 0x42, 0x7E, 0x01, 0x02],
+        };
+        for escaping in [ApiEscaping::Unescaped, ApiEscaping::Escaped] {
+            let mut whole = [0u8; 32];
+            let n = encode(&frame, escaping, &mut whole).unwrap();
+            for chunk_len in 1..=n + 1 {
+                let mut joined = [0u8; 32];
+                let mut offset = 0;
+                let mut chunk = [0u8; 32];
+                loop {
+                    let got =
+                        encode_chunk(&frame, escaping, offset, &mut chunk[..chunk_len]).unwrap();
+                    if got == 0 {
+                        break;
+                    }
+                    joined[offset..offset + got].copy_from_slice(&chunk[..got]);
+                    offset += got;
+                }
+                assert_eq!(
+                    &joined[..offset],
+                    &whole[..n],
+                    "{escaping:?}, chunks of {chunk_len}"
+                );
+            }
+        }
     }
 
     #[test]

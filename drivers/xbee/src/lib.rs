@@ -45,6 +45,18 @@
 //! ([`send`](XBee::send), [`send_at_command`](XBee::send_at_command), [`transmit`](XBee::transmit),
 //! [`poll_frame`](XBee::poll_frame)), with a [`FrameIdAllocator`].
 //!
+//! # Async (feature `async`)
+//!
+//! `XBeeAsync` is the same driver over an `embedded-io-async` 0.7 port, generated from the same
+//! source as [`XBee`] for its constructors and accessors and sharing its frame codec and
+//! command-mode bookkeeping; the blocking API stays. `XBeeAsync<S, Api>` sends frames (a write
+//! returning `Ok(0)` is [`DeviceError::Timeout`], never a panic) and reads them with a
+//! cancel-safe `read_frame().await`; `XBeeAsync<S, Transparent>` implements
+//! `embedded_io_async::{Read, Write}` and enters AT command mode with the guard times awaited on
+//! an embedded-hal-async `DelayNs` (`command_mode(&mut delay).await` returns an
+//! `AsyncCommandSession`, left with `exit().await`: dropped without it, the driver refuses data
+//! until `wait_until_transparent` has waited `CT` out).
+//!
 //! # Example: the byte pipe, and a setting changed in between
 //!
 //! ```
@@ -79,11 +91,33 @@
 //! # Features
 //!
 //! - `embedded-io`: `embedded_io::{Read, Write}` for `XBee<S, Transparent>`.
+//! - `async`: `XBeeAsync` and `AsyncCommandSession` over `embedded-io-async` 0.7 and
+//!   embedded-hal-async (see above).
 //! - `defmt`: `defmt::Format` for the public types.
 #![no_std]
 #![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
+
+/// Writes each driver item once for the blocking `XBee` and, with the `async` feature, once more
+/// for `XBeeAsync` (`.await` on the transport calls), through `maybe-async-cfg`.
+macro_rules! blocking_and_async {
+    ($($item:item)*) => {
+        $(
+            #[maybe_async_cfg::maybe(
+                sync(),
+                async(feature = "async"),
+                idents(
+                    XBee(sync, async = "XBeeAsync"),
+                    FramePort(sync, async = "AsyncFramePort"),
+                    send_frame(sync, async = "send_frame_async")
+                )
+            )]
+            $item
+        )*
+    };
+}
+pub(crate) use blocking_and_async;
 
 mod at;
 mod codec;
@@ -116,6 +150,8 @@ pub use xbee::{
     Api, CommandOutcome, CommandSession, CommandTiming, Mode, Transparent, XBee,
     DEFAULT_WRITE_POLLS_PER_BYTE, MAX_AT_PARAMETER_LEN, POLL_STEP_US,
 };
+#[cfg(feature = "async")]
+pub use xbee::{AsyncCommandSession, XBeeAsync};
 
 /// The README's code blocks, compiled as doctests so they keep matching the API.
 #[cfg(doctest)]

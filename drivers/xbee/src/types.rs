@@ -202,13 +202,19 @@ impl<E: embedded_hal_nb::serial::Error> embedded_hal_nb::serial::Error for Error
     }
 }
 
+// embedded-io-async 0.7 re-exports embedded-io's error traits: one impl serves both features.
 #[cfg(feature = "embedded-io")]
-impl<E: fmt::Debug> embedded_io::Error for Error<E> {
-    fn kind(&self) -> embedded_io::ErrorKind {
+use embedded_io as io;
+#[cfg(all(feature = "async", not(feature = "embedded-io")))]
+use embedded_io_async as io;
+
+#[cfg(any(feature = "embedded-io", feature = "async"))]
+impl<E: fmt::Debug> io::Error for Error<E> {
+    fn kind(&self) -> io::ErrorKind {
         match self {
-            Self::Device(DeviceError::Timeout) => embedded_io::ErrorKind::TimedOut,
-            Self::Device(DeviceError::InvalidInput) => embedded_io::ErrorKind::InvalidInput,
-            _ => embedded_io::ErrorKind::Other,
+            Self::Device(DeviceError::Timeout) => io::ErrorKind::TimedOut,
+            Self::Device(DeviceError::InvalidInput) => io::ErrorKind::InvalidInput,
+            _ => io::ErrorKind::Other,
         }
     }
 }

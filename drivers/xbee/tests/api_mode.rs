@@ -163,6 +163,45 @@ fn unknown_frame_types_are_kept() {
     );
 }
 
+/// Frame data longer than the driver's write chunk, with bytes that API 2 escapes at every
+/// position (so escapes fall on the chunk boundaries).
+fn long_frame_data() -> Vec<u8> {
+    let mut data = vec![frame_type::TRANSMIT_REQUEST];
+    data.extend((0..300u32).map(|i| [0x7E, 0x7D, 0x11, 0x13, 0x42][(i % 5) as usize]));
+    data
+}
+
+#[test]
+fn a_long_frame_goes_out_as_the_encoder_writes_it() {
+    let data = long_frame_data();
+    for escaping in [ApiEscaping::Unescaped, ApiEscaping::Escaped] {
+        let expected = raw(&data, escaping);
+        let serial = SerialMock::new(&[Transaction::write_many(&expected), Transaction::flush()]);
+        let mut api: XBee<_, Api> = XBee::new_api(serial, escaping);
+        let frame = Frame::Unknown {
+            frame_type: data[0],
+            data: &data[1..],
+        };
+        api.send(&frame).unwrap();
+        api.release().done();
+    }
+}
+
+#[test]
+fn a_frame_too_long_to_send_writes_nothing() {
+    let data = vec![0u8; 65_535];
+    let frame = Frame::Unknown {
+        frame_type: 0xA1,
+        data: &data,
+    };
+    let mut api: XBee<_, Api> = XBee::new_api(SerialMock::new(&[]), ApiEscaping::Escaped);
+    assert_eq!(
+        api.send(&frame),
+        Err(Error::Device(DeviceError::Frame(FrameError::TooLong)))
+    );
+    api.release().done();
+}
+
 #[test]
 fn frame_longer_than_the_length_field_is_refused() {
     let data = vec![0u8; 65_535];

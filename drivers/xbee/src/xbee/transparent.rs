@@ -8,14 +8,22 @@
 use embedded_hal_nb::serial::{ErrorType, Read, Write};
 
 use super::XBee;
+#[cfg(feature = "async")]
+use super::XBeeAsync;
 use crate::at::MAX_LINE_LEN;
 use crate::types::{DeviceError, Error};
 
 mod command;
 mod session;
+#[cfg(feature = "async")]
+mod session_async;
 
 pub use command::CommandOutcome;
+#[cfg(feature = "async")]
+use command::ReplyEnd;
 pub use session::{CommandSession, POLL_STEP_US};
+#[cfg(feature = "async")]
+pub use session_async::AsyncCommandSession;
 
 /// Timing of the module's command mode. Must match the module's `GT`, `CT` and `CC` settings;
 /// the defaults are the factory values.
@@ -128,7 +136,8 @@ pub struct Transparent {
     state: State,
     /// Clock value at the first poll in the current state.
     state_since: Option<u32>,
-    /// When the last command the module accepted was sent (its `CT` timer restarted then).
+    /// When the last command the module accepted was sent (its `CT` timer restarted then). The
+    /// async driver stamps it on its clock of time that may have passed (`bound_us`).
     confirmed_ms: Option<u32>,
     /// When the last command-mode input (`+++` or a command line) was completed.
     input_ms: u32,
@@ -143,46 +152,36 @@ pub struct Transparent {
     stale_input: bool,
     /// The last poll came from the blocking API (its clock is counted from delays).
     delay_clock: bool,
+    /// Async command mode: `clock_us` counts only the time surely waited (completed delays);
+    /// this clock also counts every wait that ended early (a reply that came before its
+    /// deadline) at its full length, so it runs ahead of the real time waited.
+    #[cfg(feature = "async")]
+    bound_us: u64,
 }
 
-/// The module in transparent mode, with guarded AT command mode.
-///
-impl<S> XBee<S, Transparent> {
-    /// Wraps a serial port connected to a module in transparent mode (`AP = 0`), with the
-    /// factory command-mode timing.
-    pub fn new(serial: S) -> Self {
-        Self::with_timing(serial, CommandTiming::default())
-    }
-
-    /// Wraps a serial port, with the module's own `GT`, `CT` and `CC`.
-    pub fn with_timing(serial: S, timing: CommandTiming) -> Self {
-        XBee::from_parts(
-            serial,
-            Transparent {
-                timing,
-                state: State::Transparent,
-                state_since: None,
-                confirmed_ms: None,
-                input_ms: 0,
-                line: [0; MAX_LINE_LEN],
-                line_len: 0,
-                line_overflow: false,
-                clock_us: 0,
-                discarded: 0,
-                stale_input: false,
-                delay_clock: false,
-            },
-        )
-    }
-
-    /// The command-mode timing in use.
-    pub fn timing(&self) -> CommandTiming {
-        self.mode.timing
+impl Transparent {
+    fn new(timing: CommandTiming) -> Self {
+        Self {
+            timing,
+            state: State::Transparent,
+            state_since: None,
+            confirmed_ms: None,
+            input_ms: 0,
+            line: [0; MAX_LINE_LEN],
+            line_len: 0,
+            line_overflow: false,
+            clock_us: 0,
+            discarded: 0,
+            stale_input: false,
+            delay_clock: false,
+            #[cfg(feature = "async")]
+            bound_us: 0,
+        }
     }
 
     /// Where the driver believes the module is.
-    pub fn mode(&self) -> Mode {
-        match self.mode.state {
+    fn mode(&self) -> Mode {
+        match self.state {
             State::Transparent => Mode::Transparent,
             State::EnterWaitExit
             | State::EnterFlush
@@ -195,23 +194,54 @@ impl<S> XBee<S, Transparent> {
         }
     }
 
-    /// Whether data passes through right now.
-    pub fn is_transparent(&self) -> bool {
-        self.mode.state == State::Transparent
-    }
-
-    /// Bytes thrown away in command mode: radio data that arrived just before the module
-    /// switched (before the `OK` of `+++`), late replies, overlong reply lines.
-    pub fn discarded_bytes(&self) -> u32 {
-        self.mode.discarded
-    }
-
     /// Whether received bytes are still radio data (the module has not seen `+++` yet).
     fn reads_pass_through(&self) -> bool {
         matches!(
-            self.mode.state,
+            self.state,
             State::Transparent | State::EnterFlush | State::EnterGuard
         )
+    }
+}
+
+crate::blocking_and_async! {
+    /// The module in transparent mode, with guarded AT command mode.
+    impl<S> XBee<S, Transparent> {
+        /// Wraps a serial port connected to a module in transparent mode (`AP = 0`), with the
+        /// factory command-mode timing.
+        pub fn new(serial: S) -> Self {
+            Self::with_timing(serial, CommandTiming::default())
+        }
+
+        /// Wraps a serial port, with the module's own `GT`, `CT` and `CC`.
+        pub fn with_timing(serial: S, timing: CommandTiming) -> Self {
+            XBee::from_parts(serial, Transparent::new(timing))
+        }
+
+        /// The command-mode timing in use.
+        pub fn timing(&self) -> CommandTiming {
+            self.mode.timing
+        }
+
+        /// Where the driver believes the module is.
+        pub fn mode(&self) -> Mode {
+            self.mode.mode()
+        }
+
+        /// Whether data passes through right now.
+        pub fn is_transparent(&self) -> bool {
+            self.mode.state == State::Transparent
+        }
+
+        /// Bytes thrown away in command mode: radio data that arrived just before the module
+        /// switched (before the `OK` of `+++`), late replies, overlong reply lines.
+        pub fn discarded_bytes(&self) -> u32 {
+            self.mode.discarded
+        }
+
+        /// Whether received bytes are still radio data (the module has not seen `+++` yet).
+        fn reads_pass_through(&self) -> bool {
+            self.mode.reads_pass_through()
+        }
     }
 }
 

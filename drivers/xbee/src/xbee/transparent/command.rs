@@ -235,7 +235,7 @@ where
     fn step_await_ok(&mut self, elapsed: u32) -> nb::Result<CommandOutcome, Error<E>> {
         loop {
             match self.read_line() {
-                Ok(Some(())) if is_ok(self.reply()) && !self.mode.line_overflow => {
+                Ok(Some(())) if self.mode.line_is_ok() => {
                     self.mode.confirmed_ms = Some(self.mode.input_ms);
                     self.go(State::Ready);
                     return Ok(CommandOutcome::Entered);
@@ -329,22 +329,12 @@ where
     }
 
     fn finish_reply(&mut self, exit: bool) -> nb::Result<CommandOutcome, Error<E>> {
-        if self.mode.line_overflow {
-            return self.fail(State::Ready, Error::Device(DeviceError::InvalidReply));
+        let sent_at = self.mode.input_ms;
+        match self.mode.end_reply(exit, sent_at) {
+            Ok(ReplyEnd::Exited) => Ok(CommandOutcome::Exited),
+            Ok(ReplyEnd::Reply) => Ok(CommandOutcome::Reply),
+            Err(e) => Err(nb::Error::Other(Error::Device(e))),
         }
-        if is_error(self.reply()) {
-            return self.fail(State::Ready, Error::Device(DeviceError::AtError));
-        }
-        self.mode.confirmed_ms = Some(self.mode.input_ms);
-        if exit {
-            if is_ok(self.reply()) {
-                self.go(State::Transparent);
-                return Ok(CommandOutcome::Exited);
-            }
-            return self.fail(State::Ready, Error::Device(DeviceError::InvalidReply));
-        }
-        self.go(State::Ready);
-        Ok(CommandOutcome::Reply)
     }
 
     /// Throws away whatever has arrived (a late reply after a timeout).
@@ -365,18 +355,11 @@ where
     fn read_line(&mut self) -> Result<Option<()>, E> {
         loop {
             match self.serial.read() {
-                Ok(b'\r') => return Ok(Some(())),
-                Ok(b'\n') => {}
-                Ok(byte) => match self.mode.line.get_mut(self.mode.line_len) {
-                    Some(slot) => {
-                        *slot = byte;
-                        self.mode.line_len += 1;
+                Ok(byte) => {
+                    if self.mode.push_line_byte(byte) {
+                        return Ok(Some(()));
                     }
-                    None => {
-                        self.mode.line_overflow = true;
-                        self.count_discarded(1);
-                    }
-                },
+                }
                 Err(nb::Error::WouldBlock) => return Ok(None),
                 Err(nb::Error::Other(e)) => return Err(e),
             }
@@ -386,8 +369,7 @@ where
 
 impl<S> XBee<S, Transparent> {
     pub(crate) fn go(&mut self, state: State) {
-        self.mode.state = state;
-        self.mode.state_since = None;
+        self.mode.go(state);
     }
 
     fn fail<T, E>(&mut self, state: State, error: Error<E>) -> nb::Result<T, Error<E>> {
@@ -395,44 +377,134 @@ impl<S> XBee<S, Transparent> {
         Err(nb::Error::Other(error))
     }
 
-    /// Zeroes the line buffer, so a key sent with `KY` does not linger in memory.
     pub(crate) fn clear_line(&mut self) {
-        self.mode.line = [0; crate::at::MAX_LINE_LEN];
-        self.mode.line_len = 0;
-        self.mode.line_overflow = false;
+        self.mode.clear_line();
     }
 
     fn count_discarded(&mut self, n: usize) {
+        self.mode.count_discarded(n);
+    }
+
+    fn fresh(&self, now_ms: u32) -> bool {
+        self.mode.fresh(now_ms)
+    }
+
+    fn surely_left(&self, now_ms: u32) -> bool {
+        self.mode.surely_left(now_ms)
+    }
+}
+
+/// How a command's reply line ended the command, when it was not an error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum ReplyEnd {
+    /// A reply to a command: back to [`State::Ready`].
+    Reply,
+    /// `OK` to `ATCN`: back to [`State::Transparent`].
+    Exited,
+}
+
+/// The command-mode bookkeeping both drivers share: the state, the clocks' stamps, the line
+/// buffer. Pure: no I/O, no waiting.
+impl Transparent {
+    pub(crate) fn go(&mut self, state: State) {
+        self.state = state;
+        self.state_since = None;
+    }
+
+    /// Zeroes the line buffer, so a key sent with `KY` does not linger in memory.
+    pub(crate) fn clear_line(&mut self) {
+        self.line = [0; crate::at::MAX_LINE_LEN];
+        self.line_len = 0;
+        self.line_overflow = false;
+    }
+
+    pub(crate) fn count_discarded(&mut self, n: usize) {
         let n = u32::try_from(n).unwrap_or(u32::MAX);
-        self.mode.discarded = self.mode.discarded.saturating_add(n);
+        self.discarded = self.discarded.saturating_add(n);
+    }
+
+    /// Adds a received byte to the reply line; `true` when a `\r` ended the line. `\n` is
+    /// ignored; bytes beyond the buffer are counted and mark the line as overlong.
+    pub(crate) fn push_line_byte(&mut self, byte: u8) -> bool {
+        match byte {
+            b'\r' => return true,
+            b'\n' => {}
+            _ => match self.line.get_mut(self.line_len) {
+                Some(slot) => {
+                    *slot = byte;
+                    self.line_len += 1;
+                }
+                None => {
+                    self.line_overflow = true;
+                    self.count_discarded(1);
+                }
+            },
+        }
+        false
+    }
+
+    /// The reply line received so far, without its `\r`.
+    pub(crate) fn line(&self) -> &[u8] {
+        self.line.get(..self.line_len).unwrap_or_default()
+    }
+
+    /// Whether the completed line is the `OK` that opens command mode.
+    pub(crate) fn line_is_ok(&self) -> bool {
+        is_ok(self.line()) && !self.line_overflow
+    }
+
+    /// Judges a command's completed reply line and moves on: an overlong line is
+    /// [`DeviceError::InvalidReply`], `ERROR` is [`DeviceError::AtError`] (both back to
+    /// [`State::Ready`]); otherwise the module accepted the command, sent at `sent_at` on the
+    /// clock [`fresh`](Self::fresh) is asked with (its `CT` restarted then), and for `ATCN`
+    /// anything but `OK` is [`DeviceError::InvalidReply`].
+    pub(crate) fn end_reply(&mut self, exit: bool, sent_at: u32) -> Result<ReplyEnd, DeviceError> {
+        let judged = if self.line_overflow {
+            Err(DeviceError::InvalidReply)
+        } else if is_error(self.line()) {
+            Err(DeviceError::AtError)
+        } else {
+            self.confirmed_ms = Some(sent_at);
+            match (exit, is_ok(self.line())) {
+                (false, _) => Ok(ReplyEnd::Reply),
+                (true, true) => Ok(ReplyEnd::Exited),
+                (true, false) => Err(DeviceError::InvalidReply),
+            }
+        };
+        self.go(match judged {
+            Ok(ReplyEnd::Exited) => State::Transparent,
+            _ => State::Ready,
+        });
+        judged
     }
 
     /// The module accepted a command recently enough that another one arrives before `CT`.
     ///
-    /// On the blocking API's clock the window is halved: a `DelayNs` sleeps at least as long as
-    /// asked, often longer, so that clock runs slow, and here that errs on the unsafe side.
+    /// On a clock counted from delays the window is halved: a `DelayNs` sleeps at least as long
+    /// as asked, often longer, so that clock runs slow, and here that errs on the unsafe side.
     /// Halving allows the delays to take up to twice their nominal time.
-    fn fresh(&self, now_ms: u32) -> bool {
+    pub(crate) fn fresh(&self, now_ms: u32) -> bool {
         let mut limit = self
-            .mode
             .timing
             .command_timeout_ms
-            .saturating_sub(self.mode.timing.reply_timeout_ms);
-        if self.mode.delay_clock {
+            .saturating_sub(self.timing.reply_timeout_ms);
+        if self.delay_clock {
             limit /= 2;
         }
-        self.mode
-            .confirmed_ms
+        self.confirmed_ms
             .is_some_and(|t| now_ms.wrapping_sub(t) < limit)
     }
 
-    /// `CT` has surely run out since the last command-mode input.
-    fn surely_left(&self, now_ms: u32) -> bool {
-        let limit = self
-            .mode
-            .timing
+    /// How long after the last command-mode input the module has surely left command mode:
+    /// `CT` plus the reply timeout.
+    pub(crate) fn leave_after_ms(&self) -> u32 {
+        self.timing
             .command_timeout_ms
-            .saturating_add(self.mode.timing.reply_timeout_ms);
-        now_ms.wrapping_sub(self.mode.input_ms) >= limit
+            .saturating_add(self.timing.reply_timeout_ms)
+    }
+
+    /// `CT` has surely run out since the last command-mode input.
+    pub(crate) fn surely_left(&self, now_ms: u32) -> bool {
+        now_ms.wrapping_sub(self.input_ms) >= self.leave_after_ms()
     }
 }
