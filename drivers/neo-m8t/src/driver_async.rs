@@ -105,15 +105,22 @@ where
 
     /// Waits until one message is complete and returns it (the stream's latest values are
     /// updated too). Garbage, corrupted frames and lost bytes are skipped and counted in
-    /// [`stream().stats()`](crate::GnssStream::stats).
+    /// [`stream().stats()`](crate::GnssStream::stats). A port that ends its stream (`read`
+    /// returning `Ok(0)`: nothing more will come) is [`DeviceError::Timeout`] naming NAV-PVT
+    /// (0x01/0x07), never a hang.
     ///
     /// Cancel-safe: dropping the future loses no byte already read (see the module docs).
     pub async fn read_message(&mut self) -> Result<Message, Error<T::Error>> {
+        self.next_message(NAV_PVT).await
+    }
+
+    /// [`read_message`](Self::read_message), naming `waiting_for` if the stream ends.
+    async fn next_message(&mut self, waiting_for: (u8, u8)) -> Result<Message, Error<T::Error>> {
         loop {
             if let Some(message) = self.stream_mut().poll_pending() {
                 return Ok(message);
             }
-            let byte = self.next_byte(NAV_PVT).await?;
+            let byte = self.next_byte(waiting_for).await?;
             if let Some(message) = self.stream_mut().push(byte) {
                 return Ok(message);
             }
@@ -147,7 +154,7 @@ where
         let exchange = async {
             self.write_command(command).await?;
             loop {
-                match self.read_message().await? {
+                match self.next_message(sent).await? {
                     Message::Ack { class, id } if (class, id) == sent => return Ok(()),
                     Message::Nak { class, id } if (class, id) == sent => {
                         return Err(Error::Device(DeviceError::Nak { class, id }))

@@ -54,6 +54,8 @@ enum Step {
     Read(Vec<u8>),
     /// The next read fails.
     ReadError(ErrorKind),
+    /// Every read returns `Ok(0)`: the stream has ended.
+    End,
 }
 
 /// An in-memory `embedded-io-async` serial port following a script of [`Step`]s; `reads`
@@ -127,6 +129,7 @@ impl embedded_io_async::Read for ScriptPort {
                 self.script.pop_front();
                 Poll::Ready(Err(kind))
             }
+            Some(Step::End) => Poll::Ready(Ok(0)),
             _ => Poll::Pending,
         })
         .await
@@ -325,6 +328,31 @@ fn read_error_is_a_comm_error_and_drops_the_partial_frame() {
     let frame = block_on(gnss.read_nav_pvt()).expect("the second frame");
     assert_eq!(frame.to_nav_pvt().itow_ms, 200);
     assert_eq!(gnss.stream().stats().bytes_skipped, 90);
+    gnss.serial_mut().done();
+}
+
+#[test]
+fn an_ended_stream_is_a_timeout_naming_what_was_awaited() {
+    let mut gnss: Gnss<100> = NeoM8tAsync::with_capacity(ScriptPort::new(vec![Step::End]));
+    assert_eq!(
+        block_on(gnss.read_message()),
+        Err(Error::Device(DeviceError::Timeout {
+            class: 0x01,
+            id: 0x07
+        }))
+    );
+    // While an ACK is awaited, the command is named; the delay never wins here.
+    let rate = commands::cfg_rate(200, 1, neo_m8t::AlignmentToReferenceTime::Gps);
+    gnss.serial_mut().script.push_front(write(&CFG_RATE_200MS));
+    let mut delay = InstantDelay::default();
+    assert_eq!(
+        block_on(gnss.send_and_await_ack(&rate, &mut delay, u32::MAX)),
+        Err(Error::Device(DeviceError::Timeout {
+            class: 0x06,
+            id: 0x08
+        }))
+    );
+    gnss.serial_mut().script.pop_front(); // the end of the stream stays
     gnss.serial_mut().done();
 }
 
