@@ -42,7 +42,7 @@ pub enum Progress {
 
 /// Configuration steps, in order.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Step {
+pub(crate) enum Step {
     MonVer,
     Port,
     /// Index into the CFG-MSG list (see [`msg_entry`]).
@@ -55,7 +55,7 @@ enum Step {
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Phase {
+pub(crate) enum Phase {
     /// Build the command of the current step.
     Start,
     /// Writing `tx`.
@@ -91,6 +91,52 @@ fn msg_entry(index: u8, config: &Config) -> Option<(u8, u8, u8)> {
         i if i == nmea + 1 => Some((0x0D, 0x01, u8::from(config.tim_tp))),
         i if i == nmea + 2 => Some((0x0D, 0x03, u8::from(config.tim_tm2))),
         _ => None,
+    }
+}
+
+/// The command `step` sends for `config`; `None` past the last step. The integer builders:
+/// the same bytes as `commands`, without floating point.
+pub(crate) fn step_command(step: Step, config: &Config) -> Option<Command> {
+    let c = config;
+    match step {
+        Step::MonVer => int_commands::poll_mon_ver(),
+        Step::Port => int_commands::cfg_prt_uart1(c.baud_rate),
+        Step::Msg(i) => {
+            let (class, id, rate) = msg_entry(i, c)?;
+            int_commands::cfg_msg_uart1(class, id, rate)
+        }
+        Step::Rate => int_commands::cfg_rate(c.measurement_period_ms, c.nav_rate, c.time_ref),
+        Step::Nav5 => int_commands::cfg_nav5(c.dynamic_model),
+        Step::Tp5 => int_commands::cfg_tp5(c.time_pulse.as_ref()?),
+        Step::Tmode2 => int_commands::cfg_tmode2(c.time_mode.as_ref()?),
+        Step::Done => None,
+    }
+}
+
+/// The step after `step` for `config`, skipping the time pulse and time mode when they are
+/// not configured.
+pub(crate) fn next_step(step: Step, config: &Config) -> Step {
+    let c = config;
+    let mut next = step;
+    loop {
+        next = match next {
+            Step::MonVer => Step::Port,
+            Step::Port => Step::Msg(0),
+            Step::Msg(i) if msg_entry(i + 1, c).is_some() => Step::Msg(i + 1),
+            Step::Msg(_) => Step::Rate,
+            Step::Rate => Step::Nav5,
+            Step::Nav5 => Step::Tp5,
+            Step::Tp5 => Step::Tmode2,
+            Step::Tmode2 | Step::Done => Step::Done,
+        };
+        let skip = match next {
+            Step::Tp5 => c.time_pulse.is_none(),
+            Step::Tmode2 => c.time_mode.is_none(),
+            _ => false,
+        };
+        if !skip {
+            return next;
+        }
     }
 }
 
@@ -470,47 +516,11 @@ impl<const N: usize> Configurator<N> {
     }
 
     fn command(&self) -> Option<Command> {
-        let c = &self.config;
-        // The integer builders: the same bytes as `commands`, without floating point.
-        match self.step {
-            Step::MonVer => int_commands::poll_mon_ver(),
-            Step::Port => int_commands::cfg_prt_uart1(c.baud_rate),
-            Step::Msg(i) => {
-                let (class, id, rate) = msg_entry(i, c)?;
-                int_commands::cfg_msg_uart1(class, id, rate)
-            }
-            Step::Rate => int_commands::cfg_rate(c.measurement_period_ms, c.nav_rate, c.time_ref),
-            Step::Nav5 => int_commands::cfg_nav5(c.dynamic_model),
-            Step::Tp5 => int_commands::cfg_tp5(c.time_pulse.as_ref()?),
-            Step::Tmode2 => int_commands::cfg_tmode2(c.time_mode.as_ref()?),
-            Step::Done => None,
-        }
+        step_command(self.step, &self.config)
     }
 
     fn advance(&mut self) {
-        let c = &self.config;
-        let mut next = self.step;
-        loop {
-            next = match next {
-                Step::MonVer => Step::Port,
-                Step::Port => Step::Msg(0),
-                Step::Msg(i) if msg_entry(i + 1, c).is_some() => Step::Msg(i + 1),
-                Step::Msg(_) => Step::Rate,
-                Step::Rate => Step::Nav5,
-                Step::Nav5 => Step::Tp5,
-                Step::Tp5 => Step::Tmode2,
-                Step::Tmode2 | Step::Done => Step::Done,
-            };
-            let skip = match next {
-                Step::Tp5 => c.time_pulse.is_none(),
-                Step::Tmode2 => c.time_mode.is_none(),
-                _ => false,
-            };
-            if !skip {
-                break;
-            }
-        }
-        self.step = next;
+        self.step = next_step(self.step, &self.config);
         self.attempt = 0;
         self.phase = Phase::Start;
     }
@@ -563,7 +573,8 @@ impl<const N: usize> Configurator<N> {
     }
 }
 
-enum Judgement {
+/// What a received frame means for the step in progress.
+pub(crate) enum Judgement {
     Pass,
     Advance,
     Version(ReceiverVersion),
@@ -571,7 +582,7 @@ enum Judgement {
 }
 
 /// Decides what a received frame means for the step in progress.
-fn judge(step: Step, phase: Phase, sent: &Command, frame: &Frame<'_>) -> Judgement {
+pub(crate) fn judge(step: Step, phase: Phase, sent: &Command, frame: &Frame<'_>) -> Judgement {
     if matches!(phase, Phase::Settling | Phase::SwitchedAwaiting) {
         return match (frame.class(), frame.id(), frame.payload()) {
             // The port change was rejected (the NAK may have been queued before the host

@@ -14,25 +14,71 @@ use embedded_hal_nb::serial::{Read, Write};
 /// margin, so a backlog is caught up in one call, yet the call always ends.
 pub const MAX_MESSAGES_PER_POLL: usize = 16;
 
-/// A NEO-M8T (or any M8) on an embedded-hal-nb serial port.
-///
-/// Owns the port and a [`GnssStream`] with an `N`-byte frame buffer (512 holds MON-VER;
-/// 100 is enough once only NAV-PVT and TIM messages arrive). Reading never blocks: each call
-/// takes what the port has (at most [`MAX_READ_PER_POLL`] bytes) and returns.
-#[derive(Debug)]
-pub struct NeoM8t<S, const N: usize = 512> {
-    serial: S,
-    stream: GnssStream<N>,
-    line_errors: u32,
+crate::blocking_and_async! {
+    /// A NEO-M8T (or any M8) on an embedded-hal-nb serial port; `NeoM8tAsync` (feature
+    /// `async`) is the same driver on an `embedded-io-async` 0.7 port, whose reading and
+    /// configuring calls wait (`async`) instead of returning `WouldBlock`.
+    ///
+    /// Owns the port and a [`GnssStream`] with an `N`-byte frame buffer (512 holds MON-VER;
+    /// 100 is enough once only NAV-PVT and TIM messages arrive). Reading `NeoM8t` never blocks:
+    /// each call takes what the port has (at most [`MAX_READ_PER_POLL`] bytes) and returns.
+    #[derive(Debug)]
+    pub struct NeoM8t<S, const N: usize = 512> {
+        serial: S,
+        stream: GnssStream<N>,
+        line_errors: u32,
+    }
 }
 
-impl<S> NeoM8t<S>
-where
-    S: Read<u8> + Write<u8>,
-{
-    /// Takes the port, with the default 512-byte frame buffer; nothing is sent.
-    pub fn new(serial: S) -> Self {
-        Self::with_capacity(serial)
+crate::blocking_and_async! {
+    impl<S> NeoM8t<S> {
+        /// Takes the port, with the default 512-byte frame buffer; nothing is sent.
+        pub fn new(serial: S) -> Self {
+            Self::with_capacity(serial)
+        }
+    }
+
+    impl<S, const N: usize> NeoM8t<S, N> {
+        /// Takes the port, with an `N`-byte frame buffer (`with_capacity::<100>(port)` is
+        /// enough once only NAV-PVT and TIM messages arrive); nothing is sent.
+        pub fn with_capacity(serial: S) -> Self {
+            Self {
+                serial,
+                stream: GnssStream::with_capacity(),
+                line_errors: 0,
+            }
+        }
+
+        /// Gives the port back.
+        pub fn release(self) -> S {
+            self.serial
+        }
+
+        /// The port, e.g. to change the host baud rate.
+        pub fn serial_mut(&mut self) -> &mut S {
+            &mut self.serial
+        }
+
+        /// The stream state: latest NAV-PVT, TIM messages, counters.
+        pub fn stream(&self) -> &GnssStream<N> {
+            &self.stream
+        }
+
+        /// Mutable stream state (e.g. to take the latest NAV-PVT).
+        pub fn stream_mut(&mut self) -> &mut GnssStream<N> {
+            &mut self.stream
+        }
+
+        /// Overrun, framing, parity and noise errors reported by the port.
+        pub fn line_errors(&self) -> u32 {
+            self.line_errors
+        }
+
+        /// Counts a gap in the byte stream and drops the partial frame it spoiled.
+        pub(crate) fn note_line_error(&mut self) {
+            self.line_errors = self.line_errors.wrapping_add(1);
+            self.stream.clear_partial();
+        }
     }
 }
 
@@ -40,41 +86,6 @@ impl<S, const N: usize> NeoM8t<S, N>
 where
     S: Read<u8> + Write<u8>,
 {
-    /// Takes the port, with an `N`-byte frame buffer (`NeoM8t::with_capacity::<100>(port)`
-    /// is enough once only NAV-PVT and TIM messages arrive); nothing is sent.
-    pub fn with_capacity(serial: S) -> Self {
-        Self {
-            serial,
-            stream: GnssStream::with_capacity(),
-            line_errors: 0,
-        }
-    }
-
-    /// Gives the port back.
-    pub fn release(self) -> S {
-        self.serial
-    }
-
-    /// The port, e.g. to change the host baud rate.
-    pub fn serial_mut(&mut self) -> &mut S {
-        &mut self.serial
-    }
-
-    /// The stream state: latest NAV-PVT, TIM messages, counters.
-    pub fn stream(&self) -> &GnssStream<N> {
-        &self.stream
-    }
-
-    /// Mutable stream state (e.g. to take the latest NAV-PVT).
-    pub fn stream_mut(&mut self) -> &mut GnssStream<N> {
-        &mut self.stream
-    }
-
-    /// Overrun, framing, parity and noise errors reported by the port.
-    pub fn line_errors(&self) -> u32 {
-        self.line_errors
-    }
-
     /// Reads until one message is complete; `WouldBlock` when the port has no more bytes (or
     /// after [`MAX_READ_PER_POLL`] bytes without a message, so one call stays short).
     pub fn read_message(&mut self) -> nb::Result<Message, Error<S::Error>> {
@@ -89,10 +100,7 @@ where
                     }
                 }
                 Received::Idle => break,
-                Received::LineError => {
-                    self.line_errors = self.line_errors.wrapping_add(1);
-                    self.stream.clear_partial();
-                }
+                Received::LineError => self.note_line_error(),
             }
         }
         Err(nb::Error::WouldBlock)

@@ -20,6 +20,10 @@
 //! - **Serial driver** ([`NeoM8t`]): the two above on an embedded-hal-nb
 //!   `serial::Read<u8> + Write<u8>` port (linux-embedded-hal, stm32f4xx-hal, ...); with the
 //!   `embedded-io` feature, `IoSerial` adapts embedded-io 0.7 ports.
+//! - **Async driver** (`NeoM8tAsync`, feature `async`): the same driver on an
+//!   `embedded-io-async` 0.7 port (an Embassy UART, ...): awaits messages, awaits each ACK with
+//!   a deadline raced against an embedded-hal-async `DelayNs`, and runs the same configuration
+//!   sequence.
 //! - **NAV-PVT both ways** ([`NavPvt`]): every field as the integer on the wire (Cortex-M4F has
 //!   no double-precision FPU), encoded to the identical frame ([`NavPvt::to_frame`]) for
 //!   simulators and tests, decoded through `ublox`'s integer `*_raw` accessors.
@@ -112,16 +116,36 @@
 //!
 //! - `embedded-io` (default): `IoSerial`, an adapter for embedded-io 0.7 `Read + ReadReady + Write +
 //!   WriteReady` ports.
+//! - `async`: `NeoM8tAsync`, the async twin of [`NeoM8t`] over `embedded-io-async` 0.7 ports
+//!   with embedded-hal-async deadlines; the blocking API stays as it is.
 //! - `defmt`: `defmt::Format` for the data and error types.
 #![no_std]
 #![cfg_attr(docsrs, feature(doc_cfg))]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+/// Generates each item twice from one source: as written, minus `async` and `.await`, for the
+/// blocking [`NeoM8t`], and as written for `NeoM8tAsync` (feature `async`).
+macro_rules! blocking_and_async {
+    ($($item:item)*) => {
+        $(
+            #[maybe_async_cfg::maybe(
+                sync(),
+                async(feature = "async"),
+                idents(NeoM8t(sync, async = "NeoM8tAsync"))
+            )]
+            $item
+        )*
+    };
+}
+pub(crate) use blocking_and_async;
+
 pub mod commands;
 mod config;
 mod configure;
 mod driver;
+#[cfg(feature = "async")]
+mod driver_async;
 mod error;
 mod frame;
 mod int_commands;
@@ -138,6 +162,8 @@ pub use configure::{
     Configurator, Progress, DEFAULT_RETRIES, DEFAULT_SWITCH_SETTLE_MS, DEFAULT_TIMEOUT_MS,
     MAX_READ_PER_POLL,
 };
+#[cfg(feature = "async")]
+pub use driver::NeoM8tAsync;
 pub use driver::{NeoM8t, MAX_MESSAGES_PER_POLL};
 pub use error::{DeviceError, Error};
 pub use frame::{checksum, encode_frame, Frame, FramerStats, UbxFramer, FRAME_OVERHEAD};

@@ -1,7 +1,9 @@
 //! Host side: request a packet on the request line, collect the answer from the serial port.
 
 use embedded_hal::digital::OutputPin;
-use embedded_hal_nb::serial::Read;
+use embedded_hal_nb::serial::{ErrorType as SerialPort, Read};
+#[cfg(feature = "async")]
+use embedded_io_async::ErrorType as AsyncSerialPort;
 
 use crate::stream::{DecoderStats, Frame, StreamDecoder};
 
@@ -36,23 +38,84 @@ impl<PinE: core::fmt::Debug, SerialE: core::fmt::Debug> core::error::Error
 {
 }
 
-/// The sensor board seen from the host: a request line (GPIO output) and the serial port the
-/// answers arrive on.
-///
-/// **Request pulse.** The board starts a transfer on a *rising* edge of the request line.
-/// [`SensorBoard::request`] raises the line; lower it with [`SensorBoard::end_request`] before
-/// the next request (any time after the raise: the board's edge detector needs no minimum
-/// width). If the line is still high, `request` lowers it first so every call makes an edge.
-///
-/// **Time.** Nothing here sleeps or waits. [`SensorBoard::poll`] reads what the port has
-/// (bounded by [`MAX_BYTES_PER_POLL`]) and returns [`nb::Error::WouldBlock`] until a frame is
-/// complete; the caller owns the deadline.
-#[derive(Debug)]
-pub struct SensorBoard<PIN, SERIAL> {
-    request_pin: PIN,
-    serial: SERIAL,
-    decoder: StreamDecoder,
-    line_high: bool,
+crate::blocking_and_async! {
+    /// The sensor board seen from the host: a request line (GPIO output) and the serial port the
+    /// answers arrive on. `SensorBoardAsync` (feature `async`) is the same driver on an
+    /// `embedded-io-async` 0.7 port, whose reading call waits (`async`) with a deadline.
+    ///
+    /// **Request pulse.** The board starts a transfer on a *rising* edge of the request line.
+    /// [`SensorBoard::request`] raises the line; lower it with [`SensorBoard::end_request`] before
+    /// the next request (any time after the raise: the board's edge detector needs no minimum
+    /// width). If the line is still high, `request` lowers it first so every call makes an edge.
+    ///
+    /// **Time.** Nothing in `SensorBoard` sleeps or waits. [`SensorBoard::poll`] reads what the port has
+    /// (bounded by [`MAX_BYTES_PER_POLL`]) and returns [`nb::Error::WouldBlock`] until a frame is
+    /// complete; the caller owns the deadline.
+    #[derive(Debug)]
+    pub struct SensorBoard<PIN, SERIAL> {
+        request_pin: PIN,
+        pub(crate) serial: SERIAL,
+        pub(crate) decoder: StreamDecoder,
+        line_high: bool,
+    }
+}
+
+crate::blocking_and_async! {
+    impl<PIN, SERIAL> SensorBoard<PIN, SERIAL>
+    where
+        PIN: OutputPin,
+        SERIAL: SerialPort,
+    {
+        /// Takes the request line and the serial port. The line is assumed low (as configured by
+        /// the caller); nothing is written to it until the first request.
+        pub fn new(request_pin: PIN, serial: SERIAL) -> Self {
+            Self {
+                request_pin,
+                serial,
+                decoder: StreamDecoder::new(),
+                line_high: false,
+            }
+        }
+
+        /// Raises the request line (a rising edge asks the board for one packet).
+        ///
+        /// # Errors
+        /// [`Error::Pin`] if the line cannot be driven.
+        pub fn request(&mut self) -> Result<(), Error<PIN::Error, SERIAL::Error>> {
+            if self.line_high {
+                self.end_request()?;
+            }
+            self.request_pin.set_high().map_err(Error::Pin)?;
+            self.line_high = true;
+            Ok(())
+        }
+
+        /// Lowers the request line, completing the pulse started by [`SensorBoard::request`].
+        ///
+        /// # Errors
+        /// [`Error::Pin`] if the line cannot be driven.
+        pub fn end_request(&mut self) -> Result<(), Error<PIN::Error, SERIAL::Error>> {
+            self.request_pin.set_low().map_err(Error::Pin)?;
+            self.line_high = false;
+            Ok(())
+        }
+
+        /// The stream decoder's counters.
+        pub fn stats(&self) -> DecoderStats {
+            self.decoder.stats()
+        }
+
+        /// Drops bytes buffered from an earlier answer (counted as skipped), e.g. after a timeout,
+        /// so a late half packet cannot be mistaken for the start of the next answer.
+        pub fn discard_buffered(&mut self) {
+            self.decoder.clear();
+        }
+
+        /// Gives the request line and the serial port back.
+        pub fn release(self) -> (PIN, SERIAL) {
+            (self.request_pin, self.serial)
+        }
+    }
 }
 
 impl<PIN, SERIAL> SensorBoard<PIN, SERIAL>
@@ -60,40 +123,6 @@ where
     PIN: OutputPin,
     SERIAL: Read<u8>,
 {
-    /// Takes the request line and the serial port. The line is assumed low (as configured by
-    /// the caller); nothing is written to it until the first request.
-    pub fn new(request_pin: PIN, serial: SERIAL) -> Self {
-        Self {
-            request_pin,
-            serial,
-            decoder: StreamDecoder::new(),
-            line_high: false,
-        }
-    }
-
-    /// Raises the request line (a rising edge asks the board for one packet).
-    ///
-    /// # Errors
-    /// [`Error::Pin`] if the line cannot be driven.
-    pub fn request(&mut self) -> Result<(), Error<PIN::Error, SERIAL::Error>> {
-        if self.line_high {
-            self.end_request()?;
-        }
-        self.request_pin.set_high().map_err(Error::Pin)?;
-        self.line_high = true;
-        Ok(())
-    }
-
-    /// Lowers the request line, completing the pulse started by [`SensorBoard::request`].
-    ///
-    /// # Errors
-    /// [`Error::Pin`] if the line cannot be driven.
-    pub fn end_request(&mut self) -> Result<(), Error<PIN::Error, SERIAL::Error>> {
-        self.request_pin.set_low().map_err(Error::Pin)?;
-        self.line_high = false;
-        Ok(())
-    }
-
     /// Reads the bytes the port has into the stream decoder and returns the next complete
     /// frame (a packet or an info frame).
     ///
@@ -112,21 +141,5 @@ where
             }
         }
         Err(nb::Error::WouldBlock)
-    }
-
-    /// The stream decoder's counters.
-    pub fn stats(&self) -> DecoderStats {
-        self.decoder.stats()
-    }
-
-    /// Drops bytes buffered from an earlier answer (counted as skipped), e.g. after a timeout,
-    /// so a late half packet cannot be mistaken for the start of the next answer.
-    pub fn discard_buffered(&mut self) {
-        self.decoder.clear();
-    }
-
-    /// Gives the request line and the serial port back.
-    pub fn release(self) -> (PIN, SERIAL) {
-        (self.request_pin, self.serial)
     }
 }

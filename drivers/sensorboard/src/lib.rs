@@ -30,6 +30,11 @@
 //!   and an embedded-hal-nb serial [`Read`] (works with linux-embedded-hal's `Serial` and
 //!   `CdevPin`): [`SensorBoard::request`], [`SensorBoard::end_request`],
 //!   [`SensorBoard::poll`]. It never sleeps.
+//! - With the `async` feature, `SensorBoardAsync`: the same host driver on an
+//!   `embedded-io-async` 0.7 port, generated from the same source; its `read_frame` awaits the
+//!   next frame through the same stream decoder, raced against an embedded-hal-async `DelayNs`
+//!   deadline. The request line stays an embedded-hal [`OutputPin`]: setting a GPIO completes
+//!   at once, there is nothing to wait for (embedded-hal-async has no output-pin trait).
 //! - The BMX055 part of the packet as words ([`imu::ImuPacketWords`]: left-justified, status
 //!   bits masked, both directions, built from a `bosch-bmx055` sample), and with the `sim`
 //!   feature the simulator direction from physical values.
@@ -71,9 +76,30 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
+/// Generates each item twice from one source: as written, minus `async` and `.await`, for the
+/// blocking [`SensorBoard`], and as written for `SensorBoardAsync` (feature `async`).
+macro_rules! blocking_and_async {
+    ($($item:item)*) => {
+        $(
+            #[maybe_async_cfg::maybe(
+                sync(),
+                async(feature = "async"),
+                idents(
+                    SensorBoard(sync, async = "SensorBoardAsync"),
+                    SerialPort(sync, async = "AsyncSerialPort")
+                )
+            )]
+            $item
+        )*
+    };
+}
+pub(crate) use blocking_and_async;
+
 mod builder;
 mod crc;
 mod driver;
+#[cfg(feature = "async")]
+mod driver_async;
 mod gnss;
 pub mod imu;
 mod info;
@@ -89,6 +115,8 @@ pub use crc::{
     crc32_bitwise, update_byte, update_slice4, update_word_bitwise, SensorCrc, Stm32Crc, INITIAL,
     POLYNOMIAL,
 };
+#[cfg(feature = "async")]
+pub use driver::SensorBoardAsync;
 pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
 pub use gnss::{nav_pvt, FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
 pub use info::{
