@@ -370,6 +370,34 @@ fn config_seeds() -> Vec<(&'static str, Vec<u8>)> {
     ]
 }
 
+/// QGroundControl plans: the 40 m square of `dima-core`'s tests, without and with a fence
+/// polygon (fence version 2), and the older format (`coordinate`, `param1`..`param4`) with a
+/// version 1 fence.
+fn plan_seeds() -> Vec<(&'static str, Vec<u8>)> {
+    let old = r#"{"fileType": "Plan", "version": 1,
+        "geoFence": {"version": 1, "breachReturn": [48.1, 11.5],
+                     "polygon": [[48.0995, 11.4995], [48.0995, 11.5015], [48.1015, 11.5015],
+                                 [48.1015, 11.4995]]},
+        "mission": {"items": [
+            {"command": 178, "param1": 1, "param2": 2.5, "param3": -1, "param4": 0,
+             "coordinate": [0, 0, 0]},
+            {"command": 16, "param1": 0, "param2": 2, "param3": 0, "param4": 0,
+             "coordinate": [48.1, 11.5, 0]},
+            {"command": 16, "param1": 0, "param2": 0, "param3": 0, "param4": 0,
+             "coordinate": [48.101, 11.501, 0]}]}}"#;
+    vec![
+        (
+            "square-40m.plan",
+            include_bytes!("../../crates/core/tests/fixtures/square-40m.plan").to_vec(),
+        ),
+        (
+            "square-40m-fenced.plan",
+            include_bytes!("../../crates/core/tests/fixtures/square-40m-fenced.plan").to_vec(),
+        ),
+        ("old-format-v1-fence.plan", old.as_bytes().to_vec()),
+    ]
+}
+
 /// A `dima sim` log without its latency histogram attachment, chunks compressed, schemas and
 /// channels only in the chunks.
 fn small_log(sim_log: &Path) -> Vec<u8> {
@@ -479,13 +507,22 @@ fn main() {
     write(&dir, "ubx_reader", &ubx_seeds());
     write(&dir, "maestro_replies", &maestro_seeds());
     write(&dir, "config_toml", &config_seeds());
+    write(&dir, "plan_file", &plan_seeds());
     write(
         &dir,
         "inspect",
         &[
             ("sensor", sensor[4].1.clone()),
             ("command", v1_commands()),
-            ("display", display[2].1.clone()),
+            (
+                "display",
+                display
+                    .iter()
+                    .find(|(name, _)| *name == "mixed")
+                    .expect("a mixed display seed")
+                    .1
+                    .clone(),
+            ),
         ],
     );
     if let Some(sim_log) = std::env::args_os().nth(1) {
