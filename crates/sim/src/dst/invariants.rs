@@ -58,7 +58,10 @@ pub enum Invariant {
     FailsafeInTime,
     /// `no_unasked_revive`: the robot leaves KILLED or FAILSAFE only in a cycle that applied a
     /// revive whose operator request was issued after the operator's latest kill the robot
-    /// applied, and that no earlier revive of the robot was due to.
+    /// applied, and that no earlier revive of the robot was due to. The revive judged is the
+    /// one that revived the robot: of several in one cycle, the first after the robot was
+    /// last made safe (before the cycle or by a kill in it) when no revive was refused in the
+    /// cycle, else the latest fresh one.
     NoUnaskedRevive,
     /// `auto_forward_only`: in AUTO the throttle pulse is never below neutral.
     AutoForwardOnly,
@@ -596,13 +599,30 @@ impl Checker {
         if !revived {
             return;
         }
-        let fresh = v.commands.iter().rev().find_map(|c| {
+        let is_fresh = |c: &Applied| {
             let t = c.asked_at?;
             let fresh = c.command == Command::Revive
                 && self.killed_by.is_none_or(|k| t > k)
                 && !self.used_revives.contains(&t);
             fresh.then_some(t)
-        });
+        };
+        let fresh = if v.out.refused.is_none() {
+            // No revive was refused this cycle: the first revive after the robot was last
+            // made safe within it (by a kill, or before the cycle) is the one that revived it;
+            // later ones found it driving and did nothing.
+            let after_kill = v
+                .commands
+                .iter()
+                .rposition(|c| c.command == Command::Kill)
+                .map_or(0, |i| i + 1);
+            v.commands[after_kill..]
+                .iter()
+                .find(|c| c.command == Command::Revive)
+                .and_then(is_fresh)
+        } else {
+            // Which revive was refused is not known: the latest fresh one (the strictest).
+            v.commands.iter().rev().find_map(is_fresh)
+        };
         self.judge(
             fresh.is_some(),
             Invariant::NoUnaskedRevive,
