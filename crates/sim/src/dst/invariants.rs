@@ -299,6 +299,8 @@ pub struct Checker {
     revive_point: Option<LatLon>,
     /// A fix outside the fence: by when the robot must be KILLED or in FAILSAFE, and what.
     fence_due: Option<(Nanos, String)>,
+    /// Fresh fixes outside the fence in cycles that began in MANUAL or AUTO.
+    fence_exits: u64,
     /// A mission is loaded.
     mission: bool,
     /// AUTO was entered since the robot was last safe or in MANUAL.
@@ -348,6 +350,7 @@ impl Checker {
             new_fix: None,
             revive_point: None,
             fence_due: None,
+            fence_exits: 0,
             mission: false,
             auto_entered: false,
             first_status_due: false,
@@ -360,6 +363,12 @@ impl Checker {
     pub fn with_mission(mut self, mission: bool) -> Checker {
         self.mission = mission;
         self
+    }
+
+    /// Fresh fixes the harness found outside the geofence in cycles that began in MANUAL or
+    /// AUTO (each must end in a failsafe in time).
+    pub fn fence_exits(&self) -> u64 {
+        self.fence_exits
     }
 
     /// Invariant checks made so far.
@@ -474,26 +483,28 @@ impl Checker {
 
     /// `fence_failsafe_in_time`.
     fn check_fence_failsafe_in_time(&mut self, v: &CycleView) {
+        let Some(fence) = &self.limits.fence else {
+            return;
+        };
+        let outside = self
+            .new_fix
+            .and_then(|p| Some((p, fence.outside(p, self.revive_point)?)));
+        if outside.is_some() && !v.mode_before.is_safe() {
+            self.fence_exits += 1;
+        }
         if v.out.mode.is_safe() {
             self.fence_due = None;
             return;
         }
-        let Some(fence) = &self.limits.fence else {
-            return;
-        };
-        if let Some(p) = self.new_fix {
-            if let Some(why) = fence.outside(p, self.revive_point) {
-                if self.fence_due.is_none() {
-                    let by = v.now + self.limits.gnss_period_ns + self.limits.period_ns;
-                    let what = format!(
-                        "a fix at {} ms ({:.7}, {:.7}) {why}",
-                        ms_since_start(v.now),
-                        p.lat_deg,
-                        p.lon_deg
-                    );
-                    self.fence_due = Some((by, what));
-                }
-            }
+        if let Some((p, why)) = outside.filter(|_| self.fence_due.is_none()) {
+            let by = v.now + self.limits.gnss_period_ns + self.limits.period_ns;
+            let what = format!(
+                "a fix at {} ms ({:.7}, {:.7}) {why}",
+                ms_since_start(v.now),
+                p.lat_deg,
+                p.lon_deg
+            );
+            self.fence_due = Some((by, what));
         }
         let Some((by, what)) = self.fence_due.clone() else {
             return;

@@ -110,6 +110,9 @@ pub struct RunReport {
     pub mission_cycles: u64,
     /// Entries into FAILSAFE with the cause `Geofence`.
     pub fence_failsafes: u64,
+    /// Fresh fixes the harness found outside the geofence in cycles that began in MANUAL or
+    /// AUTO.
+    pub fence_exits: u64,
 }
 
 impl RunReport {
@@ -165,6 +168,7 @@ fn report(seed: u64, sim: &Simulation, wall: Duration) -> RunReport {
         violations: sim.violations().to_vec(),
         mission_cycles: sim.mission_cycles(),
         fence_failsafes: sim.fence_failsafes(),
+        fence_exits: sim.fence_exits(),
     }
 }
 

@@ -247,6 +247,12 @@ impl Simulation {
         self.mission_cycles
     }
 
+    /// Fresh fixes the harness found outside the geofence in cycles that began in MANUAL or
+    /// AUTO, so far.
+    pub fn fence_exits(&self) -> u64 {
+        self.checker.fence_exits()
+    }
+
     /// Entries into FAILSAFE with the cause `Geofence` so far.
     pub fn fence_failsafes(&self) -> u64 {
         self.fence_failsafes

@@ -563,7 +563,7 @@ fn a_robot_that_ignores_its_fence_breaks_fence_failsafe_in_time() {
 
 #[test]
 fn seeds_1_to_20_follow_missions_and_trip_the_fence() {
-    let (mut mission_cycles, mut fence_failsafes, mut seeds) = (0, 0, 0);
+    let (mut mission_cycles, mut fence_failsafes, mut fence_exits, mut seeds) = (0, 0, 0, 0);
     for seed in 1..=20 {
         let report = run_seed(seed, 200.0);
         assert!(
@@ -571,15 +571,28 @@ fn seeds_1_to_20_follow_missions_and_trip_the_fence() {
             "seed {seed}: {:?}",
             report.first()
         );
+        println!(
+            "seed {seed}: {} mission cycles, {} fence failsafes, {} fixes outside the fence",
+            report.mission_cycles, report.fence_failsafes, report.fence_exits
+        );
         mission_cycles += report.mission_cycles;
         fence_failsafes += report.fence_failsafes;
+        fence_exits += report.fence_exits;
         seeds += u64::from(report.mission_cycles > 0 && report.fence_failsafes > 0);
         if !super::navigation::seed_has_navigation(seed) {
-            assert_eq!((report.mission_cycles, report.fence_failsafes), (0, 0));
+            let counts = (
+                report.mission_cycles,
+                report.fence_failsafes,
+                report.fence_exits,
+            );
+            assert_eq!(counts, (0, 0, 0));
         }
     }
     assert!(mission_cycles > 10_000, "{mission_cycles} mission cycles");
     assert!(fence_failsafes >= 5, "{fence_failsafes} fence failsafes");
+    // The harness's own judgement of the fence found the car outside too (and each time the
+    // robot was safe in time, or the run would have a violation).
+    assert!(fence_exits >= 5, "{fence_exits} fixes outside the fence");
     assert!(
         seeds >= 3,
         "{seeds} seeds both follow a mission and trip the fence"
