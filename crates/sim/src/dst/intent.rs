@@ -106,6 +106,16 @@ impl Intent {
             .any(|s| s.0 > after && (1..=max_mm_s).contains(&s.1))
     }
 
+    /// Whether the operator asked for a valid setpoint (a speed in `0..=max`, or a heading)
+    /// after `after`: one that enters AUTO from MANUAL.
+    pub fn setpoint_after(&self, after: Nanos, max_mm_s: i32) -> bool {
+        self.heading_after(after)
+            || self
+                .speeds
+                .iter()
+                .any(|s| s.0 > after && (0..=max_mm_s).contains(&s.1))
+    }
+
     /// Whether the operator asked for a heading setpoint after `after`.
     pub fn heading_after(&self, after: Nanos) -> bool {
         self.headings.iter().any(|s| s.0 > after)

@@ -4,7 +4,9 @@
 
 use std::collections::VecDeque;
 
-use dima_core::config::{ChannelConfig, Config};
+use dima_core::config::{ChannelConfig, Config, FenceConfig};
+use dima_core::geo::{distance_m, Circle, LatLon, Polygon};
+use dima_core::mission::AutoSource;
 use dima_core::step::CycleOutputs;
 use dima_core::{Command, Mode, Nanos};
 use dima_groundlink::station::ManualChannel;
@@ -12,6 +14,7 @@ use dima_groundlink::v2::RobotMode;
 use dima_sensorboard::{FixType, SensorPacket};
 
 use super::intent::Intent;
+use crate::board::BoardConfig;
 
 /// Time the heading controller may take to let go of the steering once its heading is no
 /// longer backed by GNSS, ns.
@@ -30,7 +33,11 @@ pub enum Invariant {
     /// operator asked for a speed setpoint above 0 (within `0..=max_speed_mm_s`) after both
     /// T_R and the request behind the latest manual value the robot applied while driving;
     /// the steering is at neutral unless the operator asked for a heading setpoint after the
-    /// same two; the tail is at neutral unless one of those two was asked for.
+    /// same two; the tail is at neutral unless one of those two was asked for. With a mission
+    /// loaded, AUTO entered by a setpoint follows the mission: there the steering and the tail
+    /// may also leave neutral after any valid setpoint (a speed within `0..=max_speed_mm_s`
+    /// or a heading) asked after the same two (entering AUTO is the request); the throttle's
+    /// rule stays (the mission's speed is capped by the operator's speed setpoint).
     NoUnaskedMotion,
     /// `kill_is_immediate`: a cycle whose commands include a kill ends KILLED with exactly the
     /// safe outputs.
@@ -46,11 +53,15 @@ pub enum Invariant {
     /// `max_stall_ms` within it;
     /// in AUTO, no fresh GNSS fix (gnssFixOK, a 2D/3D/dead-reckoning fix, sAcc within
     /// `max_speed_accuracy_mm_s`, a ground speed of at least 0 and a time of week beyond
-    /// every one delivered before) for more than `gnss_timeout_ms` plus one period.
+    /// every one delivered before) for more than `gnss_timeout_ms` plus one period; the same
+    /// in MANUAL when a geofence is configured.
     FailsafeInTime,
     /// `no_unasked_revive`: the robot leaves KILLED or FAILSAFE only in a cycle that applied a
     /// revive whose operator request was issued after the operator's latest kill the robot
-    /// applied, and that no earlier revive of the robot was due to.
+    /// applied, and that no earlier revive of the robot was due to. The revive judged is the
+    /// one that revived the robot: of several in one cycle, the first after the robot was
+    /// last made safe (before the cycle or by a kill in it) when no revive was refused in the
+    /// cycle, else the latest fresh one.
     NoUnaskedRevive,
     /// `auto_forward_only`: in AUTO the throttle pulse is never below neutral.
     AutoForwardOnly,
@@ -62,11 +73,29 @@ pub enum Invariant {
     /// heading of motion the robot can correct its heading with) is at most `gnss_timeout_ms`
     /// plus [`HEADING_RELEASE_NS`] old.
     HeadingNeedsFreshGnss,
+    /// `fence_failsafe_in_time`: after a fresh GNSS fix (as `failsafe_in_time` judges it) that
+    /// the harness finds outside the configured geofence while the robot ends its cycle in
+    /// MANUAL or AUTO, the robot is KILLED or in FAILSAFE within one GNSS period plus one
+    /// period. Outside: outside every inclusion circle and polygon (when any are given), or
+    /// farther than `max_distance_m` from the revive point, which is the position of the
+    /// newest fresh fix delivered before the cycle that revived the robot.
+    FenceFailsafeInTime,
+    /// `no_revive_outside_fence`: with a geofence configured, a cycle that revives the robot
+    /// (it ends MANUAL or AUTO after starting KILLED or FAILSAFE, or after applying a kill)
+    /// never does so while the newest fresh fix delivered before it, at most `gnss_timeout_ms`
+    /// old, is outside the inclusion areas, nor before any fresh fix was delivered at all.
+    NoReviveOutsideFence,
+    /// `mission_stops_on_kill`: while KILLED or in FAILSAFE the outputs are the safe ones and
+    /// no mission status and no AUTO source are reported; after a kill or failsafe, and in
+    /// MANUAL, no mission status nor the mission as AUTO's source appears until AUTO is
+    /// entered again; and the first mission status after AUTO is entered starts afresh: on
+    /// the first waypoint, its leg begins where the car is (along-track 0 m).
+    MissionStopsOnKill,
 }
 
 impl Invariant {
     /// Every invariant, in a fixed order.
-    pub const ALL: [Invariant; 8] = [
+    pub const ALL: [Invariant; 11] = [
         Invariant::OutputsInLimits,
         Invariant::NoUnaskedMotion,
         Invariant::KillIsImmediate,
@@ -75,6 +104,9 @@ impl Invariant {
         Invariant::AutoForwardOnly,
         Invariant::StationShowsRobotMode,
         Invariant::HeadingNeedsFreshGnss,
+        Invariant::FenceFailsafeInTime,
+        Invariant::NoReviveOutsideFence,
+        Invariant::MissionStopsOnKill,
     ];
 
     /// The stable name.
@@ -88,6 +120,9 @@ impl Invariant {
             Invariant::AutoForwardOnly => "auto_forward_only",
             Invariant::StationShowsRobotMode => "station_shows_robot_mode",
             Invariant::HeadingNeedsFreshGnss => "heading_needs_fresh_gnss",
+            Invariant::FenceFailsafeInTime => "fence_failsafe_in_time",
+            Invariant::NoReviveOutsideFence => "no_revive_outside_fence",
+            Invariant::MissionStopsOnKill => "mission_stops_on_kill",
         }
     }
 }
@@ -149,6 +184,71 @@ struct Limits {
     max_speed_mm_s: i32,
     max_speed_accuracy_mm_s: u32,
     min_heading_speed_mm_s: i32,
+    /// The geofence, when one is configured.
+    fence: Option<Fence>,
+    /// Time between two epochs of the simulated receiver, ns.
+    gnss_period_ns: Nanos,
+}
+
+/// The geofence as the harness judges it: the configuration, with the pure geometry of
+/// `dima_core::geo` (not the robot's fence monitor).
+#[derive(Debug, Clone)]
+struct Fence {
+    max_distance_m: Option<f64>,
+    circles: Vec<Circle>,
+    polygons: Vec<Polygon>,
+}
+
+impl Fence {
+    fn new(config: &FenceConfig) -> Option<Fence> {
+        let fence = Fence {
+            max_distance_m: config.max_distance_m,
+            circles: config
+                .circles
+                .iter()
+                .map(|c| Circle {
+                    centre: LatLon::new(c.lat_deg, c.lon_deg),
+                    radius_m: c.radius_m,
+                })
+                .collect(),
+            polygons: config
+                .polygons
+                .iter()
+                .map(|p| {
+                    let v: Vec<LatLon> = p.iter().map(|&[a, b]| LatLon::new(a, b)).collect();
+                    Polygon::new(&v)
+                })
+                .collect(),
+        };
+        let any = fence.max_distance_m.is_some()
+            || !fence.circles.is_empty()
+            || !fence.polygons.is_empty();
+        any.then_some(fence)
+    }
+
+    /// Within an inclusion area (true when none are given).
+    fn in_areas(&self, p: LatLon) -> bool {
+        (self.circles.is_empty() && self.polygons.is_empty())
+            || self.circles.iter().any(|c| c.contains(p))
+            || self.polygons.iter().any(|poly| poly.contains(p))
+    }
+
+    /// Why `p` is outside for a robot revived at `revive_point`, if it is.
+    fn outside(&self, p: LatLon, revive_point: Option<LatLon>) -> Option<String> {
+        if !self.in_areas(p) {
+            return Some("outside every inclusion area".to_owned());
+        }
+        let (max, home) = (self.max_distance_m?, revive_point?);
+        let d = distance_m(home, p);
+        (d > max).then(|| format!("{d:.1} m from the revive point (max {max} m)"))
+    }
+}
+
+/// A fresh fix as the harness saw it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Fix {
+    at_ns: Nanos,
+    position: LatLon,
 }
 
 /// Identical words packet after packet.
@@ -191,6 +291,22 @@ pub struct Checker {
     max_itow: Option<u32>,
     last_fix_ns: Option<Nanos>,
     last_heading_fix_ns: Option<Nanos>,
+    /// The newest fresh fix.
+    fix: Option<Fix>,
+    /// The fresh fix this cycle brought.
+    new_fix: Option<LatLon>,
+    /// Where the robot was last revived (the newest fresh fix before that cycle).
+    revive_point: Option<LatLon>,
+    /// A fix outside the fence: by when the robot must be KILLED or in FAILSAFE, and what.
+    fence_due: Option<(Nanos, String)>,
+    /// Fresh fixes outside the fence in cycles that began in MANUAL or AUTO.
+    fence_exits: u64,
+    /// A mission is loaded.
+    mission: bool,
+    /// AUTO was entered since the robot was last safe or in MANUAL.
+    auto_entered: bool,
+    /// The first mission status after AUTO was entered is still to come.
+    first_status_due: bool,
     checks: u64,
     violations: Vec<Violation>,
 }
@@ -215,6 +331,8 @@ impl Checker {
                 max_speed_mm_s: config.control.max_speed_mm_s,
                 max_speed_accuracy_mm_s: config.control.max_speed_accuracy_mm_s,
                 min_heading_speed_mm_s: config.estimator.min_heading_speed_mm_s,
+                fence: Fence::new(&config.navigation.fence),
+                gnss_period_ns: (1e9 / BoardConfig::default().gnss_rate_hz) as Nanos,
             },
             revived_by: None,
             used_revives: Vec::new(),
@@ -228,9 +346,29 @@ impl Checker {
             max_itow: None,
             last_fix_ns: None,
             last_heading_fix_ns: None,
+            fix: None,
+            new_fix: None,
+            revive_point: None,
+            fence_due: None,
+            fence_exits: 0,
+            mission: false,
+            auto_entered: false,
+            first_status_due: false,
             checks: 0,
             violations: Vec::new(),
         }
+    }
+
+    /// The checker for a robot with a mission loaded (`mission`), or without.
+    pub fn with_mission(mut self, mission: bool) -> Checker {
+        self.mission = mission;
+        self
+    }
+
+    /// Fresh fixes the harness found outside the geofence in cycles that began in MANUAL or
+    /// AUTO (each must end in a failsafe in time).
+    pub fn fence_exits(&self) -> u64 {
+        self.fence_exits
     }
 
     /// Invariant checks made so far.
@@ -275,6 +413,7 @@ impl Checker {
 
     /// Updates the trackers with one cycle, then checks every per-cycle invariant.
     pub fn check_cycle(&mut self, v: &CycleView, intent: &Intent) {
+        let fix_before = self.fix;
         self.track(v);
         let pulses = v.out.targets.pulse_us;
         let safe: [u16; 3] = self.limits.channels.each_ref().map(|c| c.safe.pulse_us());
@@ -293,6 +432,147 @@ impl Checker {
         self.check_auto_forward_only(v, neutral);
         self.check_failsafe_in_time(v);
         self.check_heading_needs_fresh_gnss(v, neutral);
+        self.check_no_revive_outside_fence(v, fix_before);
+        self.check_fence_failsafe_in_time(v);
+        self.check_mission_stops_on_kill(v, safe);
+    }
+
+    /// Whether this cycle revived the robot: it ends driving after starting safe, or after a
+    /// kill it applied (a kill and a revive in one cycle).
+    fn revived(v: &CycleView) -> bool {
+        !v.out.mode.is_safe()
+            && (v.mode_before.is_safe() || v.commands.iter().any(|c| c.command == Command::Kill))
+    }
+
+    /// `no_revive_outside_fence`; notes the revive point.
+    fn check_no_revive_outside_fence(&mut self, v: &CycleView, fix_before: Option<Fix>) {
+        if !Self::revived(v) {
+            return;
+        }
+        self.revive_point = fix_before.map(|f| f.position);
+        let Some(fence) = &self.limits.fence else {
+            return;
+        };
+        let refused = match fix_before {
+            None => Some("before any fresh fix".to_owned()),
+            Some(f) if v.now.saturating_sub(f.at_ns) <= self.limits.gnss_timeout_ns => {
+                (!fence.in_areas(f.position)).then(|| {
+                    format!(
+                        "with the newest fresh fix ({:.7}, {:.7}) outside every inclusion area",
+                        f.position.lat_deg, f.position.lon_deg
+                    )
+                })
+            }
+            Some(_) => None,
+        };
+        self.judge(
+            refused.is_none(),
+            Invariant::NoReviveOutsideFence,
+            v.cycle,
+            v.now,
+            || {
+                format!(
+                    "{} -> {} {}",
+                    v.mode_before,
+                    v.out.mode,
+                    refused.unwrap_or_default()
+                )
+            },
+        );
+    }
+
+    /// `fence_failsafe_in_time`.
+    fn check_fence_failsafe_in_time(&mut self, v: &CycleView) {
+        let Some(fence) = &self.limits.fence else {
+            return;
+        };
+        let outside = self
+            .new_fix
+            .and_then(|p| Some((p, fence.outside(p, self.revive_point)?)));
+        if outside.is_some() && !v.mode_before.is_safe() {
+            self.fence_exits += 1;
+        }
+        if v.out.mode.is_safe() {
+            self.fence_due = None;
+            return;
+        }
+        if let Some((p, why)) = outside.filter(|_| self.fence_due.is_none()) {
+            let by = v.now + self.limits.gnss_period_ns + self.limits.period_ns;
+            let what = format!(
+                "a fix at {} ms ({:.7}, {:.7}) {why}",
+                ms_since_start(v.now),
+                p.lat_deg,
+                p.lon_deg
+            );
+            self.fence_due = Some((by, what));
+        }
+        let Some((by, what)) = self.fence_due.clone() else {
+            return;
+        };
+        let ok = v.now <= by;
+        self.judge(ok, Invariant::FenceFailsafeInTime, v.cycle, v.now, || {
+            format!("still {} after {what}", v.out.mode)
+        });
+    }
+
+    /// `mission_stops_on_kill`.
+    fn check_mission_stops_on_kill(&mut self, v: &CycleView, safe: [u16; 3]) {
+        let out = v.out;
+        if out.mode.is_safe() {
+            self.auto_entered = false;
+            self.first_status_due = false;
+            let ok =
+                out.targets.pulse_us == safe && out.auto_source.is_none() && out.mission.is_none();
+            self.judge(ok, Invariant::MissionStopsOnKill, v.cycle, v.now, || {
+                format!(
+                    "{} with pulses {:?}, AUTO source {:?}, mission {:?}",
+                    out.mode, out.targets.pulse_us, out.auto_source, out.mission
+                )
+            });
+            return;
+        }
+        let transition = v.commands.iter().any(|c| {
+            matches!(
+                c.command,
+                Command::Kill | Command::Throttle(_) | Command::Steering(_) | Command::Tail(_)
+            )
+        });
+        if out.mode == Mode::Auto && (v.mode_before != Mode::Auto || transition) {
+            self.auto_entered = true;
+            self.first_status_due = true;
+        } else if out.mode != Mode::Auto {
+            self.auto_entered = false;
+            self.first_status_due = false;
+        }
+        let following = out.mission.is_some() || out.auto_source == Some(AutoSource::Mission);
+        if following && !self.auto_entered {
+            self.judge(false, Invariant::MissionStopsOnKill, v.cycle, v.now, || {
+                format!(
+                    "{} follows the mission (status {:?}) without AUTO entered since the last \
+                     kill, failsafe or MANUAL",
+                    out.mode, out.mission
+                )
+            });
+            return;
+        }
+        let Some(status) = out.mission.filter(|_| self.first_status_due) else {
+            return;
+        };
+        self.first_status_due = false;
+        let afresh = status.waypoint > 0 || status.along_track_m.abs() < 1e-3;
+        self.judge(
+            afresh,
+            Invariant::MissionStopsOnKill,
+            v.cycle,
+            v.now,
+            || {
+                format!(
+                    "the first mission status after AUTO was entered carries progress over: \
+                 waypoint {} at {:.2} m along its leg",
+                    status.waypoint, status.along_track_m
+                )
+            },
+        );
     }
 
     /// `outputs_in_limits`.
@@ -330,13 +610,30 @@ impl Checker {
         if !revived {
             return;
         }
-        let fresh = v.commands.iter().rev().find_map(|c| {
+        let is_fresh = |c: &Applied| {
             let t = c.asked_at?;
             let fresh = c.command == Command::Revive
                 && self.killed_by.is_none_or(|k| t > k)
                 && !self.used_revives.contains(&t);
             fresh.then_some(t)
-        });
+        };
+        let fresh = if v.out.refused.is_none() {
+            // No revive was refused this cycle: the first revive after the robot was last
+            // made safe within it (by a kill, or before the cycle) is the one that revived it;
+            // later ones found it driving and did nothing.
+            let after_kill = v
+                .commands
+                .iter()
+                .rposition(|c| c.command == Command::Kill)
+                .map_or(0, |i| i + 1);
+            v.commands[after_kill..]
+                .iter()
+                .find(|c| c.command == Command::Revive)
+                .and_then(is_fresh)
+        } else {
+            // Which revive was refused is not known: the latest fresh one (the strictest).
+            v.commands.iter().rev().find_map(is_fresh)
+        };
         self.judge(
             fresh.is_some(),
             Invariant::NoUnaskedRevive,
@@ -449,14 +746,25 @@ impl Checker {
                 };
                 let speed = intent.positive_speed_after(after, self.limits.max_speed_mm_s);
                 let heading = intent.heading_after(after);
-                let asked = [speed, heading, speed || heading];
+                // With a mission, entering AUTO (any valid setpoint) asks for its heading.
+                let mission =
+                    self.mission && intent.setpoint_after(after, self.limits.max_speed_mm_s);
+                let asked = [speed, heading || mission, speed || heading || mission];
                 (0..3).find_map(|i| {
                     (pulses[i] != neutral[i] && !asked[i]).then(|| {
                         format!(
                             "AUTO {} at {} µs: no {} asked after {since} at {} ms",
                             ManualChannel::ALL[i].name(),
                             pulses[i],
-                            ["speed setpoint above 0", "heading setpoint", "setpoint"][i],
+                            [
+                                "speed setpoint above 0",
+                                if self.mission {
+                                    "setpoint entering the mission"
+                                } else {
+                                    "heading setpoint"
+                                },
+                                "setpoint",
+                            ][i],
                             ms_since_start(after)
                         )
                     })
@@ -490,6 +798,7 @@ impl Checker {
         {
             self.late_wakes.pop_front();
         }
+        self.new_fix = None;
         let Some(p) = v.packet else {
             self.bad_run = self.bad_run.saturating_add(1);
             return;
@@ -512,6 +821,12 @@ impl Checker {
         self.max_itow = self.max_itow.max(Some(pvt.itow_ms));
         if valid && advanced {
             self.last_fix_ns = Some(v.now);
+            let position = LatLon::from_deg_e7(pvt.lat_deg_e7, pvt.lon_deg_e7);
+            self.new_fix = Some(position);
+            self.fix = Some(Fix {
+                at_ns: v.now,
+                position,
+            });
             if pvt.g_speed_mm_s >= l.min_heading_speed_mm_s {
                 self.last_heading_fix_ns = Some(v.now);
             }
@@ -553,12 +868,18 @@ impl Checker {
         if missed * l.period_ns > l.max_stall_ns {
             return Some(format!("{missed} periods missed within a second"));
         }
-        if v.out.mode == Mode::Auto {
+        if v.out.mode == Mode::Auto || l.fence.is_some() {
             let age = self.last_fix_ns.map_or(u64::MAX, |t| now.saturating_sub(t));
             if age > l.gnss_timeout_ns + l.period_ns {
                 return Some(format!(
-                    "no fresh GNSS fix for {} ms in AUTO",
-                    age.min(u64::MAX / 2) / 1_000_000
+                    "no fresh GNSS fix for {} ms in {}{}",
+                    age.min(u64::MAX / 2) / 1_000_000,
+                    v.out.mode,
+                    if l.fence.is_some() {
+                        " with a fence"
+                    } else {
+                        ""
+                    }
                 ));
             }
         }

@@ -8,6 +8,7 @@
 //! - [`radio`]: the radio channel both ways (baud rate, delay, loss, bursts, damaged bytes);
 //! - [`faults`], [`sensor`], [`host`]: the sensor board's faults, the board as the loop sees
 //!   it, and the host's late wake-ups;
+//! - [`navigation`]: the mission and the geofence of the even seeds;
 //! - [`invariants`]: the invariants, by name;
 //! - [`runner`]: one run, cycle by cycle; [`trace`]: its MCAP file.
 
@@ -22,6 +23,7 @@ pub mod faults;
 pub mod host;
 pub mod intent;
 pub mod invariants;
+pub mod navigation;
 pub mod operator;
 pub mod radio;
 #[cfg(test)]
@@ -45,13 +47,21 @@ Invariants (checked after every cycle; see docs/dst.md):
   no_unasked_motion         safe outputs when KILLED/FAILSAFE; in MANUAL only values the
                             operator asked for after the accepted revive; in AUTO only with
                             setpoints asked for after it and after the last manual value
+                            (with a mission, the setpoint entering AUTO asks for its heading)
   kill_is_immediate         a cycle that applies a kill ends KILLED with the safe outputs
   failsafe_in_time          FAILSAFE within its bound: comms loss, sensor loss, a frozen
-                            accelerometer or gyroscope, overruns, stale GNSS in AUTO
+                            accelerometer or gyroscope, overruns, stale GNSS in AUTO (and in
+                            MANUAL with a geofence)
   no_unasked_revive         leaving KILLED/FAILSAFE needs a fresh operator revive request
   auto_forward_only         AUTO throttle never below neutral
   station_shows_robot_mode  the station shows the mode the robot put into the frame
-  heading_needs_fresh_gnss  AUTO steers only with a GNSS heading fix within the GNSS timeout";
+  heading_needs_fresh_gnss  AUTO steers only with a GNSS heading fix within the GNSS timeout
+  fence_failsafe_in_time    a fresh fix outside the geofence in MANUAL/AUTO: KILLED or
+                            FAILSAFE within one GNSS period plus one cycle
+  no_revive_outside_fence   no revive while the newest fresh fix is outside the inclusion
+                            areas (nor before any fix) when a geofence is configured
+  mission_stops_on_kill     KILLED/FAILSAFE: safe outputs, no mission; the mission is followed
+                            only after AUTO is entered again, and restarts from its beginning";
 
 /// Flags of `dima dst`.
 #[derive(Debug, Clone, Args)]
@@ -96,13 +106,29 @@ pub struct RunReport {
     pub checks: u64,
     /// Violations, in the order found.
     pub violations: Vec<Violation>,
+    /// Cycles in which AUTO followed the mission.
+    pub mission_cycles: u64,
+    /// Entries into FAILSAFE with the cause `Geofence`.
+    pub fence_failsafes: u64,
+    /// Fresh fixes the harness found outside the geofence in cycles that began in MANUAL or
+    /// AUTO.
+    pub fence_exits: u64,
 }
 
 impl RunReport {
-    /// `seed N: S s virtual in W s wall, C cycles, I invariant checks, V violations`.
+    /// `seed N: S s virtual in W s wall, C cycles, I invariant checks, V violations`, and on a
+    /// seed with a mission or a fence `, M mission cycles, F fence failsafes`.
     pub fn line(&self) -> String {
+        let nav = if navigation::seed_has_navigation(self.seed) {
+            format!(
+                ", {} mission cycles, {} fence failsafes",
+                self.mission_cycles, self.fence_failsafes
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "seed {}: {:.0} s virtual in {:.2} s wall, {} cycles, {} invariant checks, {} violations",
+            "seed {}: {:.0} s virtual in {:.2} s wall, {} cycles, {} invariant checks, {} violations{nav}",
             self.seed,
             self.virtual_ns as f64 * 1e-9,
             self.wall.as_secs_f64(),
@@ -140,6 +166,9 @@ fn report(seed: u64, sim: &Simulation, wall: Duration) -> RunReport {
         cycles: sim.cycles(),
         checks: sim.checks(),
         violations: sim.violations().to_vec(),
+        mission_cycles: sim.mission_cycles(),
+        fence_failsafes: sim.fence_failsafes(),
+        fence_exits: sim.fence_exits(),
     }
 }
 

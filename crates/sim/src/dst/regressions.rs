@@ -17,6 +17,8 @@
 //! | A frozen gyroscope beside a live accelerometer never trips ImuStuck | 35 | `failsafe_in_time` | 1286 |
 //! | A frozen accelerometer beside a live gyroscope never trips ImuStuck | 22 | `failsafe_in_time` | 419 |
 //! | GNSS epochs received but not used (negative ground speed), then replayed valid, counted as fresh | 4 | `failsafe_in_time` | 30797 |
+//! | The harness's own: of two revives handed over in one cycle (after a held-up telemetry thread), it took the later one, a no-op in MANUAL, for the revive that revived the robot, and judged a manual value asked between the two as unasked | 243 | `no_unasked_motion` | 25142 |
+//! | The same, on the steering | 41 | `no_unasked_motion` | 143964 |
 
 use super::run_seed;
 
@@ -90,6 +92,21 @@ fn seed_35_frozen_gyroscope_never_stuck() {
 #[test]
 fn seed_22_frozen_accelerometer_never_stuck() {
     holds(22, 20.0);
+}
+
+/// Found (in the harness, not the robot): after the telemetry thread was held up, one cycle
+/// took a revive, a throttle value asked after it, and a second revive (a no-op in MANUAL);
+/// the checker took the second for the revive that revived the robot and judged the throttle
+/// unasked (`no_unasked_motion` at cycle 25142).
+#[test]
+fn seed_243_the_first_of_two_revives_in_a_cycle_revives() {
+    holds(243, 110.0);
+}
+
+/// Found: the same on the steering, late in a long run (`no_unasked_motion` at cycle 143964).
+#[test]
+fn seed_41_the_first_of_two_revives_in_a_cycle_revives() {
+    holds(41, 600.0);
 }
 
 /// A few short runs of the first seeds hold every invariant.

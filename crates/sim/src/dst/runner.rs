@@ -18,6 +18,7 @@ use super::faults::{Fault, FaultPlan};
 use super::host::Host;
 use super::intent::Intent;
 use super::invariants::{Applied, Checker, CycleView, Violation};
+use super::navigation::Navigation;
 use super::operator::{Action, Operator};
 use super::radio::{Channel, ChannelParams};
 use super::sensor::Sensor;
@@ -82,6 +83,12 @@ pub struct Simulation {
     plan: FaultPlan,
     vehicle: Vehicle,
     cycle: u64,
+    /// The mission and fence the robot runs with.
+    navigation: Option<Navigation>,
+    /// Cycles in which AUTO followed the mission.
+    mission_cycles: u64,
+    /// Entries into FAILSAFE with the cause `Geofence`.
+    fence_failsafes: u64,
     // Judge.
     checker: Checker,
 }
@@ -92,9 +99,60 @@ impl Simulation {
         Simulation::with(seed, end_ns, true)
     }
 
-    /// The system for `seed`; without `faults` the radio, the board and the host behave.
+    /// The system for `seed`; without `faults` the radio, the board and the host behave. Even
+    /// seeds carry a mission and a geofence ([`Navigation::for_seed`]).
     pub fn with(seed: u64, end_ns: Nanos, faults: bool) -> Simulation {
-        let config = Config::default();
+        let navigation = Navigation::for_seed(seed, SimRng::new(seed).fork(10));
+        Simulation::with_navigation(seed, end_ns, faults, navigation)
+    }
+
+    /// The system for `seed` with `navigation` (none: no mission, no fence).
+    pub fn with_navigation(
+        seed: u64,
+        end_ns: Nanos,
+        faults: bool,
+        navigation: Option<Navigation>,
+    ) -> Simulation {
+        let mut sim = Simulation::build(seed, end_ns, faults, navigation.as_ref());
+        sim.navigation = navigation;
+        sim
+    }
+
+    /// The system for `seed` whose robot does not know of `navigation`'s fence, while the
+    /// invariants judge against it: a robot that never trips the fence (for the invariants'
+    /// tests).
+    #[cfg(test)]
+    pub(crate) fn with_fence_unknown_to_robot(
+        seed: u64,
+        end_ns: Nanos,
+        navigation: Navigation,
+    ) -> Simulation {
+        let mut sim = Simulation::with_navigation(seed, end_ns, true, Some(navigation));
+        let mut robot_config = sim.config.clone();
+        robot_config.navigation.fence = Default::default();
+        sim.core = Core::new(&robot_config).expect("a valid configuration");
+        if let Some(mission) = sim.navigation.as_ref().and_then(|n| n.mission.as_ref()) {
+            sim.core.set_mission(mission);
+        }
+        sim.config = robot_config;
+        sim
+    }
+
+    fn build(
+        seed: u64,
+        end_ns: Nanos,
+        faults: bool,
+        navigation: Option<&Navigation>,
+    ) -> Simulation {
+        let mut config = Config::default();
+        if let Some(n) = navigation {
+            config.navigation.fence = n.fence.clone();
+        }
+        let mission = navigation.and_then(|n| n.mission.as_ref());
+        let mut core = Core::new(&config).expect("the configuration is valid");
+        if let Some(mission) = mission {
+            core.set_mission(mission);
+        }
         let root = SimRng::new(seed);
         let mut draw = root.fork(0);
         let key = LinkKey::from_bytes(core::array::from_fn(|_| draw.below(256) as u8));
@@ -156,7 +214,7 @@ impl Simulation {
             next_display_ns: START_NS,
             display_seq: 0,
             snapshot: Snapshot::default(),
-            core: Core::new(&config).expect("the default configuration is valid"),
+            core,
             state: CoreState::new(),
             clock: PeriodicClock::new(period_ns, START_NS - period_ns),
             host,
@@ -164,7 +222,10 @@ impl Simulation {
             plan,
             vehicle: Vehicle::new(VehicleParams::default(), heading),
             cycle: 0,
-            checker: Checker::new(&config),
+            checker: Checker::new(&config).with_mission(mission.is_some()),
+            navigation: None,
+            mission_cycles: 0,
+            fence_failsafes: 0,
             config,
             key,
             session,
@@ -174,6 +235,27 @@ impl Simulation {
     /// The configuration the robot runs.
     pub fn config(&self) -> &Config {
         &self.config
+    }
+
+    /// The mission and the fence the robot runs with (`None`: neither).
+    pub fn navigation(&self) -> Option<&Navigation> {
+        self.navigation.as_ref()
+    }
+
+    /// Cycles so far in which AUTO followed the mission (a mission status was reported).
+    pub fn mission_cycles(&self) -> u64 {
+        self.mission_cycles
+    }
+
+    /// Fresh fixes the harness found outside the geofence in cycles that began in MANUAL or
+    /// AUTO, so far.
+    pub fn fence_exits(&self) -> u64 {
+        self.checker.fence_exits()
+    }
+
+    /// Entries into FAILSAFE with the cause `Geofence` so far.
+    pub fn fence_failsafes(&self) -> u64 {
+        self.fence_failsafes
     }
 
     /// Virtual time run so far: up to the next deadline, ns.
@@ -277,6 +359,16 @@ impl Simulation {
             },
             &self.intent,
         );
+
+        if out.mission.is_some() {
+            self.mission_cycles += 1;
+        }
+        if out.mode == Mode::Failsafe
+            && out.cause == Some(FailsafeCause::Geofence)
+            && mode_before != Mode::Failsafe
+        {
+            self.fence_failsafes += 1;
+        }
 
         // Publish.
         self.publish(&out, wake);

@@ -13,8 +13,22 @@ use dima_robot::logging::{CycleLog, McapLog};
 /// depend on when it was written).
 pub const TRACE_EPOCH_NS: i128 = 1_767_225_600_000_000_000;
 
+/// The mission the run's robot follows in AUTO, as `lat_deg,lon_deg` waypoints separated by
+/// `;` (empty: none; the fence is in the configuration).
+fn mission_text(sim: &Simulation) -> String {
+    let Some(mission) = sim.navigation().and_then(|n| n.mission.as_ref()) else {
+        return String::new();
+    };
+    let points: Vec<String> = mission
+        .waypoints
+        .iter()
+        .map(|w| format!("{:.7},{:.7}", w.lat_deg, w.lon_deg))
+        .collect();
+    points.join(";")
+}
+
 /// Runs `sim` until `end_ns` (or `stop_after` past its first violation), writing every cycle
-/// to `path`; the seed and the violations go into metadata.
+/// to `path`; the seed, the mission and the violations go into metadata.
 pub fn write(
     path: &Path,
     seed: u64,
@@ -37,6 +51,7 @@ pub fn write(
         &[
             ("seed", seed.to_string()),
             ("duration_s", duration_s.to_string()),
+            ("mission", mission_text(sim)),
         ],
     )?;
     let mut failed = None;
