@@ -14,16 +14,8 @@
 use crate::board::{BoardConfig, EARTH_RADIUS_M};
 use crate::rng::SimRng;
 use dima_core::config::{FenceCircle, FenceConfig};
+pub use dima_core::mission::Navigation;
 use dima_core::mission::{Mission, Waypoint};
-
-/// A run's mission and fence.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Navigation {
-    /// The mission the core follows in AUTO, if any.
-    pub mission: Option<Mission>,
-    /// The geofence (`[navigation.fence]`); the default is none.
-    pub fence: FenceConfig,
-}
 
 /// Whether `seed` runs with a mission and a fence (every even seed).
 pub fn seed_has_navigation(seed: u64) -> bool {
@@ -41,84 +33,83 @@ pub fn start_offset(north_m: f64, east_m: f64) -> [f64; 2] {
     ]
 }
 
-impl Navigation {
-    /// The navigation of `seed`, drawn from `rng` (`None` on odd seeds).
-    pub fn for_seed(seed: u64, rng: SimRng) -> Option<Navigation> {
-        seed_has_navigation(seed).then(|| Navigation::draw(rng))
-    }
+/// The navigation of `seed`, drawn from `rng` (`None` on odd seeds): the robot's
+/// `dima_core::mission::Navigation`, the same record a trace writes into its log.
+pub fn for_seed(seed: u64, rng: SimRng) -> Option<Navigation> {
+    seed_has_navigation(seed).then(|| draw(rng))
+}
 
-    /// A mission and a fence drawn from `rng`.
-    pub fn draw(mut rng: SimRng) -> Navigation {
-        let corners = 3 + rng.below(4) as usize;
-        let radius_m = 12.0 + rng.uniform() * 28.0;
-        let phase = rng.uniform() * std::f64::consts::TAU;
-        let loop_ne: Vec<[f64; 2]> = (0..corners)
-            .map(|i| {
-                let a = phase + i as f64 * std::f64::consts::TAU / corners as f64;
-                [radius_m * a.cos(), radius_m * a.sin()]
-            })
-            .collect();
-        let waypoints: Vec<Waypoint> = loop_ne
-            .iter()
-            .chain(loop_ne.first())
-            .enumerate()
-            .map(|(item, &[n, e])| {
-                let [lat_deg, lon_deg] = start_offset(n, e);
-                Waypoint {
-                    lat_deg,
-                    lon_deg,
-                    acceptance_m: None,
-                    speed_m_s: None,
-                    item,
-                }
-            })
-            .collect();
-        let [lat_deg, lon_deg] = start_offset(0.0, 0.0);
-        let fence = match rng.below(4) {
-            0 => FenceConfig {
-                circles: vec![FenceCircle {
-                    lat_deg,
-                    lon_deg,
-                    radius_m: radius_m - 8.0 + rng.uniform() * 38.0,
-                }],
-                ..FenceConfig::default()
-            },
-            1 => {
-                let scale = 0.8 + rng.uniform();
-                FenceConfig {
-                    polygons: vec![loop_ne
-                        .iter()
-                        .map(|&[n, e]| start_offset(n * scale, e * scale))
-                        .collect()],
-                    ..FenceConfig::default()
-                }
+/// A mission and a fence drawn from `rng`.
+pub fn draw(mut rng: SimRng) -> Navigation {
+    let corners = 3 + rng.below(4) as usize;
+    let radius_m = 12.0 + rng.uniform() * 28.0;
+    let phase = rng.uniform() * std::f64::consts::TAU;
+    let loop_ne: Vec<[f64; 2]> = (0..corners)
+        .map(|i| {
+            let a = phase + i as f64 * std::f64::consts::TAU / corners as f64;
+            [radius_m * a.cos(), radius_m * a.sin()]
+        })
+        .collect();
+    let waypoints: Vec<Waypoint> = loop_ne
+        .iter()
+        .chain(loop_ne.first())
+        .enumerate()
+        .map(|(item, &[n, e])| {
+            let [lat_deg, lon_deg] = start_offset(n, e);
+            Waypoint {
+                lat_deg,
+                lon_deg,
+                acceptance_m: None,
+                speed_m_s: None,
+                item,
             }
-            2 => FenceConfig {
-                max_distance_m: Some(8.0 + rng.uniform() * (radius_m + 32.0)),
+        })
+        .collect();
+    let [lat_deg, lon_deg] = start_offset(0.0, 0.0);
+    let fence = match rng.below(4) {
+        0 => FenceConfig {
+            circles: vec![FenceCircle {
+                lat_deg,
+                lon_deg,
+                radius_m: radius_m - 8.0 + rng.uniform() * 38.0,
+            }],
+            ..FenceConfig::default()
+        },
+        1 => {
+            let scale = 0.8 + rng.uniform();
+            FenceConfig {
+                polygons: vec![loop_ne
+                    .iter()
+                    .map(|&[n, e]| start_offset(n * scale, e * scale))
+                    .collect()],
                 ..FenceConfig::default()
-            },
-            _ => FenceConfig {
-                max_distance_m: Some(10.0 + rng.uniform() * 30.0),
-                circles: vec![FenceCircle {
-                    lat_deg,
-                    lon_deg,
-                    radius_m: radius_m + 20.0 + rng.uniform() * 40.0,
-                }],
-                ..FenceConfig::default()
-            },
-        };
-        let mission = Some(Mission { waypoints });
-        match rng.below(10) {
-            0 => Navigation {
-                mission,
-                fence: FenceConfig::default(),
-            },
-            1 => Navigation {
-                mission: None,
-                fence,
-            },
-            _ => Navigation { mission, fence },
+            }
         }
+        2 => FenceConfig {
+            max_distance_m: Some(8.0 + rng.uniform() * (radius_m + 32.0)),
+            ..FenceConfig::default()
+        },
+        _ => FenceConfig {
+            max_distance_m: Some(10.0 + rng.uniform() * 30.0),
+            circles: vec![FenceCircle {
+                lat_deg,
+                lon_deg,
+                radius_m: radius_m + 20.0 + rng.uniform() * 40.0,
+            }],
+            ..FenceConfig::default()
+        },
+    };
+    let mission = Some(Mission { waypoints });
+    match rng.below(10) {
+        0 => Navigation {
+            mission,
+            fence: FenceConfig::default(),
+        },
+        1 => Navigation {
+            mission: None,
+            fence,
+        },
+        _ => Navigation { mission, fence },
     }
 }
 
@@ -129,14 +120,14 @@ mod tests {
 
     #[test]
     fn odd_seeds_run_without_even_seeds_with_a_valid_loop_and_fence() {
-        assert_eq!(Navigation::for_seed(3, SimRng::new(3)), None);
+        assert_eq!(for_seed(3, SimRng::new(3)), None);
         let start = LatLon::new(
             BoardConfig::default().start_lat_deg,
             BoardConfig::default().start_lon_deg,
         );
         let (mut missions, mut fences) = (0, 0);
         for seed in (2..200).step_by(2) {
-            let nav = Navigation::for_seed(seed, SimRng::new(seed)).expect("an even seed");
+            let nav = for_seed(seed, SimRng::new(seed)).expect("an even seed");
             let mut config = dima_core::config::Config::default();
             config.navigation.fence = nav.fence.clone();
             config.validate().expect("a valid fence");

@@ -18,7 +18,7 @@ use super::faults::{Fault, FaultPlan};
 use super::host::Host;
 use super::intent::Intent;
 use super::invariants::{Applied, Checker, CycleView, Violation};
-use super::navigation::Navigation;
+use super::navigation::{self, Navigation};
 use super::operator::{Action, Operator};
 use super::radio::{Channel, ChannelParams};
 use super::sensor::Sensor;
@@ -100,9 +100,9 @@ impl Simulation {
     }
 
     /// The system for `seed`; without `faults` the radio, the board and the host behave. Even
-    /// seeds carry a mission and a geofence ([`Navigation::for_seed`]).
+    /// seeds carry a mission and a geofence ([`navigation::for_seed`]).
     pub fn with(seed: u64, end_ns: Nanos, faults: bool) -> Simulation {
-        let navigation = Navigation::for_seed(seed, SimRng::new(seed).fork(10));
+        let navigation = navigation::for_seed(seed, SimRng::new(seed).fork(10));
         Simulation::with_navigation(seed, end_ns, faults, navigation)
     }
 

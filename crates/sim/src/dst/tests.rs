@@ -60,6 +60,9 @@ fn the_same_seed_gives_byte_identical_cycle_messages() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// An even seed whose robot follows its mission in AUTO within two minutes.
+const MISSION_SEED: u64 = 2;
+
 #[test]
 fn a_trace_is_a_robot_log_that_replays_identically() {
     let dir = test_dir("replay");
@@ -74,6 +77,29 @@ fn a_trace_is_a_robot_log_that_replays_identically() {
     let replayed = replay(&run, &config).unwrap();
     assert_eq!(replayed.first_difference, None);
     assert!(run.raw.len() > 1_000, "{} raw packets", run.raw.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_mission_seeds_trace_replays_identically_with_the_mission_it_records() {
+    let dir = test_dir("replay-mission");
+    let path = dir.join("trace.mcap");
+    run_traced(MISSION_SEED, 120.0, &path, false).unwrap();
+    let run = LoggedRun::read(&path).unwrap();
+    let navigation = run.navigation.clone().expect("the navigation record");
+    assert!(navigation.mission.is_some());
+    let following = run
+        .cycles
+        .iter()
+        .filter(|c| c.msg.auto_source == Some(dima_core::mission::AutoSource::Mission))
+        .count();
+    assert!(
+        following > 1_000,
+        "{following} cycles following the mission"
+    );
+    let config = run.config.clone().unwrap();
+    let replayed = replay(&run, &config).unwrap();
+    assert_eq!(replayed.first_difference, None);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -534,7 +560,7 @@ fn auto_on_a_mission_steers_only_after_the_setpoint_that_entered_it() {
 
 /// A tight fence for the real runs: a circle of 3 m around the start and a mission.
 fn tight_navigation(seed: u64) -> Navigation {
-    let drawn = Navigation::draw(crate::rng::SimRng::new(seed));
+    let drawn = super::navigation::draw(crate::rng::SimRng::new(seed));
     Navigation {
         mission: drawn.mission,
         fence: circle(3.0),

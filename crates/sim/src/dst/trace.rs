@@ -46,6 +46,13 @@ pub fn write(
             ("config", toml::to_string(sim.config())?),
         ],
     )?;
+    // The mission and fence as the robot's own logs record them, so `dima log replay` follows
+    // the same mission and `dima log plot --what track` draws it.
+    let navigation = sim.navigation().cloned().unwrap_or_default();
+    log.metadata(
+        schema::METADATA_NAVIGATION,
+        &[("json", serde_json::to_string(&navigation)?)],
+    )?;
     log.metadata(
         "dst",
         &[
