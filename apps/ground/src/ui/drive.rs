@@ -222,16 +222,32 @@ fn robot_setpoints(ui: &mut egui::Ui, app: &GroundApp) {
                 ("speed (estimate)", truth.speed_estimate_text()),
                 ("heading (estimate)", truth.heading_estimate_text()),
                 ("speed error", truth.speed_error_text()),
-                ("controllers", truth.controllers_text()),
             ] {
                 ui.label(k);
-                // Green only for a fresh value; amber for none, unknown or old.
-                let fresh = matches!(truth, Truth::Fresh(_));
-                let colour = if fresh && v != "none" { GOOD } else { WARN };
+                let colour = reported_colour(&truth, &v);
                 ui.label(RichText::new(v).monospace().color(colour));
                 ui.end_row();
             }
         });
+    // On a line of its own, wrapped: three controller names do not fit beside a label.
+    let controllers = truth.controllers_text();
+    ui.add(
+        egui::Label::new(
+            RichText::new(format!("controllers: {controllers}"))
+                .monospace()
+                .color(reported_colour(&truth, &controllers)),
+        )
+        .wrap(),
+    );
+}
+
+/// Green only for a fresh value; amber for none, unknown or old.
+fn reported_colour(truth: &Truth, value: &str) -> egui::Color32 {
+    if matches!(truth, Truth::Fresh(_)) && value != "none" {
+        GOOD
+    } else {
+        WARN
+    }
 }
 
 fn gamepad(ui: &mut egui::Ui, app: &mut GroundApp) {

@@ -133,7 +133,9 @@ pub fn right_panel(ui: &mut egui::Ui, app: &GroundApp) {
         .resizable(false)
         .exact_size(360.0)
         .show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
+            // Scrolls both ways: content wider than the panel must never widen it, since a
+            // right panel's overflow is taken from the middle of the window.
+            egui::ScrollArea::both().show(ui, |ui| {
                 link_health(ui, app);
                 ui.separator();
                 if app.status.authenticated {
@@ -200,12 +202,17 @@ fn link_health(ui: &mut egui::Ui, app: &GroundApp) {
                     Some(f) if f > 0.0 => WARN,
                     _ => GOOD,
                 };
+                // Two short rows: one long value would widen the panel past its size.
                 row(
                     ui,
-                    "downlink loss (sequence gaps)",
+                    "downlink loss, recent",
+                    RichText::new(pct(l.recent_fraction())).color(colour),
+                );
+                row(
+                    ui,
+                    "downlink loss, total",
                     RichText::new(format!(
-                        "{} recent, {} total ({} lost of {})",
-                        pct(l.recent_fraction()),
+                        "{} ({} of {})",
                         pct(l.total_fraction()),
                         l.lost,
                         l.lost + l.received
