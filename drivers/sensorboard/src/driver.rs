@@ -12,14 +12,48 @@ use crate::stream::{DecoderStats, Frame, StreamDecoder};
 /// for long on a flooding port.
 pub const MAX_BYTES_PER_POLL: usize = 512;
 
-/// Errors of the host driver.
+/// What went wrong on the board's side of the link, as opposed to an error a port reported:
+/// the `Device` part of the errors of every driver crate of this family.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum DeviceError {
+    /// No complete frame arrived before the deadline, or the port ended its stream (nothing
+    /// more will come). Only the async driver waits; the blocking one returns
+    /// `nb::Error::WouldBlock` and leaves the deadline to the caller.
+    Timeout,
+}
+
+/// Errors of the host driver, in the shape of the other driver crates' errors: `Comm` for the
+/// serial port's own error, `Device` for what the board did (a timeout is
+/// `Error::Device(DeviceError::Timeout)`, as everywhere), plus `Pin` for the request line. The
+/// driver owns two peripherals whose errors have types of their own, and keeps both rather than
+/// drop one to a kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Error<PinE, SerialE> {
     /// The serial port reported an error (overrun, framing, parity, I/O).
     Comm(SerialE),
+    /// The board did not answer as the link requires.
+    Device(DeviceError),
     /// The request line could not be driven.
     Pin(PinE),
+}
+
+impl<PinE, SerialE> From<DeviceError> for Error<PinE, SerialE> {
+    fn from(e: DeviceError) -> Self {
+        Error::Device(e)
+    }
+}
+
+impl core::fmt::Display for DeviceError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            DeviceError::Timeout => {
+                f.write_str("no frame from the sensor board before the deadline")
+            }
+        }
+    }
 }
 
 impl<PinE: core::fmt::Debug, SerialE: core::fmt::Debug> core::fmt::Display
@@ -28,6 +62,7 @@ impl<PinE: core::fmt::Debug, SerialE: core::fmt::Debug> core::fmt::Display
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::Comm(e) => write!(f, "sensor board serial error: {e:?}"),
+            Self::Device(e) => write!(f, "sensor board: {e}"),
             Self::Pin(e) => write!(f, "sensor board request line error: {e:?}"),
         }
     }

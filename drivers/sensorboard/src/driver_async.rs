@@ -18,7 +18,7 @@ use embedded_hal::digital::OutputPin;
 use embedded_hal_async::delay::DelayNs;
 use embedded_io_async::Read;
 
-use crate::driver::{Error, SensorBoardAsync};
+use crate::driver::{DeviceError, Error, SensorBoardAsync};
 use crate::stream::Frame;
 
 /// Polls `wait` until it completes or `deadline` does first (then `None`); the other is
@@ -44,37 +44,38 @@ where
     SERIAL: Read,
 {
     /// Waits for the next complete frame (a packet or an info frame) for at most `timeout_us`
-    /// measured with `delay`; `Ok(None)` if none completed in time, or if the port reports the
-    /// end of its stream (a read of `Ok(0)`: nothing more will come).
+    /// measured with `delay`.
     ///
     /// Cancel-safe: bytes already read stay in the decoder (see the module docs). After a
     /// timeout, [`discard_buffered`](Self::discard_buffered) drops a late half answer before
     /// the next request.
     ///
     /// # Errors
+    /// `Error::Device(DeviceError::Timeout)` if no frame completed in time, or if the port
+    /// reports the end of its stream (a read of `Ok(0)`: nothing more will come);
     /// [`Error::Comm`] when the port reports an error (the decoder resynchronises on its own
     /// afterwards).
     pub async fn read_frame<D: DelayNs>(
         &mut self,
         delay: &mut D,
         timeout_us: u32,
-    ) -> Result<Option<Frame>, Error<PIN::Error, SERIAL::Error>> {
+    ) -> Result<Frame, Error<PIN::Error, SERIAL::Error>> {
         let wait = async {
             loop {
                 if let Some(frame) = self.decoder.next_buffered() {
-                    return Ok(Some(frame));
+                    return Ok(frame);
                 }
                 let mut byte = [0u8; 1];
                 if self.serial.read(&mut byte).await.map_err(Error::Comm)? == 0 {
-                    return Ok(None);
+                    return Err(DeviceError::Timeout.into());
                 }
                 if let Some(frame) = self.decoder.push(byte[0]) {
-                    return Ok(Some(frame));
+                    return Ok(frame);
                 }
             }
         };
         before(wait, delay.delay_us(timeout_us))
             .await
-            .unwrap_or(Ok(None))
+            .unwrap_or(Err(DeviceError::Timeout.into()))
     }
 }

@@ -117,7 +117,7 @@ pub use crc::{
 };
 #[cfg(feature = "async")]
 pub use driver::SensorBoardAsync;
-pub use driver::{Error, SensorBoard, MAX_BYTES_PER_POLL};
+pub use driver::{DeviceError, Error, SensorBoard, MAX_BYTES_PER_POLL};
 pub use gnss::{nav_pvt, FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
 pub use info::{
     info_frame_len, BoardFaults, BoardHealth, InfoError, InfoFrame, SensorStatus, INFO_MAX_LEN,

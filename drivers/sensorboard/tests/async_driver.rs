@@ -15,7 +15,7 @@ use std::sync::Arc;
 use std::task::{Context, Poll, Wake, Waker};
 
 use capture::{Capture, Noise};
-use dima_sensorboard::{Error, Frame, InfoFrame, SensorBoardAsync, SensorPacket};
+use dima_sensorboard::{DeviceError, Error, Frame, InfoFrame, SensorBoardAsync, SensorPacket};
 use embedded_hal_mock::eh1::digital::{Mock as PinMock, State, Transaction as PinTx};
 use embedded_hal_mock::eh1::MockError;
 use embedded_io_async::ErrorKind;
@@ -133,7 +133,7 @@ fn done(board: Board) {
     assert!(script.is_empty(), "unused steps: {script:?}");
 }
 
-fn read(board: &mut Board) -> Result<Option<Frame>, Error<MockError, ErrorKind>> {
+fn read(board: &mut Board) -> Result<Frame, Error<MockError, ErrorKind>> {
     block_on(board.read_frame(&mut InstantDelay::default(), TIMEOUT_US))
 }
 
@@ -186,14 +186,17 @@ fn a_half_answer_times_out_and_the_next_read_completes_it() {
     let port = ScriptPort::new(vec![Step::Read(bytes[..70].to_vec())]);
     let mut b = SensorBoardAsync::new(PinMock::new(&[]), port.clone());
     let mut delay = InstantDelay::default();
-    assert_eq!(block_on(b.read_frame(&mut delay, TIMEOUT_US)), Ok(None));
+    assert_eq!(
+        block_on(b.read_frame(&mut delay, TIMEOUT_US)),
+        Err(Error::Device(DeviceError::Timeout))
+    );
     // The deadline was measured with the delay.
     assert_eq!(delay.waited_ns, u64::from(TIMEOUT_US) * 1_000);
     // The read that lost the race had taken the 70 bytes; they wait in the decoder.
     assert_eq!(port.bytes_read.get(), 70);
     port.arrive(&bytes[70..]);
     match read(&mut b) {
-        Ok(Some(Frame::Packet(raw))) => assert_eq!(raw.into_bytes(), bytes),
+        Ok(Frame::Packet(raw)) => assert_eq!(raw.into_bytes(), bytes),
         other => panic!("unexpected {other:?}"),
     }
     assert_eq!(b.stats().packets, 1);
@@ -212,9 +215,9 @@ fn packet_then_info_frame_in_one_answer() {
     let mut answer = packet().to_vec();
     answer.extend_from_slice(&info.encode());
     let mut b = board(&[], vec![Step::Read(answer)]);
-    assert!(matches!(read(&mut b), Ok(Some(Frame::Packet(_)))));
-    assert_eq!(read(&mut b), Ok(Some(Frame::Info(info))));
-    assert_eq!(read(&mut b), Ok(None));
+    assert!(matches!(read(&mut b), Ok(Frame::Packet(_))));
+    assert_eq!(read(&mut b), Ok(Frame::Info(info)));
+    assert_eq!(read(&mut b), Err(Error::Device(DeviceError::Timeout)));
     done(b);
 }
 
@@ -233,7 +236,7 @@ fn serial_error_is_reported_and_decoding_goes_on() {
     );
     assert_eq!(read(&mut b), Err(Error::Comm(ErrorKind::InvalidData)));
     match read(&mut b) {
-        Ok(Some(Frame::Packet(raw))) => assert_eq!(raw.into_bytes(), bytes),
+        Ok(Frame::Packet(raw)) => assert_eq!(raw.into_bytes(), bytes),
         other => panic!("unexpected {other:?}"),
     }
     assert!(b.stats().bytes_skipped >= 112);
@@ -241,12 +244,15 @@ fn serial_error_is_reported_and_decoding_goes_on() {
 }
 
 #[test]
-fn an_ended_stream_is_no_frame_not_a_hang() {
+fn an_ended_stream_is_a_timeout_not_a_hang() {
     let bytes = packet();
     let mut b = board(&[], vec![Step::Read(bytes[..50].to_vec()), Step::End]);
     let mut delay = InstantDelay::default();
     // A deadline that never comes first: the end of the stream itself answers.
-    assert_eq!(block_on(b.read_frame(&mut delay, u32::MAX)), Ok(None));
+    assert_eq!(
+        block_on(b.read_frame(&mut delay, u32::MAX)),
+        Err(Error::Device(DeviceError::Timeout))
+    );
     b.discard_buffered();
     assert_eq!(b.stats().bytes_skipped, 50);
     let (mut pin, serial) = b.release();
@@ -275,7 +281,13 @@ fn generated_capture_decodes_to_exactly_the_sent_packets() {
     let mut b = board(&[], script);
     let mut packets = Vec::new();
     let mut infos = 0;
-    while let Some(frame) = read(&mut b).expect("no port error") {
+    loop {
+        let frame = match read(&mut b) {
+            Ok(frame) => frame,
+            // The capture is over: the port has nothing more.
+            Err(Error::Device(DeviceError::Timeout)) => break,
+            Err(e) => panic!("port error {e:?}"),
+        };
         match frame {
             Frame::Packet(raw) => packets.push(raw.decode()),
             Frame::Info(got) => {
