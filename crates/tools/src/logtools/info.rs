@@ -31,11 +31,12 @@ fn percentiles_line(name: &str, mut values: Vec<f64>) -> String {
 /// The report, as printed: one named step after another.
 pub fn report(run: &LoggedRun) -> String {
     let mut out = String::new();
-    let steps: [fn(&mut String, &LoggedRun); 8] = [
+    let steps: [fn(&mut String, &LoggedRun); 9] = [
         files,
         overview,
         mode_changes,
         counters,
+        navigation,
         board_health,
         ground_link,
         timings,
@@ -212,6 +213,36 @@ fn timings(out: &mut String, run: &LoggedRun) {
                 .collect()
         )
     );
+}
+
+/// `navigation: ...`: the mission and the fence the robot ran with (the `navigation` record;
+/// nothing for logs written before it).
+fn navigation(out: &mut String, run: &LoggedRun) {
+    let Some(n) = &run.navigation else {
+        return;
+    };
+    let mission = match &n.mission {
+        Some(m) => format!(
+            "mission of {} waypoint{}",
+            m.waypoints.len(),
+            if m.waypoints.len() == 1 { "" } else { "s" }
+        ),
+        None => "no mission".to_owned(),
+    };
+    let f = &n.fence;
+    let fence = if *f == Default::default() {
+        "no fence".to_owned()
+    } else {
+        let mut parts = vec![
+            format!("{} circle(s)", f.circles.len()),
+            format!("{} polygon(s)", f.polygons.len()),
+        ];
+        if let Some(m) = f.max_distance_m {
+            parts.push(format!("at most {m} m from the revive point"));
+        }
+        format!("fence of {}", parts.join(", "))
+    };
+    let _ = writeln!(out, "navigation: {mission}, {fence}");
 }
 
 /// The realtime setup and the configuration that ran.
@@ -399,6 +430,52 @@ mod tests {
             old.contains("no health counters before frame version 2"),
             "{old}"
         );
+    }
+
+    #[test]
+    fn the_mission_and_fence_the_robot_ran_with_are_named() {
+        use dima_core::config::{FenceCircle, FenceConfig};
+        use dima_core::mission::{Mission, Navigation, Waypoint};
+        let waypoint = Waypoint {
+            lat_deg: 48.1,
+            lon_deg: 11.5,
+            acceptance_m: None,
+            speed_m_s: None,
+            item: 0,
+        };
+        let mut run = LoggedRun {
+            navigation: Some(Navigation {
+                mission: Some(Mission {
+                    waypoints: vec![waypoint; 5],
+                }),
+                fence: FenceConfig {
+                    max_distance_m: Some(80.0),
+                    circles: vec![FenceCircle {
+                        lat_deg: 48.1,
+                        lon_deg: 11.5,
+                        radius_m: 60.0,
+                    }],
+                    polygons: Vec::new(),
+                },
+            }),
+            ..LoggedRun::default()
+        };
+        let text = super::report(&run);
+        assert!(
+            text.contains(
+                "navigation: mission of 5 waypoints, fence of 1 circle(s), 0 polygon(s), at \
+                 most 80 m from the revive point\n"
+            ),
+            "{text}"
+        );
+        run.navigation = Some(Navigation::default());
+        let text = super::report(&run);
+        assert!(
+            text.contains("navigation: no mission, no fence\n"),
+            "{text}"
+        );
+        run.navigation = None;
+        assert!(!super::report(&run).contains("navigation:"));
     }
 
     #[test]
