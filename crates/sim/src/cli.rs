@@ -193,10 +193,16 @@ struct MissionStart {
 /// Reads and checks the plan as the robot will, and where the car starts.
 fn mission_start(plan: &std::path::Path) -> anyhow::Result<MissionStart> {
     use anyhow::Context;
-    use dima_core::mission::{parse_plan, Follower, FollowerParams};
+    use dima_core::mission::{parse_plan_file, Follower, FollowerParams, Navigation};
     let text = std::fs::read_to_string(plan)
         .with_context(|| format!("--mission {}: cannot be read", plan.display()))?;
-    let mission = parse_plan(&text).with_context(|| format!("--mission {}", plan.display()))?;
+    // Checked with the plan's own fence before anything starts (the robot checks it again,
+    // joined with its configuration's fence).
+    let mission = parse_plan_file(&text)
+        .and_then(|p| Navigation::with_plan(&Default::default(), p))
+        .with_context(|| format!("--mission {}", plan.display()))?
+        .mission
+        .with_context(|| format!("--mission {}: no mission", plan.display()))?;
     let follower = Follower::new(&mission, FollowerParams::default());
     let first = mission.waypoints[0];
     let heading_deg = match (follower.waypoint(0), follower.waypoint(1)) {
