@@ -346,3 +346,23 @@ fn a_restart_during_gnss_pieces_restarts_the_info_record() {
     );
     assert_eq!(usize::from(GNSS_PIECE_COUNT), 4);
 }
+
+#[test]
+fn the_longest_answer_fits_the_wire_time_budget() {
+    // The README's table: bytes x 10 bits (8N1) / baud, against the 500 µs period at 2 kHz.
+    let longest = PACKET_V2_LEN + GNSS_PIECE_LEN.max(dima_sensorboard::INFO_PIECE_LEN);
+    assert_eq!(longest, 76);
+    let micros = |baud: u64| longest as u64 * 10 * 1_000_000 / baud;
+    assert_eq!(
+        micros(2_000_000),
+        380,
+        "2 Mbaud: three quarters of the period"
+    );
+    assert!(micros(3_000_000) * 100 <= 51 * 500, "3 Mbaud: about half");
+    assert_eq!(micros(4_000_000), 190);
+    // v1 would not fit at any of these rates with room to spare.
+    assert_eq!(
+        dima_sensorboard::PACKET_LEN as u64 * 10 * 1_000_000 / 3_000_000,
+        440
+    );
+}
