@@ -17,14 +17,16 @@
 //! | 37 | 1 | link flags ([`LinkFlags`]): bit 0 a GNSS piece follows, bit 1 an info piece follows; bits 2-7 zero |
 //! | 38-41 | 4 | sensor CRC ([`crate::crc`], each byte a zero-extended word) over bytes 0-37, u32 |
 //!
-//! **Request count (u32).** The host counts the requests it sends; the board counts the edges
-//! it sees. The answer to the edge the host raised this cycle carries the host's count minus a
-//! constant offset (fixed at the first answer). A count below the expected one is a late
-//! answer to an earlier request (the host drops it and keeps waiting); an offset that grows
-//! by k means the board missed k edges; a count restarting near zero means the board reset. A
-//! u16 would wrap every 32.8 s at 2 kHz, which wrapping comparisons survive but which makes a
-//! reset indistinguishable from a wrap in a log; a u32 wraps after 24.8 days for two more
-//! bytes (7 µs at 3 Mbaud).
+//! **Request count (u32).** The host counts the requests it sends, the board the edges it
+//! sees; their difference (the offset) is fixed at the first answer, so the answer to this
+//! cycle's edge carries the host's count minus the offset. An answer with a smaller count
+//! that the expected one follows in the same cycle was late (an answer to an earlier edge:
+//! stale). When the expected count does not come and the next cycles' answers stay behind by
+//! the same m, the board missed m edges: the offset grows by m (the host counts them and
+//! takes the new offset). A count that restarts near zero means the board reset. A u16 would
+//! wrap every 32.8 s at 2 kHz, which wrapping comparisons survive but which makes a reset
+//! indistinguishable from a wrap in a log; a u32 wraps after 24.8 days for two more bytes
+//! (7 µs at 3 Mbaud).
 //!
 //! **Sample time (u32 µs).** Wraps every 2³² µs = 71.6 min. The host extends it to 64 bits by
 //! adding the signed wrapping difference to the previous sample ([`SampleClock`]): correct
