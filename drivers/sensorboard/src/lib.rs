@@ -144,9 +144,10 @@ pub use packet::{
     TEMPERATURE_OFFSET,
 };
 pub use packet_v2::{
-    LinkFlags, PacketV2, PacketV2Error, RawPacketV2, SampleClock, PACKET_V2_LEN, PACKET_V2_START,
-    V2_CRC_OFFSET, V2_FLAGS_OFFSET, V2_IMU_OFFSET, V2_PRESSURE_OFFSET, V2_REQUEST_COUNT_OFFSET,
-    V2_SAMPLE_TIME_OFFSET, V2_STATUS_OFFSET, V2_TEMPERATURE_OFFSET,
+    AnswerMatch, LinkFlags, PacketV2, PacketV2Error, RawPacketV2, RequestTracker, SampleClock,
+    PACKET_V2_LEN, PACKET_V2_START, V2_CRC_OFFSET, V2_FLAGS_OFFSET, V2_IMU_OFFSET,
+    V2_PRESSURE_OFFSET, V2_REQUEST_COUNT_OFFSET, V2_SAMPLE_TIME_OFFSET, V2_STATUS_OFFSET,
+    V2_TEMPERATURE_OFFSET,
 };
 pub use piece::{
     InfoPiece, InfoPieceCycle, InfoPieceError, InfoPieceSet, InfoPieceSetV3, INFO_GAP_MS,

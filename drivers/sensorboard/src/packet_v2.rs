@@ -23,10 +23,10 @@
 //! that the expected one follows in the same cycle was late (an answer to an earlier edge:
 //! stale). When the expected count does not come and the next cycles' answers stay behind by
 //! the same m, the board missed m edges: the offset grows by m (the host counts them and
-//! takes the new offset). A count that restarts near zero means the board reset. A u16 would
-//! wrap every 32.8 s at 2 kHz, which wrapping comparisons survive but which makes a reset
-//! indistinguishable from a wrap in a log; a u32 wraps after 24.8 days for two more bytes
-//! (7 µs at 3 Mbaud).
+//! takes the new offset; [`RequestTracker`] does this). A count that restarts near zero means
+//! the board reset. A u16 would wrap every 32.8 s at 2 kHz, which wrapping comparisons survive
+//! but which makes a reset indistinguishable from a wrap in a log; a u32 wraps after 24.8
+//! days for two more bytes (7 µs at 3 Mbaud).
 //!
 //! **Sample time (u32 µs).** Wraps every 2³² µs = 71.6 min. The host extends it to 64 bits by
 //! adding the signed wrapping difference to the previous sample ([`SampleClock`]): correct
@@ -321,5 +321,110 @@ impl SampleClock {
         };
         self.last = Some((sample_time_us, extended));
         extended
+    }
+}
+
+/// How an answer's request count relates to the request the host raised this cycle
+/// ([`RequestTracker::classify`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum AnswerMatch {
+    /// The answer to this cycle's request.
+    Current,
+    /// A count this many edges behind: a late answer to an earlier request, or, when the
+    /// following cycles stay behind by as much, a board that missed edges
+    /// ([`RequestTracker::end_cycle`] tells which).
+    Behind(u32),
+    /// A count ahead of the requests sent, or more than [`RequestTracker::MAX_BEHIND`]
+    /// behind: the board reset (or the link was down for long); the tracker takes this
+    /// answer's count as the new reference.
+    Resynced,
+}
+
+/// Host side: matches answers to the requests sent, by the packet's request count.
+///
+/// The host numbers its requests (any wrapping u32, one more per request) and gives each
+/// answer's count to [`classify`](Self::classify) with the number of this cycle's request,
+/// then calls [`end_cycle`](Self::end_cycle) once per cycle. The offset between the two
+/// counts is taken at the first answer (and again after a [`AnswerMatch::Resynced`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RequestTracker {
+    offset: Option<u32>,
+    current_seen: bool,
+    /// How far behind the last answer of this cycle was, if it was behind.
+    last_behind: Option<u32>,
+    /// The same for the previous cycle that ended without a current answer.
+    previous_behind: Option<u32>,
+    missed_edges: u64,
+}
+
+impl RequestTracker {
+    /// Counts further behind than this are taken as a board reset.
+    pub const MAX_BEHIND: u32 = 1 << 16;
+
+    /// No answer seen yet.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            offset: None,
+            current_seen: false,
+            last_behind: None,
+            previous_behind: None,
+            missed_edges: 0,
+        }
+    }
+
+    /// Classifies an answer with request count `count` received while `sent` is the number of
+    /// the request the host raised this cycle.
+    pub fn classify(&mut self, sent: u32, count: u32) -> AnswerMatch {
+        let offset = *self.offset.get_or_insert(sent.wrapping_sub(count));
+        let behind = sent.wrapping_sub(offset).wrapping_sub(count);
+        let matched = match behind {
+            0 => AnswerMatch::Current,
+            1..=Self::MAX_BEHIND => AnswerMatch::Behind(behind),
+            _ => {
+                self.offset = Some(sent.wrapping_sub(count));
+                self.previous_behind = None;
+                AnswerMatch::Resynced
+            }
+        };
+        self.current_seen |= matches!(matched, AnswerMatch::Current | AnswerMatch::Resynced);
+        self.last_behind = match matched {
+            AnswerMatch::Behind(m) => Some(m),
+            AnswerMatch::Current | AnswerMatch::Resynced => None,
+        };
+        matched
+    }
+
+    /// Ends the cycle; returns the edges the board is now known to have missed.
+    ///
+    /// A cycle whose last answer was `m` behind, with no current answer, after a cycle that
+    /// ended the same way with the same `m`, means the board missed `m` edges: they are
+    /// counted and the offset moves by `m`, so the next answer is current again. A cycle
+    /// with a current answer clears the suspicion (the answers behind it were late); a cycle
+    /// with no answer at all leaves it as it was.
+    pub fn end_cycle(&mut self) -> u32 {
+        let mut missed = 0;
+        if self.current_seen {
+            self.previous_behind = None;
+        } else if let Some(m) = self.last_behind {
+            if self.previous_behind == Some(m) {
+                self.offset = self.offset.map(|offset| offset.wrapping_add(m));
+                self.missed_edges = self.missed_edges.wrapping_add(u64::from(m));
+                self.previous_behind = None;
+                missed = m;
+            } else {
+                self.previous_behind = Some(m);
+            }
+        }
+        self.current_seen = false;
+        self.last_behind = None;
+        missed
+    }
+
+    /// Edges the board missed since the tracker was created (wraps).
+    #[must_use]
+    pub const fn missed_edges(&self) -> u64 {
+        self.missed_edges
     }
 }

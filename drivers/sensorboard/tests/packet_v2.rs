@@ -366,3 +366,82 @@ fn the_longest_answer_fits_the_wire_time_budget() {
         440
     );
 }
+
+mod request_tracker {
+    use dima_sensorboard::{AnswerMatch, RequestTracker};
+
+    #[test]
+    fn the_first_answer_sets_the_offset() {
+        let mut t = RequestTracker::new();
+        assert_eq!(t.classify(1000, 7), AnswerMatch::Current);
+        assert_eq!(t.end_cycle(), 0);
+        assert_eq!(t.classify(1001, 8), AnswerMatch::Current);
+        assert_eq!(t.end_cycle(), 0);
+    }
+
+    #[test]
+    fn a_late_answer_is_followed_by_the_current_one() {
+        let mut t = RequestTracker::new();
+        t.classify(u32::MAX - 1, 5);
+        t.end_cycle();
+        // Cycle u32::MAX: nothing came. Cycle 0 (the host's count wrapped): the late answer to
+        // the previous request, then this one's.
+        assert_eq!(t.end_cycle(), 0);
+        assert_eq!(t.classify(0, 6), AnswerMatch::Behind(1));
+        assert_eq!(t.classify(0, 7), AnswerMatch::Current);
+        assert_eq!(t.end_cycle(), 0);
+        // A late answer in each of two cycles is still only late.
+        assert_eq!(t.classify(1, 7), AnswerMatch::Behind(1));
+        assert_eq!(t.classify(1, 8), AnswerMatch::Current);
+        assert_eq!(t.end_cycle(), 0);
+        assert_eq!(t.classify(2, 8), AnswerMatch::Behind(1));
+        assert_eq!(t.classify(2, 9), AnswerMatch::Current);
+        assert_eq!(t.end_cycle(), 0);
+        assert_eq!(t.missed_edges(), 0);
+    }
+
+    #[test]
+    fn a_missed_edge_shows_as_answers_staying_behind() {
+        let mut t = RequestTracker::new();
+        t.classify(10, 100);
+        t.end_cycle();
+        // The board misses edge 11: no answer; from then on its count is one behind.
+        assert_eq!(t.end_cycle(), 0);
+        assert_eq!(t.classify(12, 101), AnswerMatch::Behind(1));
+        assert_eq!(
+            t.end_cycle(),
+            0,
+            "one cycle behind could still be a late answer"
+        );
+        assert_eq!(t.classify(13, 102), AnswerMatch::Behind(1));
+        assert_eq!(
+            t.end_cycle(),
+            1,
+            "two cycles behind by the same count: a missed edge"
+        );
+        assert_eq!(t.missed_edges(), 1);
+        assert_eq!(t.classify(14, 103), AnswerMatch::Current);
+        assert_eq!(t.end_cycle(), 0);
+    }
+
+    #[test]
+    fn a_board_reset_resyncs() {
+        let mut t = RequestTracker::new();
+        t.classify(500, 500_000);
+        t.end_cycle();
+        assert_eq!(
+            t.classify(501, 1),
+            AnswerMatch::Resynced,
+            "far behind: a reset"
+        );
+        t.end_cycle();
+        assert_eq!(t.classify(502, 2), AnswerMatch::Current);
+        assert_eq!(
+            t.classify(503, 10),
+            AnswerMatch::Resynced,
+            "ahead of the requests"
+        );
+        assert_eq!(t.classify(504, 11), AnswerMatch::Current);
+        assert_eq!(t.missed_edges(), 0);
+    }
+}
