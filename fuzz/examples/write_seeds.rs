@@ -15,7 +15,11 @@ use std::path::{Path, PathBuf};
 use dima_fuzz::{LINK_KEY, SESSION};
 use dima_groundlink::v2::{self, CommandFrame, FailsafeCause, Health, LinkKey, RobotMode};
 use dima_groundlink::{Command, DisplayFrame, Percent};
-use dima_sensorboard::{nav_pvt, InfoFrame, NavPvt, SensorPacket, SensorStatus, Stm32Crc};
+use dima_sensorboard::imu::ImuPacketWords;
+use dima_sensorboard::{
+    nav_pvt, AnswerCycleV2, GnssFrame, InfoFrame, LinkFlags, NavPvt, PacketV2, SensorPacket,
+    SensorStatus, Stm32Crc, Trailer,
+};
 
 /// The original ground station's heartbeat, byte for byte (docs/wire-formats.md, command frame v1).
 const HEARTBEAT: [u8; 10] = [0x24, 0x00, 0x00, 0x00, 0x00, 0x00, 0xC6, 0x22, 0xF7, 0x1D];
@@ -143,6 +147,66 @@ fn sensor_seeds() -> Vec<(&'static str, Vec<u8>)> {
         ("info-v1", info().encode().to_vec()),
         ("info-v2", info().encode_v2_with(&mut Stm32Crc).to_vec()),
         ("capture", capture),
+    ]
+}
+
+fn packet_v2(request_count: u32, flags: LinkFlags) -> [u8; 42] {
+    let mut imu = [0u8; 20];
+    for (i, b) in imu.iter_mut().enumerate() {
+        *b = (request_count as u8).wrapping_add(i as u8 * 13);
+    }
+    PacketV2 {
+        request_count,
+        sample_time_us: 0xFFFF_FF00u32.wrapping_add(request_count * 500),
+        imu: ImuPacketWords::from_le_bytes(&imu),
+        press_raw: 415_148,
+        temp_raw: 519_888,
+        status: info().status,
+        flags,
+    }
+    .encode(&mut Stm32Crc)
+}
+
+/// Sensor link v2: the board's answers to 24 requests (NAV-PVT frames at requests 2 and 12,
+/// an info snapshot at request 0), a single packet, one NAV-PVT frame's pieces, and pieces of
+/// two epochs interleaved with a torn packet and a v1 packet in between.
+fn sensor_v2_seeds() -> Vec<(&'static str, Vec<u8>)> {
+    let mut cycle = AnswerCycleV2::new();
+    let mut answers = b"boot $P".to_vec();
+    for request in 0..24u32 {
+        if request == 0 {
+            cycle.publish_info(&info().encode_v3_pieces_with(1, &mut Stm32Crc));
+        }
+        if request == 2 || request == 12 {
+            cycle.publish_gnss(
+                &GnssFrame::from_nav_pvt(&fix(1000 + request * 100)),
+                &mut Stm32Crc,
+            );
+        }
+        let trailer = cycle.next(request == 0);
+        let flags = trailer.map_or(LinkFlags::empty(), |t| t.flag());
+        answers.extend(packet_v2(request, flags));
+        answers.extend(trailer.as_ref().map_or(&[][..], Trailer::as_bytes));
+    }
+    let a = GnssFrame::from_nav_pvt(&fix(2000)).encode_pieces_with(7, &mut Stm32Crc);
+    let b = GnssFrame::from_nav_pvt(&fix(2100)).encode_pieces_with(8, &mut Stm32Crc);
+    let mut mixed = Vec::new();
+    mixed.extend(a[0]);
+    mixed.extend(a[1]);
+    mixed.extend(&packet_v2(30, LinkFlags::empty())[..17]);
+    mixed.extend(b[2]);
+    mixed.extend(SensorPacket::default().encode());
+    mixed.extend(b[0]);
+    mixed.extend(a[2]);
+    for piece in b {
+        mixed.extend(packet_v2(31, LinkFlags::GNSS_PIECE_FOLLOWS));
+        mixed.extend(piece);
+    }
+    vec![
+        ("packet", packet_v2(1, LinkFlags::empty()).to_vec()),
+        ("gnss-pieces", a.concat()),
+        ("answers", answers),
+        ("mixed-epochs", mixed),
     ]
 }
 
@@ -487,6 +551,7 @@ fn main() {
     commands.push(("mixed", mixed));
     let display = display_seeds();
     write(&dir, "sensor_stream", &sensor);
+    write(&dir, "sensor_stream_v2", &sensor_v2_seeds());
     write(&dir, "command_stream", &commands);
     write(&dir, "display_stream", &display);
     let mut xbee: Vec<(&str, Vec<u8>)> = Vec::new();

@@ -26,6 +26,12 @@
 //! - A sans-IO [`StreamDecoder`]: any chunking, no allocation, bounded buffer, resynchronises
 //!   inside rejected bytes, reassembles info pieces, counts what it drops ([`DecoderStats`]),
 //!   gives the same output for any split of the same bytes; yields [`Frame`]s.
+//! - Packet v2 for a 2 kHz loop ([`PacketV2`], start token `$P`, 42 bytes): request count,
+//!   board sample time, the IMU words and BMP280 values as v1, sensor status and link flags,
+//!   the same CRC; the NAV-PVT frame travels in four [`GnssPiece`]s (`$G`, 34 bytes) behind
+//!   packets when a new one arrives; [`AnswerCycleV2`] decides on the board what follows each
+//!   packet (a GNSS piece, else an info piece), and [`StreamDecoderV2`] finds packets and
+//!   reassembles NAV-PVT frames and info records with the v1 decoder's guarantees.
 //! - A host driver [`SensorBoard`], generic over an embedded-hal [`OutputPin`] (request line)
 //!   and an embedded-hal-nb serial [`Read`] (works with linux-embedded-hal's `Serial` and
 //!   `CdevPin`): [`SensorBoard::request`], [`SensorBoard::end_request`],
@@ -101,11 +107,14 @@ mod driver;
 #[cfg(feature = "async")]
 mod driver_async;
 mod gnss;
+mod gnss_piece;
 pub mod imu;
 mod info;
 mod packet;
+mod packet_v2;
 mod piece;
 mod stream;
+mod stream_v2;
 pub mod units;
 
 pub use builder::PacketBuilder;
@@ -119,6 +128,10 @@ pub use crc::{
 pub use driver::SensorBoardAsync;
 pub use driver::{DeviceError, Error, SensorBoard, MAX_BYTES_PER_POLL};
 pub use gnss::{nav_pvt, FixType, GnssFrame, NavPvt, NavPvtFrame, GNSS_FRAME_LEN};
+pub use gnss_piece::{
+    AnswerCycleV2, GnssPiece, GnssPieceError, GnssPieceSet, Trailer, GNSS_PIECE_COUNT,
+    GNSS_PIECE_LEN, GNSS_PIECE_PAYLOAD_LEN, GNSS_PIECE_START,
+};
 pub use info::{
     info_frame_len, BoardFaults, BoardHealth, InfoError, InfoFrame, SensorStatus, INFO_MAX_LEN,
     INFO_MAX_PAYLOAD_LEN, INFO_START, INFO_V1_LEN, INFO_V1_PAYLOAD_LEN, INFO_V2_LEN,
@@ -130,12 +143,19 @@ pub use packet::{
     PACKET_CRC_COVERED, PACKET_LEN, PACKET_START, PRESSURE_OFFSET, RHALL_MAX, RHALL_OFFSET,
     TEMPERATURE_OFFSET,
 };
+pub use packet_v2::{
+    AnswerMatch, LinkFlags, PacketV2, PacketV2Error, RawPacketV2, RequestTracker, SampleClock,
+    PACKET_V2_LEN, PACKET_V2_START, V2_CRC_OFFSET, V2_FLAGS_OFFSET, V2_IMU_OFFSET,
+    V2_PRESSURE_OFFSET, V2_REQUEST_COUNT_OFFSET, V2_SAMPLE_TIME_OFFSET, V2_STATUS_OFFSET,
+    V2_TEMPERATURE_OFFSET,
+};
 pub use piece::{
     InfoPiece, InfoPieceCycle, InfoPieceError, InfoPieceSet, InfoPieceSetV3, INFO_GAP_MS,
     INFO_PIECE_LEN, INFO_PIECE_MAX_COUNT, INFO_PIECE_PAYLOAD_LEN, INFO_PIECE_START,
     INFO_SNAPSHOT_MS, INFO_V2_PIECES, INFO_V3_PIECES,
 };
 pub use stream::{DecoderStats, Frame, Frames, StreamDecoder};
+pub use stream_v2::{DecoderStatsV2, FrameV2, FramesV2, StreamDecoderV2};
 
 /// Compiles and runs the README's examples as doctests, so the quick start stays true.
 #[cfg(doctest)]
