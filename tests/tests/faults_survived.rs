@@ -200,11 +200,14 @@ fn a_full_log_disk_stops_logging_once_and_resumes_in_a_new_file() {
         "the summary names the file written last"
     );
     // Both files are valid MCAP: the first ends at its last complete chunk, the second
-    // starts with the configuration and a note, and both hold driving.
+    // starts with the configuration, the navigation record and a note, and both hold driving.
     let (a, meta_a) = read_mcap(first);
     let (b, meta_b) = read_mcap(resumed);
     assert!(meta_a.contains(&"dima".to_owned()), "{meta_a:?}");
-    assert_eq!(meta_b[..2], ["dima".to_owned(), "log_resumed".to_owned()]);
+    assert_eq!(
+        meta_b[..3],
+        ["dima", "navigation", "log_resumed"].map(String::from)
+    );
     let cycles = |m: &[(String, Vec<u8>)]| m.iter().filter(|(t, _)| t == "/dima/cycle").count();
     // About 2-3 s before the disk filled; about 4 s after it came back (within a second).
     assert!((250..=800).contains(&cycles(&a)), "{}", cycles(&a));
@@ -381,10 +384,15 @@ fn a_run_longer_than_max_file_duration_continues_in_numbered_complete_files() {
         let bytes = std::fs::read(path).unwrap();
         let summary = dima_log::reader::summary(&bytes).unwrap();
         assert!(summary.is_some(), "{}: no summary", path.display());
-        assert_eq!(metadata[0], "dima", "{}: {metadata:?}", path.display());
+        assert_eq!(
+            metadata[..2],
+            ["dima", "navigation"].map(String::from),
+            "{}",
+            path.display()
+        );
         if k > 0 {
             assert_eq!(
-                metadata[1],
+                metadata[2],
                 "log_continued",
                 "{}: {metadata:?}",
                 path.display()

@@ -85,7 +85,7 @@ fn sigterm_safe_outputs_exit_0_complete_log() {
         .unwrap()
         .expect("summary section");
     let names: Vec<_> = summary.metadata_names.iter().map(String::as_str).collect();
-    for name in ["dima", "rt_setup", "summary"] {
+    for name in ["dima", "navigation", "rt_setup", "summary"] {
         assert!(names.contains(&name), "{name} missing from {names:?}");
     }
     assert!(summary
